@@ -1,0 +1,31 @@
+"""Error hierarchy of the ``clamp`` package.
+
+Every error raised on bad user input derives from :class:`ClampError`, itself a
+``ValueError``, so callers can catch one class. Messages name the offending argument and
+state what was expected. Add new classes here (additively); do not rename existing ones.
+"""
+from __future__ import annotations
+
+
+class ClampError(ValueError):
+    """Base class of every error the ``clamp`` package raises on bad input."""
+
+
+class ShapeError(ClampError):
+    """An array argument has the wrong number of dimensions or the wrong size."""
+
+
+class NonFiniteError(ClampError):
+    """An array argument contains NaN or infinite values."""
+
+
+class InvalidParameterError(ClampError):
+    """A scalar parameter is out of range (negative ridge, non-positive count, ...)."""
+
+
+class InsufficientDemonstrationsError(ClampError):
+    """Too few demonstrations to learn the requested model."""
+
+
+class PriorFileError(ClampError):
+    """A saved prior file is missing, unreadable or inconsistent."""
