@@ -1,0 +1,46 @@
+"""Errors raised by the robots package; every one is a ValueError subclass."""
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+
+class RobotError(ValueError):
+    """Base class for bad input to the robots package."""
+
+
+class UnknownRobotError(RobotError):
+    """A built-in robot name that does not exist."""
+
+    def __init__(self, name: str, valid: Iterable[str]):
+        self.name = name
+        self.valid = tuple(valid)
+        super().__init__(f"unknown robot {name!r}; available robots: {', '.join(self.valid)}")
+
+
+class UnknownFrameError(RobotError):
+    """A frame (link) name that the robot model does not contain."""
+
+    def __init__(self, argument: str, name: str, valid: Iterable[str]):
+        self.name = name
+        self.valid = tuple(valid)
+        super().__init__(f"{argument}: unknown frame {name!r}; valid frames: {', '.join(self.valid)}")
+
+
+class URDFParseError(RobotError):
+    """A URDF file that is missing or that Pinocchio cannot parse."""
+
+
+class UnsupportedJointError(RobotError):
+    """A joint type the kinematics cannot handle (only revolute, continuous, prismatic)."""
+
+
+class InvalidArrayError(RobotError):
+    """An array argument with the wrong shape or non-finite values."""
+
+
+class SphereFileError(RobotError):
+    """A collision-sphere file that is missing or malformed."""
+
+
+class CollisionGeometryError(RobotError):
+    """Collision geometry that cannot be sampled or fitted (unsupported shape, no geometry on a link)."""

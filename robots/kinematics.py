@@ -1,0 +1,238 @@
+"""Vectorized forward kinematics of a serial arm, batched over many configurations.
+
+The serial chain (joint placements, joint axes, frame placements) is read once from a Pinocchio
+model; positions, velocities and their Jacobians are then computed with numpy for a whole batch
+of B configurations at once (the loop runs over the n joints, never over the batch).
+Joint values are angles (revolute, continuous) or displacements (prismatic); all results are in
+the chain's base frame (metres, metres per second).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import RobotError, UnsupportedJointError
+
+REVOLUTE = "revolute"
+CONTINUOUS = "continuous"
+PRISMATIC = "prismatic"
+
+
+@dataclass(frozen=True)
+class EndEffectorKinematics:
+    """End-effector position and linear velocity over a batch of configurations.
+
+    position (..., 3) [m]; velocity (..., 3) = J(q) qdot [m/s];
+    jacobian (..., 3, n) = d position / d q (= d velocity / d qdot);
+    velocity_jacobian (..., 3, n) = d (J(q) qdot) / d q. Both Jacobians are None when not requested.
+    """
+
+    position: np.ndarray
+    velocity: np.ndarray
+    jacobian: np.ndarray | None
+    velocity_jacobian: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class FrameAttachment:
+    """Where a frame sits on the chain: joint index (0 = base, k = after the k-th chain joint)
+    and its placement (rotation (3,3), translation (3,)) in that joint's frame."""
+
+    joint: int
+    rotation: np.ndarray
+    translation: np.ndarray
+
+
+@dataclass(frozen=True)
+class JointFrames:
+    """Joint frames for a batch of B configurations, in the base frame.
+
+    rotations (B, n+1, 3, 3) and origins (B, n+1, 3): index 0 is the model's root frame,
+    index k the frame of the k-th chain joint after its motion; axes (B, n, 3) world joint axes.
+    """
+
+    rotations: np.ndarray
+    origins: np.ndarray
+    axes: np.ndarray
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product along the last axis with broadcasting (faster than np.cross for small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def _classify_joint(model: pin.Model, joint_id: int) -> tuple[str, np.ndarray]:
+    """Kind and unit axis (3,) in the joint frame of a one-degree-of-freedom joint."""
+    joint = model.joints[joint_id]
+    name = model.names[joint_id]
+    if joint.nv != 1 or joint.nq not in (1, 2):
+        raise UnsupportedJointError(
+            f"joint {name!r} ({joint.shortname()}) has nq={joint.nq}, nv={joint.nv}; only revolute, "
+            "continuous and prismatic joints are supported")
+    data = joint.createData()
+    q_joint = pin.neutral(model)[joint.idx_q:joint.idx_q + joint.nq]
+    joint.calc(data, q_joint)
+    motion = np.asarray(data.S).reshape(6)
+    linear, angular = motion[:3], motion[3:]
+    if np.linalg.norm(linear) < 1e-12 and abs(np.linalg.norm(angular) - 1.0) < 1e-9:
+        return (CONTINUOUS if joint.nq == 2 else REVOLUTE), angular / np.linalg.norm(angular)
+    if joint.nq == 1 and np.linalg.norm(angular) < 1e-12 and abs(np.linalg.norm(linear) - 1.0) < 1e-9:
+        return PRISMATIC, linear / np.linalg.norm(linear)
+    raise UnsupportedJointError(
+        f"joint {name!r} ({joint.shortname()}) is neither a revolute, continuous nor prismatic joint")
+
+
+class SerialChain:
+    """The kinematic chain of a Pinocchio model whose joints 1..n form one serial chain.
+
+    Built once from the model; expresses everything in `base_frame` (a frame fixed to the
+    model's root; None = the root itself).
+    """
+
+    def __init__(self, model: pin.Model, base_frame: str | None = None):
+        self.model = model
+        n = model.njoints - 1
+        if n < 1:
+            raise RobotError("model: the robot has no movable joints")
+        for k in range(1, model.njoints):
+            if model.parents[k] != k - 1:
+                raise RobotError(
+                    f"model: joints do not form a serial chain (joint {model.names[k]!r} hangs off "
+                    f"{model.names[model.parents[k]]!r}, expected {model.names[k - 1]!r})")
+        self.n = n
+        self.joint_names: tuple[str, ...] = tuple(model.names[1:])
+        kinds, axes = zip(*(_classify_joint(model, k) for k in range(1, model.njoints)))
+        self.kinds: tuple[str, ...] = tuple(kinds)
+        self.axes = np.array(axes)                                            # (n, 3) joint frame
+        self.is_prismatic = np.array([k == PRISMATIC for k in self.kinds])
+        self.idx_q = np.array([model.joints[k].idx_q for k in range(1, model.njoints)])
+        self.nq = model.nq
+        self.placement_rotations = np.array([model.jointPlacements[k].rotation for k in range(1, n + 1)])
+        self.placement_translations = np.array([model.jointPlacements[k].translation for k in range(1, n + 1)])
+        skews = np.array([_skew(a) for a in self.axes])
+        self._skews = skews                                                   # (n, 3, 3)
+        self._skews2 = skews @ skews
+        self.base_frame = base_frame
+        if base_frame is None:
+            self.base_rotation, self.base_translation = np.eye(3), np.zeros(3)
+        else:
+            att = self.attachment(base_frame)
+            if att.joint != 0:
+                raise RobotError(f"base_frame: frame {base_frame!r} moves with joint "
+                                 f"{self.joint_names[att.joint - 1]!r}; it must be fixed to the root")
+            # pose of the root expressed in the base frame = inverse of the base frame's placement
+            self.base_rotation = att.rotation.T.copy()
+            self.base_translation = -att.rotation.T @ att.translation
+
+    # ----------------------------------------------------------------- frames
+    def frame_id(self, name: str) -> int:
+        """Index of the frame called `name`, preferring a body frame; -1 when absent."""
+        if not self.model.existFrame(name):
+            return -1
+        if self.model.existFrame(name, pin.FrameType.BODY):
+            return self.model.getFrameId(name, pin.FrameType.BODY)
+        return self.model.getFrameId(name)
+
+    @property
+    def frame_names(self) -> tuple[str, ...]:
+        """Names of all frames of the model (links, joints, fixed frames), without repeats."""
+        return tuple(dict.fromkeys(f.name for f in self.model.frames))
+
+    def attachment(self, name: str) -> FrameAttachment:
+        """Where frame `name` sits on the chain; raises KeyError when it does not exist."""
+        fid = self.frame_id(name)
+        if fid < 0:
+            raise KeyError(name)
+        frame = self.model.frames[fid]
+        rotation = np.array(frame.placement.rotation)
+        translation = np.array(frame.placement.translation)
+        return FrameAttachment(int(frame.parentJoint), rotation, translation)
+
+    # ------------------------------------------------------ joint conversions
+    def to_pinocchio(self, q: np.ndarray) -> np.ndarray:
+        """Joint values (..., n) -> Pinocchio configuration (..., nq) with (cos, sin) pairs."""
+        out = np.zeros(q.shape[:-1] + (self.nq,))
+        for k, kind in enumerate(self.kinds):
+            i = self.idx_q[k]
+            if kind == CONTINUOUS:
+                out[..., i] = np.cos(q[..., k])
+                out[..., i + 1] = np.sin(q[..., k])
+            else:
+                out[..., i] = q[..., k]
+        return out
+
+    def from_pinocchio(self, q_pin: np.ndarray) -> np.ndarray:
+        """Pinocchio configuration (..., nq) -> joint values (..., n); angles of continuous joints in (-pi, pi]."""
+        out = np.zeros(q_pin.shape[:-1] + (self.n,))
+        for k, kind in enumerate(self.kinds):
+            i = self.idx_q[k]
+            out[..., k] = np.arctan2(q_pin[..., i + 1], q_pin[..., i]) if kind == CONTINUOUS else q_pin[..., i]
+        return out
+
+    # ------------------------------------------------------------ kinematics
+    def joint_frames(self, q: np.ndarray) -> JointFrames:
+        """Frames of all chain joints for q (B, n), in the base frame."""
+        B = q.shape[0]
+        rotations = np.empty((B, self.n + 1, 3, 3))
+        origins = np.empty((B, self.n + 1, 3))
+        axes = np.empty((B, self.n, 3))
+        rotations[:, 0] = self.base_rotation
+        origins[:, 0] = self.base_translation
+        identity = np.eye(3)
+        for k in range(self.n):
+            parent_r = rotations[:, k]
+            placed = parent_r @ self.placement_rotations[k]                      # (B, 3, 3)
+            origin = origins[:, k] + parent_r @ self.placement_translations[k]
+            axis = placed @ self.axes[k]                                       # (B, 3)
+            qk = q[:, k]
+            if self.is_prismatic[k]:
+                rotations[:, k + 1] = placed
+                origins[:, k + 1] = origin + axis * qk[:, None]
+            else:
+                s, c = np.sin(qk)[:, None, None], np.cos(qk)[:, None, None]
+                rotations[:, k + 1] = placed @ (identity + s * self._skews[k] + (1.0 - c) * self._skews2[k])
+                origins[:, k + 1] = origin
+            axes[:, k] = axis
+        return JointFrames(rotations, origins, axes)
+
+    def points(self, frames: JointFrames, joints: np.ndarray, local: np.ndarray,
+               jacobians: bool) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """Positions of P points fixed to chain joints, and their Jacobian columns.
+
+        joints (P,) chain joint index of each point (0 = base); local (P, 3) point in that joint's
+        frame. Returns positions (B, P, 3), columns (B, P, n, 3) = d position / d q_k (or None)
+        and the angular joint axes (B, n, 3) (zero for prismatic joints; None without jacobians).
+        """
+        rot = frames.rotations[:, joints]                                      # (B, P, 3, 3)
+        pos = frames.origins[:, joints] + np.einsum("bpij,pj->bpi", rot, local)
+        if not jacobians:
+            return pos, None, None
+        angular = np.where(self.is_prismatic[:, None], 0.0, frames.axes)       # (B, n, 3)
+        linear = np.where(self.is_prismatic[:, None], frames.axes, 0.0)
+        columns = _cross(angular[:, None], pos[:, :, None] - frames.origins[:, None, 1:]) + linear[:, None]
+        moves = np.arange(1, self.n + 1)[None, :] <= joints[:, None]           # (P, n)
+        return pos, columns * moves[None, :, :, None], angular
+
+    @staticmethod
+    def velocity_and_derivative(columns: np.ndarray, angular: np.ndarray,
+                                qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Velocity J qdot (B, 3) and d(J qdot)/dq (B, 3, n) of one point.
+
+        columns (B, n, 3) Jacobian columns of the point; angular (B, n, 3) angular joint axes.
+        Uses d col_i / d q_k = w_k x col_i for k <= i and w_i x col_k for k > i.
+        """
+        weighted = columns * qdot[:, :, None]                                  # qdot_i col_i
+        velocity = weighted.sum(axis=1)
+        downstream = np.cumsum(weighted[:, ::-1], axis=1)[:, ::-1]             # sum over i >= k
+        spin = np.cumsum(angular * qdot[:, :, None], axis=1)
+        upstream = np.concatenate((np.zeros_like(spin[:, :1]), spin[:, :-1]), axis=1)  # sum over i < k
+        derivative = _cross(angular, downstream) + _cross(upstream, columns)   # (B, n, 3)
+        return velocity, derivative.transpose(0, 2, 1)

@@ -1,0 +1,264 @@
+"""The Robot: a Pinocchio model of an arm with its planning joints, end effector and collision spheres."""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import RobotError, UnknownFrameError, URDFParseError
+from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain
+from .validation import as_joint_array
+
+
+def _chain_to(model: pin.Model, frame_id: int) -> list[int]:
+    """Joint ids from the root to the parent joint of frame `frame_id` (universe excluded)."""
+    joints = []
+    joint = model.frames[frame_id].parentJoint
+    while joint > 0:
+        joints.append(joint)
+        joint = model.parents[joint]
+    return joints[::-1]
+
+
+def _frame_id(model: pin.Model, name: str) -> int:
+    """Frame index of `name` preferring a body frame; -1 when absent."""
+    if model.existFrame(name, pin.FrameType.BODY):
+        return model.getFrameId(name, pin.FrameType.BODY)
+    return model.getFrameId(name) if model.existFrame(name) else -1
+
+
+def _frame_names(model: pin.Model) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(f.name for f in model.frames))
+
+
+class Robot:
+    """A serial arm for planning: joint angles in, end-effector and sphere kinematics out.
+
+    Planning variables are n joint values (angles in rad for revolute and continuous joints,
+    metres for prismatic ones). Kinematics are expressed in `base_frame` (None = the URDF root).
+    Movable joints that are not on the chain from the root to the end effector are locked at
+    their neutral value. Continuous joints (Pinocchio's cos/sin pairs) appear only in
+    `to_pinocchio` / `from_pinocchio`.
+    """
+
+    def __init__(self, model: pin.Model, end_effector: str, spheres=None, name: str | None = None,
+                 base_frame: str | None = None, urdf_path: str | Path | None = None,
+                 package_dirs: Sequence[str | Path] = ()):
+        ee_id = _frame_id(model, end_effector)
+        if ee_id < 0:
+            raise UnknownFrameError("end_effector", end_effector, _frame_names(model))
+        if base_frame is not None and _frame_id(model, base_frame) < 0:
+            raise UnknownFrameError("base_frame", base_frame, _frame_names(model))
+        chain = _chain_to(model, ee_id)
+        locked = [j for j in range(1, model.njoints) if j not in chain]
+        if locked:
+            model = pin.buildReducedModel(model, locked, pin.neutral(model))
+        self.model: pin.Model = model
+        self.chain = SerialChain(model, base_frame)
+        self.name: str = name or model.name
+        self.end_effector: str = end_effector
+        self.base_frame: str | None = base_frame
+        self.urdf_path: Path | None = Path(urdf_path) if urdf_path is not None else None
+        self.package_dirs: tuple[str, ...] = tuple(str(p) for p in package_dirs)
+        self.n: int = self.chain.n
+        self.joint_names: tuple[str, ...] = self.chain.joint_names
+        lower = np.array([model.lowerPositionLimit[i] for i in self.chain.idx_q])
+        upper = np.array([model.upperPositionLimit[i] for i in self.chain.idx_q])
+        continuous = np.array([kind == CONTINUOUS for kind in self.chain.kinds])
+        self.lower_limits: np.ndarray = np.where(continuous, -np.inf, lower)
+        self.upper_limits: np.ndarray = np.where(continuous, np.inf, upper)
+        self.velocity_limits: np.ndarray = np.array(model.velocityLimit[:self.n], dtype=float)
+        self._ee = self.chain.attachment(end_effector)
+        self._spheres = spheres
+        self._sphere_cache: tuple[object, np.ndarray, np.ndarray] | None = None
+        self._collision_model = None
+
+    # ------------------------------------------------------------ construction
+    @classmethod
+    def from_urdf(cls, path: str | Path, end_effector: str, package_dirs: Sequence[str | Path] | None = None,
+                  spheres=None, name: str | None = None, base_frame: str | None = None) -> "Robot":
+        """Load an arm from a URDF file; `package_dirs` resolve package:// mesh URIs (only needed
+        for the collision geometry). Raises URDFParseError when the file is missing or invalid."""
+        path = Path(path)
+        if not path.is_file():
+            raise URDFParseError(f"path: URDF file {str(path)!r} does not exist")
+        try:
+            model = pin.buildModelFromUrdf(str(path))
+        except Exception as exc:  # Pinocchio raises bare RuntimeErrors on malformed URDF
+            raise URDFParseError(f"path: cannot parse URDF {str(path)!r}: {exc}") from exc
+        return cls(model, end_effector, spheres=spheres, name=name or model.name or path.stem,
+                   base_frame=base_frame, urdf_path=path, package_dirs=package_dirs or ())
+
+    @property
+    def frame_names(self) -> tuple[str, ...]:
+        """All frame names of the model (links, joints and fixed frames)."""
+        return self.chain.frame_names
+
+    @property
+    def collision_model(self) -> pin.GeometryModel:
+        """Pinocchio collision geometry of the URDF (built on first use; needs `urdf_path`)."""
+        if self._collision_model is None:
+            if self.urdf_path is None:
+                raise RobotError("collision_model: this robot was not loaded from a URDF file")
+            try:
+                self._collision_model = pin.buildGeomFromUrdf(
+                    self.model, str(self.urdf_path), pin.GeometryType.COLLISION, list(self.package_dirs))
+            except Exception as exc:
+                raise URDFParseError(f"cannot load collision geometry of {str(self.urdf_path)!r} "
+                                     f"(package_dirs={list(self.package_dirs)}): {exc}") from exc
+        return self._collision_model
+
+    @property
+    def spheres(self):
+        """Collision spheres (SphereModel): given at construction, else fitted from the URDF."""
+        if self._spheres is None:
+            from .spheres import fit_spheres  # sphere fitting lives in its own module
+            self._spheres = fit_spheres(self.model, self.collision_model)
+        return self._spheres
+
+    @spheres.setter
+    def spheres(self, value) -> None:
+        self._spheres = value
+        self._sphere_cache = None
+
+    def attachment(self, frame: str, argument: str = "frame"):
+        """Chain joint index and placement of `frame`; UnknownFrameError lists the valid names."""
+        try:
+            return self.chain.attachment(frame)
+        except KeyError:
+            raise UnknownFrameError(argument, frame, self.frame_names) from None
+
+    # ------------------------------------------------------- joint conventions
+    def to_pinocchio(self, q) -> np.ndarray:
+        """Joint values (..., n) -> Pinocchio configuration (..., nq) (cos/sin for continuous joints)."""
+        return self.chain.to_pinocchio(as_joint_array(q, "q", self.n))
+
+    def from_pinocchio(self, q_pin) -> np.ndarray:
+        """Pinocchio configuration (..., nq) -> joint values (..., n)."""
+        return self.chain.from_pinocchio(as_joint_array(q_pin, "q_pin", self.model.nq))
+
+    def within_limits(self, q, tolerance: float = 0.0) -> np.ndarray | bool:
+        """Whether each configuration (..., n) lies inside the position limits (bool (...))."""
+        q = as_joint_array(q, "q", self.n)
+        inside = np.all((q >= self.lower_limits - tolerance) & (q <= self.upper_limits + tolerance), axis=-1)
+        return bool(inside) if inside.ndim == 0 else inside
+
+    def clip_to_limits(self, q) -> np.ndarray:
+        """Project configurations (..., n) onto the position limits."""
+        return np.clip(as_joint_array(q, "q", self.n), self.lower_limits, self.upper_limits)
+
+    def random_configuration(self, rng: np.random.Generator) -> np.ndarray:
+        """Uniform random configuration (n,) within the limits; continuous joints in [-pi, pi]."""
+        if not isinstance(rng, np.random.Generator):
+            raise RobotError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
+        lower = np.where(np.isfinite(self.lower_limits), self.lower_limits, -np.pi)
+        upper = np.where(np.isfinite(self.upper_limits), self.upper_limits, np.pi)
+        return rng.uniform(lower, upper)
+
+    def neutral_configuration(self) -> np.ndarray:
+        """Middle of the limits (n,); 0 for continuous joints."""
+        finite = np.isfinite(self.lower_limits) & np.isfinite(self.upper_limits)
+        lower = np.where(finite, self.lower_limits, 0.0)
+        upper = np.where(finite, self.upper_limits, 0.0)
+        return 0.5 * (lower + upper)
+
+    # -------------------------------------------------------------- kinematics
+    def _batch(self, q, name: str) -> tuple[np.ndarray, tuple[int, ...]]:
+        q = as_joint_array(q, name, self.n)
+        return q.reshape(-1, self.n), q.shape[:-1]
+
+    def fk(self, q) -> np.ndarray:
+        """End-effector position (..., 3) [m] in the base frame for q (..., n)."""
+        flat, lead = self._batch(q, "q")
+        frames = self.chain.joint_frames(flat)
+        pos, _, _ = self.chain.points(frames, np.array([self._ee.joint]), self._ee.translation[None], False)
+        return pos[:, 0].reshape(lead + (3,))
+
+    def ee_kinematics(self, q, qdot=None, jacobians: bool = True) -> EndEffectorKinematics:
+        """End-effector position, linear velocity J(q) qdot and their Jacobians, for q (..., n).
+
+        qdot (..., n) or None (velocity zero). Returns EndEffectorKinematics with position,
+        velocity (..., 3), jacobian and velocity_jacobian (..., 3, n) (None if not jacobians).
+        """
+        flat, lead = self._batch(q, "q")
+        if qdot is None:
+            qdot_flat = np.zeros_like(flat)
+        else:
+            qdot_flat, lead_dot = self._batch(qdot, "qdot")
+            if lead_dot != lead:
+                raise RobotError(f"qdot: expected shape {lead + (self.n,)} like q, got {lead_dot + (self.n,)}")
+        frames = self.chain.joint_frames(flat)
+        pos, columns, angular = self.chain.points(
+            frames, np.array([self._ee.joint]), self._ee.translation[None], True)
+        columns = columns[:, 0]                                                 # (B, n, 3)
+        velocity, velocity_jacobian = self.chain.velocity_and_derivative(columns, angular, qdot_flat)
+        shape3, shape3n = lead + (3,), lead + (3, self.n)
+        if not jacobians:
+            return EndEffectorKinematics(pos[:, 0].reshape(shape3), velocity.reshape(shape3), None, None)
+        return EndEffectorKinematics(pos[:, 0].reshape(shape3), velocity.reshape(shape3),
+                                     columns.transpose(0, 2, 1).reshape(shape3n),
+                                     velocity_jacobian.reshape(shape3n))
+
+    def _sphere_attachments(self) -> tuple[np.ndarray, np.ndarray]:
+        """Chain joint (S,) and centre in that joint's frame (S, 3) of every collision sphere."""
+        spheres = self.spheres
+        if self._sphere_cache is None or self._sphere_cache[0] is not spheres:
+            names = list(spheres.link_names)
+            centres = np.asarray(spheres.centres, dtype=float).reshape(len(names), 3)
+            joints = np.zeros(len(names), dtype=int)
+            local = np.zeros((len(names), 3))
+            for s, (link, centre) in enumerate(zip(names, centres)):
+                att = self.attachment(str(link), "spheres.link_names")
+                joints[s] = att.joint
+                local[s] = att.rotation @ centre + att.translation
+            self._sphere_cache = (spheres, joints, local)
+        return self._sphere_cache[1], self._sphere_cache[2]
+
+    def sphere_centres(self, q, jacobians: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+        """Collision sphere centres (..., S, 3) [m] in the base frame and, if asked,
+        their Jacobians (..., S, 3, n) with respect to q (..., n)."""
+        flat, lead = self._batch(q, "q")
+        joints, local = self._sphere_attachments()
+        frames = self.chain.joint_frames(flat)
+        pos, columns, _ = self.chain.points(frames, joints, local, jacobians)
+        S = len(joints)
+        centres = pos.reshape(lead + (S, 3))
+        if not jacobians:
+            return centres, None
+        return centres, columns.transpose(0, 1, 3, 2).reshape(lead + (S, 3, self.n))
+
+    def frame_positions(self, q) -> np.ndarray:
+        """Points to draw the arm, (..., L, 3) [m]: base origin, each joint origin, end effector (L = n + 2)."""
+        flat, lead = self._batch(q, "q")
+        frames = self.chain.joint_frames(flat)
+        ee, _, _ = self.chain.points(frames, np.array([self._ee.joint]), self._ee.translation[None], False)
+        points = np.concatenate((frames.origins, ee), axis=1)
+        return points.reshape(lead + (self.n + 2, 3))
+
+    def frame_position(self, q, frame: str) -> np.ndarray:
+        """Origin (..., 3) [m] of any model frame for q (..., n)."""
+        att = self.attachment(frame)
+        flat, lead = self._batch(q, "q")
+        frames = self.chain.joint_frames(flat)
+        pos, _, _ = self.chain.points(frames, np.array([att.joint]), att.translation[None], False)
+        return pos[:, 0].reshape(lead + (3,))
+
+    # ------------------------------------------------------ inverse kinematics
+    def ik(self, target, seed=None, tol: float = 1e-4, max_iter: int = 200, restarts: int = 8,
+           rng: np.random.Generator | int | None = 0):
+        """End-effector position IK; see robots.ik.solve_ik. Returns IKResult(q (n,), error [m], success)."""
+        from .ik import solve_ik
+        return solve_ik(self, target, seed=seed, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
+
+    def ik_trajectory(self, targets, seed=None, tol: float = 1e-4, max_iter: int = 100,
+                      rng: np.random.Generator | int | None = 0):
+        """IK along a path (T, 3) with continuity; see robots.ik.solve_ik_trajectory.
+        Returns IKTrajectoryResult(q (T, n), errors (T,) [m], success)."""
+        from .ik import solve_ik_trajectory
+        return solve_ik_trajectory(self, targets, seed=seed, tol=tol, max_iter=max_iter, rng=rng)
+
+    def __repr__(self) -> str:
+        return (f"Robot(name={self.name!r}, n={self.n}, end_effector={self.end_effector!r}, "
+                f"base_frame={self.base_frame!r})")
