@@ -1,0 +1,188 @@
+"""Signed distance field sampled on a regular grid, with trilinear interpolation.
+
+Grid nodes sit at ``origin + index * cell_size`` (index (i, j, k), shape ``values.shape``).
+Values are signed distances in metres, negative inside obstacles.
+
+Queries outside the grid box use the value at the nearest point of the box plus the distance
+to the box; the gradient is the exact gradient of that function (the interpolant's gradient
+along the axes that were not clamped, plus the unit vector pointing out of the box), so it is
+finite everywhere and points away from the grid. An empty scene gives +inf values with zero
+gradient.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+
+from .errors import InvalidArgumentError
+from .validation import as_array, as_points, as_positive
+
+if TYPE_CHECKING:
+    from .scene import Scene
+
+#: Largest allowed (and default) cell size in metres.
+DEFAULT_CELL_SIZE = 0.01
+
+
+class SignedDistanceField:
+    """Signed distance values (nx,ny,nz) on a grid with corner ``origin`` (3,) and isotropic ``cell_size`` (m)."""
+
+    def __init__(self, values: Any, origin: Any, cell_size: float):
+        values = np.asarray(values, dtype=float)
+        if values.ndim != 3 or min(values.shape) < 2:
+            raise InvalidArgumentError(f"values: expected a 3-D grid with >= 2 nodes per axis, got shape {values.shape}")
+        if np.any(np.isnan(values)):
+            raise InvalidArgumentError("values: contains NaN")
+        self.values = values
+        self.origin = as_points(origin, "origin").reshape(3)
+        self.cell_size = as_positive(cell_size, "cell_size")
+        self._empty = bool(np.all(np.isposinf(values)))
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """Number of grid nodes per axis."""
+        return self.values.shape  # type: ignore[return-value]
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2,3) box spanned by the grid nodes."""
+        return np.stack([self.origin, self.origin + (np.array(self.shape) - 1) * self.cell_size])
+
+    def grid_points(self) -> np.ndarray:
+        """Coordinates (nx,ny,nz,3) of every grid node."""
+        axes = [self.origin[a] + np.arange(n) * self.cell_size for a, n in enumerate(self.shape)]
+        return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+
+    @classmethod
+    def from_scene(cls, scene: "Scene", cell_size: float = DEFAULT_CELL_SIZE,
+                   exact: bool = False) -> "SignedDistanceField":
+        """Sample a scene's signed distance on a grid covering ``scene.bounds``.
+
+        cell_size (m, at most 0.01; default 0.01) is the node spacing; the grid starts at
+        bounds[0] and extends to cover bounds[1]. ``exact=False`` rasterises obstacle
+        occupancy at the nodes (exact distance tests on each obstacle's bounding block) and
+        takes Euclidean distance transforms outside and inside, shifted by half a cell so the
+        zero crossing lies between occupied and free nodes (error about half a cell);
+        ``exact=True`` evaluates the analytic distance at every node (slower). An obstacle
+        too thin to contain a node marks the node nearest its centre.
+        """
+        h = as_positive(cell_size, "cell_size")
+        if h > DEFAULT_CELL_SIZE + 1e-12:
+            raise InvalidArgumentError(f"cell_size: expected at most {DEFAULT_CELL_SIZE} m, got {cell_size}")
+        lo, hi = scene.bounds
+        shape = tuple(int(n) for n in np.ceil((hi - lo) / h - 1e-9).astype(int) + 1)
+        field = cls(np.full(shape, np.inf), lo, h)
+        if not scene.obstacles:
+            return field
+        if exact:
+            axes = [lo[a] + np.arange(n) * h for a, n in enumerate(shape)]
+            yz = np.stack(np.meshgrid(axes[1], axes[2], indexing="ij"), axis=-1)
+            values = np.empty(shape)
+            chunk = max(1, 200_000 // (shape[1] * shape[2]))
+            for start in range(0, shape[0], chunk):
+                xs = axes[0][start:start + chunk]
+                pts = np.concatenate([np.broadcast_to(xs[:, None, None, None], (len(xs), *yz.shape[:2], 1)),
+                                      np.broadcast_to(yz, (len(xs), *yz.shape))], axis=-1)
+                values[start:start + chunk] = scene.distance(pts)
+            field.values = values
+            field._empty = False
+            return field
+        occupied = field._rasterise(scene)
+        if not occupied.any():
+            return field
+        if occupied.all():
+            return cls.from_scene(scene, h, exact=True)
+        outside = distance_transform_edt(~occupied, sampling=h)
+        inside = field._inside_distance(occupied)
+        field.values = np.where(occupied, -(inside - 0.5 * h), outside - 0.5 * h)
+        field._empty = False
+        return field
+
+    def _rasterise(self, scene: "Scene") -> np.ndarray:
+        """Boolean (nx,ny,nz) occupancy of the nodes, tested per obstacle on its bounding block."""
+        h, shape = self.cell_size, np.array(self.shape)
+        occupied = np.zeros(self.shape, dtype=bool)
+        for ob in scene.obstacles:
+            box = ob.aabb()
+            first = np.clip(np.floor((box[0] - self.origin) / h).astype(int), 0, shape - 1)
+            last = np.clip(np.ceil((box[1] - self.origin) / h).astype(int), 0, shape - 1)
+            if np.any(box[1] < self.origin) or np.any(box[0] > self.bounds[1]):
+                continue
+            axes = [self.origin[a] + np.arange(first[a], last[a] + 1) * h for a in range(3)]
+            pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+            inside = ob.distance(pts) <= 0.0
+            block = tuple(slice(first[a], last[a] + 1) for a in range(3))
+            centre = np.rint((0.5 * (box[0] + box[1]) - self.origin) / h).astype(int)
+            if not inside.any() and np.all((centre >= 0) & (centre < shape)):
+                occupied[tuple(centre)] = True
+            occupied[block] |= inside
+        return occupied
+
+    def _inside_distance(self, occupied: np.ndarray) -> np.ndarray:
+        """Distance (m) from each occupied node to the nearest free node (EDT on the occupied block)."""
+        idx = np.nonzero(occupied.any(axis=(1, 2)))[0], np.nonzero(occupied.any(axis=(0, 2)))[0], \
+            np.nonzero(occupied.any(axis=(0, 1)))[0]
+        block = tuple(slice(max(i[0] - 1, 0), i[-1] + 2) for i in idx)
+        sub = occupied[block]
+        # The block has a layer of free nodes on every side not at the grid border; beyond the
+        # array nothing counts as free, so the nearest free node is always a real one.
+        inside = np.zeros(occupied.shape)
+        inside[block] = distance_transform_edt(sub, sampling=self.cell_size)
+        return inside
+
+    def query(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distance (...,) and its gradient (...,3) at points (...,3), trilinear.
+
+        The gradient is the exact gradient of the trilinear interpolant (so it matches finite
+        differences of the returned values). Outside the grid see the module docstring.
+        """
+        points = as_points(points, "points")
+        lead = points.shape[:-1]
+        if self._empty:
+            return np.full(lead, np.inf), np.zeros(points.shape)
+        flat = points.reshape(-1, 3)
+        h = self.cell_size
+        hi = self.bounds[1]
+        clamped = np.clip(flat, self.origin, hi)
+        u = (clamped - self.origin) / h
+        n = np.array(self.shape)
+        i0 = np.clip(np.floor(u).astype(int), 0, n - 2)
+        f = u - i0
+        g = 1.0 - f
+        v = self.values
+        x0, y0, z0 = i0.T
+        c = v[x0[:, None, None, None] + np.arange(2)[None, :, None, None],
+              y0[:, None, None, None] + np.arange(2)[None, None, :, None],
+              z0[:, None, None, None] + np.arange(2)[None, None, None, :]]   # (P,2,2,2)
+        wx = np.stack([g[:, 0], f[:, 0]], axis=-1)
+        wy = np.stack([g[:, 1], f[:, 1]], axis=-1)
+        wz = np.stack([g[:, 2], f[:, 2]], axis=-1)
+        value = np.einsum("pijk,pi,pj,pk->p", c, wx, wy, wz)
+        dx = np.einsum("pjk,pj,pk->p", c[:, 1] - c[:, 0], wy, wz)
+        dy = np.einsum("pik,pi,pk->p", c[:, :, 1] - c[:, :, 0], wx, wz)
+        dz = np.einsum("pij,pi,pj->p", c[:, :, :, 1] - c[:, :, :, 0], wx, wy)
+        grad = np.stack([dx, dy, dz], axis=-1) / h
+        offset = flat - clamped
+        outside = np.any(offset != 0.0, axis=-1)
+        if outside.any():
+            grad[offset != 0.0] = 0.0
+            dist = np.linalg.norm(offset[outside], axis=-1)
+            value[outside] += dist
+            grad[outside] += offset[outside] / dist[:, None]
+        return value.reshape(lead), grad.reshape(*lead, 3)
+
+    def distance(self, points: Any) -> np.ndarray:
+        """Interpolated signed distance (...,) only; see :meth:`query`."""
+        return self.query(points)[0]
+
+    def save_npz(self, path: Any) -> None:
+        """Write values, origin and cell_size to an .npz file."""
+        np.savez_compressed(path, values=self.values, origin=self.origin, cell_size=self.cell_size)
+
+    @classmethod
+    def load_npz(cls, path: Any) -> "SignedDistanceField":
+        """Read a field written by :meth:`save_npz`."""
+        with np.load(path) as data:
+            return cls(data["values"], data["origin"], float(data["cell_size"]))
