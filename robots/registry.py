@@ -60,6 +60,6 @@ def load_robot(name: str) -> Robot:
     robot = _BUILTIN[name]()
     override = sphere_override_path(name)
     if override.is_file():
-        from .sphere_model import SphereModel
-        robot.spheres = SphereModel.load(override)
+        from .sphere_model import load_sphere_file
+        robot.spheres = load_sphere_file(override)
     return robot
