@@ -2,6 +2,7 @@
 vectorized forward kinematics with Jacobians, and inverse kinematics for initialisation."""
 from .errors import (InvalidArrayError, RobotError, SphereFileError, UnknownFrameError,
                      UnknownRobotError, UnsupportedJointError, URDFParseError)
+from .ik import IKResult, IKTrajectoryResult
 from .kinematics import EndEffectorKinematics
 from .robot import Robot
 from .sphere_model import SphereModel
@@ -14,10 +15,3 @@ __all__ = [
     "InvalidArrayError", "SphereFileError",
 ]
 
-
-def __getattr__(name):
-    # the IK results live in a module imported on first use
-    if name in ("IKResult", "IKTrajectoryResult"):
-        from . import ik
-        return getattr(ik, name)
-    raise AttributeError(f"module 'robots' has no attribute {name!r}")

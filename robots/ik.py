@@ -1,0 +1,136 @@
+"""Inverse kinematics of the end-effector position: damped least squares within joint limits.
+
+The solver works on a batch of B independent problems at once (restarts, or all steps of a
+path), so a whole trajectory is refined in one vectorized loop over iterations.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import RobotError
+from .validation import as_joint_array, as_point, as_points
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """q (n,) joint values; error [m] distance from the end effector to the target; success = error <= tol."""
+
+    q: np.ndarray
+    error: float
+    success: bool
+
+
+@dataclass(frozen=True)
+class IKTrajectoryResult:
+    """q (T, n) joint trajectory; errors (T,) [m] per step; success = every error <= tol."""
+
+    q: np.ndarray
+    errors: np.ndarray
+    success: bool
+
+
+def _check_settings(tol: float, max_iter: int) -> None:
+    if not (np.isfinite(tol) and tol > 0):
+        raise RobotError(f"tol: expected a positive tolerance in metres, got {tol!r}")
+    if int(max_iter) != max_iter or max_iter < 0:
+        raise RobotError(f"max_iter: expected a non-negative integer, got {max_iter!r}")
+
+
+def _as_generator(rng) -> np.random.Generator:
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None or isinstance(rng, (int, np.integer)):
+        return np.random.default_rng(rng if rng is not None else 0)
+    raise RobotError(f"rng: expected a numpy.random.Generator or an integer seed, got {type(rng).__name__}")
+
+
+def _position_jacobian(robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """End-effector positions (B, 3) and Jacobians (B, 3, n) for validated q (B, n)."""
+    att = robot.attachment(robot.end_effector)
+    frames = robot.chain.joint_frames(q)
+    pos, columns, _ = robot.chain.points(frames, np.array([att.joint]), att.translation[None], True)
+    return pos[:, 0], columns[:, 0].transpose(0, 2, 1)
+
+
+def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float, max_iter: int,
+                         damping: float = 1e-2, max_step: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Solve B position IK problems together; returns q (B, n) within limits and errors (B,) [m].
+
+    targets (B, 3), q0 (B, n) seeds (projected onto the limits). Each step is
+    dq = J^T (J J^T + lambda^2 I)^-1 e with joints held at a limit that the step would push
+    through removed from J, scaled to at most `max_step` rad, and projected onto the limits;
+    a step is kept only if it lowers the error (lambda halves) else lambda grows fourfold.
+    """
+    lower, upper = robot.lower_limits, robot.upper_limits
+    q = np.clip(np.array(q0, dtype=float), lower, upper)
+    pos, jac = _position_jacobian(robot, q)
+    residual = targets - pos
+    error = np.linalg.norm(residual, axis=1)
+    lam = np.full(len(q), float(damping))
+    eye = np.eye(3)
+    for _ in range(int(max_iter)):
+        active = np.flatnonzero(error > tol)
+        if active.size == 0:
+            break
+        qa, ja, ra, la = q[active], jac[active], residual[active], lam[active]
+        gradient = np.einsum("bin,bi->bn", ja, ra)                  # descent direction J^T e
+        blocked = ((qa <= lower + 1e-12) & (gradient < 0)) | ((qa >= upper - 1e-12) & (gradient > 0))
+        jf = ja * ~blocked[:, None, :]
+        system = jf @ jf.transpose(0, 2, 1) + (la ** 2)[:, None, None] * eye
+        step = np.einsum("bin,bi->bn", jf, np.linalg.solve(system, ra[..., None])[..., 0])
+        size = np.abs(step).max(axis=1, keepdims=True)
+        step *= np.minimum(1.0, max_step / np.maximum(size, 1e-300))
+        q_new = np.clip(qa + step, lower, upper)
+        pos_new, jac_new = _position_jacobian(robot, q_new)
+        res_new = targets[active] - pos_new
+        err_new = np.linalg.norm(res_new, axis=1)
+        better = err_new < error[active]
+        keep = active[better]
+        q[keep], jac[keep], residual[keep], error[keep] = q_new[better], jac_new[better], res_new[better], err_new[better]
+        lam[active] = np.where(better, np.maximum(la * 0.5, 1e-6), np.minimum(la * 4.0, 1e3))
+    return q, error
+
+
+def solve_ik(robot, target, seed=None, tol: float = 1e-4, max_iter: int = 200, restarts: int = 8,
+             rng: np.random.Generator | int | None = 0) -> IKResult:
+    """Joint values (n,) that put the end effector at `target` (3,) [m], within the limits.
+
+    Starts from `seed` (n,) (default: middle of the limits) and, solved in the same batch,
+    `restarts` random configurations drawn from `rng`; returns the seed's solution when it
+    succeeds, else the best one.
+    """
+    _check_settings(tol, max_iter)
+    target = as_point(target, "target")
+    seed = robot.neutral_configuration() if seed is None else as_joint_array(seed, "seed", robot.n)
+    if seed.ndim != 1:
+        raise RobotError(f"seed: expected shape ({robot.n},), got {seed.shape}")
+    if int(restarts) != restarts or restarts < 0:
+        raise RobotError(f"restarts: expected a non-negative integer, got {restarts!r}")
+    generator = _as_generator(rng)
+    starts = np.vstack([seed] + [robot.random_configuration(generator) for _ in range(int(restarts))])
+    q, errors = damped_least_squares(robot, np.broadcast_to(target, (len(starts), 3)), starts, tol, max_iter)
+    best = 0 if errors[0] <= tol else int(np.argmin(errors))
+    return IKResult(q[best], float(errors[best]), bool(errors[best] <= tol))
+
+
+def solve_ik_trajectory(robot, targets, seed=None, tol: float = 1e-4, max_iter: int = 100,
+                        rng: np.random.Generator | int | None = 0, sequential_iter: int = 2) -> IKTrajectoryResult:
+    """Joint trajectory (T, n) following the end-effector path `targets` (T, 3) [m].
+
+    The first step is solved with solve_ik from `seed` (plus restarts); then a sequential pass
+    seeds every step with the previous step's solution (`sequential_iter` iterations each), and
+    finally all T steps are refined together in one batch (`max_iter` iterations), each from its
+    own seed, which keeps neighbouring configurations on the same branch.
+    """
+    _check_settings(tol, max_iter)
+    targets = as_points(targets, "targets")
+    first = solve_ik(robot, targets[0], seed=seed, tol=tol, max_iter=max(200, int(max_iter)), rng=rng)
+    T = len(targets)
+    q = np.empty((T, robot.n))
+    q[0] = first.q
+    for t in range(1, T):
+        q[t], _ = damped_least_squares(robot, targets[t:t + 1], q[t - 1:t], tol, sequential_iter)
+    q, errors = damped_least_squares(robot, targets, q, tol, max_iter)
+    return IKTrajectoryResult(q, errors, bool(np.all(errors <= tol)))
