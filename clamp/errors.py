@@ -29,3 +29,7 @@ class InsufficientDemonstrationsError(ClampError):
 
 class PriorFileError(ClampError):
     """A saved prior file is missing, unreadable or inconsistent."""
+
+
+class ClampWarning(UserWarning):
+    """A learning or planning setting is legal but likely to give a poor result."""

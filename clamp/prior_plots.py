@@ -1,0 +1,145 @@
+"""Figures of a learned trajectory prior: the mean with its 95 % envelope, with demonstrations.
+
+- :func:`plot_prior_3d`: workspace prior in 3-D, mean path, demonstrations and a tube whose
+  cross-section at every support state is the ``z sigma`` ellipse (z = 1.96 for 95 %) of the
+  position covariance projected on the plane normal to the mean path.
+- :func:`plot_prior_time`: every coordinate against time (rows positions / velocities, one
+  column per axis), demonstrations, mean and the marginal envelope ``mean -+ z sigma``.
+Both build a bare ``matplotlib.figure.Figure`` (no pyplot, no GUI backend: headless) and
+write a PNG when given ``path``.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from scipy import stats
+
+from clamp.errors import InvalidParameterError, ShapeError
+from clamp.prior import LinearGaussianPrior
+from clamp.validation import as_array, as_count, as_scalar
+
+__all__ = ["plot_prior_3d", "plot_prior_time", "envelope_tube"]
+
+
+def _demo_states(demos: object, prior: LinearGaussianPrior) -> np.ndarray | None:
+    """Demonstrations as states (M, T, D): a Demonstrations-like object or an array."""
+    if demos is None:
+        return None
+    if hasattr(demos, "positions") and hasattr(demos, "velocities"):
+        states = np.concatenate([np.asarray(demos.positions, dtype=float),
+                                 np.asarray(demos.velocities, dtype=float)], axis=2)
+    else:
+        states = np.asarray(demos, dtype=float)
+    return as_array(states, "demos", (None, prior.T, prior.D))
+
+
+def _finish(fig: Figure, path: str | os.PathLike[str] | None, dpi: int) -> Figure:
+    fig.tight_layout()
+    if path is not None:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=dpi)
+    return fig
+
+
+def envelope_tube(prior: LinearGaussianPrior, level: float = 0.95,
+                  resolution: int = 24) -> np.ndarray:
+    """Surface points (T, resolution, 3) of the position envelope tube of a prior.
+
+    At support state i the cross-section is the ellipse ``mean_i + z L_i [cos a, sin a]``
+    in the plane normal to the mean path, L_i the Cholesky factor of the position covariance
+    projected on that plane, z the two-sided normal quantile of ``level`` (1.96 for 0.95).
+    """
+    if prior.num_axes != 3:
+        raise ShapeError(f"prior: expected a workspace prior with 3 position axes, "
+                         f"got {prior.num_axes}")
+    level = as_scalar(level, "level", strictly_positive=True)
+    if level >= 1:
+        raise InvalidParameterError(f"level: expected a probability in (0, 1), got {level}")
+    resolution = as_count(resolution, "resolution", minimum=3)
+    z = float(stats.norm.ppf(0.5 + 0.5 * level))
+    centre = prior.mean[:, :3]
+    tangent = np.gradient(centre, axis=0) if prior.T > 1 else np.zeros_like(centre)
+    length = np.linalg.norm(tangent, axis=1)
+    valid = length > 1e-12 * max(float(length.max()), 1e-300)
+    if not np.any(valid):
+        tangent, valid = np.tile([0.0, 0.0, 1.0], (prior.T, 1)), np.ones(prior.T, bool)
+    # Carry the last valid tangent over stationary stretches (forward, then backward fill).
+    idx = np.where(valid, np.arange(prior.T), 0)
+    idx = np.maximum.accumulate(idx)
+    idx = np.where(valid[idx], idx, np.argmax(valid))
+    tangent = tangent[idx] / np.linalg.norm(tangent[idx], axis=1, keepdims=True)
+    helper = np.eye(3)[np.argmin(np.abs(tangent), axis=1)]
+    normal = np.cross(tangent, helper)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    binormal = np.cross(tangent, normal)
+    basis = np.stack([normal, binormal], axis=2)                  # (T, 3, 2)
+    cov2 = np.swapaxes(basis, 1, 2) @ prior.cov[:, :3, :3] @ basis  # (T, 2, 2)
+    cov2 = cov2 + 1e-300 * np.eye(2)
+    evals, evecs = np.linalg.eigh(cov2)
+    root = evecs * np.sqrt(np.clip(evals, 0.0, None))[:, None, :]  # (T, 2, 2)
+    angle = np.linspace(0.0, 2.0 * np.pi, resolution)
+    circle = np.stack([np.cos(angle), np.sin(angle)])             # (2, R)
+    offsets = basis @ root @ circle                               # (T, 3, R)
+    return centre[:, None, :] + z * np.swapaxes(offsets, 1, 2)
+
+
+def plot_prior_3d(prior: LinearGaussianPrior, demos: object = None, *, level: float = 0.95,
+                  path: str | os.PathLike[str] | None = None, title: str | None = None,
+                  dpi: int = 120) -> Figure:
+    """3-D figure of a workspace prior: mean path, demonstrations, ``level`` envelope tube.
+
+    demos: Demonstrations-like object or states (M, T, 6), optional. Writes a PNG to ``path``
+    if given; returns the figure.
+    """
+    tube = envelope_tube(prior, level)
+    states = _demo_states(demos, prior)
+    fig = Figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot_surface(tube[..., 0], tube[..., 1], tube[..., 2], color="tab:blue", alpha=0.18,
+                    linewidth=0, shade=False)
+    if states is not None:
+        for m, demo in enumerate(states):
+            ax.plot(*demo[:, :3].T, color="0.4", lw=0.8,
+                    label="demonstrations" if m == 0 else None)
+    ax.plot(*prior.mean[:, :3].T, color="tab:blue", lw=2.2, label="prior mean")
+    ax.plot([], [], color="tab:blue", alpha=0.3, lw=6, label=f"{100 * level:.0f} % envelope")
+    ax.scatter(*prior.mean[0, :3], color="tab:green", s=30, label="start")
+    ax.scatter(*prior.mean[-1, :3], color="tab:red", s=30, label="end")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title(title or f"{prior.kind} prior (T = {prior.T})")
+    ax.legend(loc="upper left", fontsize=8)
+    return _finish(fig, path, dpi)
+
+
+def plot_prior_time(prior: LinearGaussianPrior, demos: object = None, *, level: float = 0.95,
+                    path: str | os.PathLike[str] | None = None, title: str | None = None,
+                    dpi: int = 120) -> Figure:
+    """Prior against time: rows positions / velocities, one column per axis (or joint).
+
+    Shows demonstrations (optional; Demonstrations-like or states (M, T, D)), the prior mean
+    and its marginal ``level`` envelope. Writes a PNG to ``path`` if given.
+    """
+    lower, upper = prior.envelope(level)
+    states = _demo_states(demos, prior)
+    A = prior.num_axes
+    fig = Figure(figsize=(3.2 * A, 5.2))
+    axes = fig.subplots(2, A, sharex=True, squeeze=False)
+    unit = ("m", "m/s") if prior.kind == "workspace" else ("rad", "rad/s")
+    for k in range(prior.D):
+        ax = axes[k // A, k % A]
+        ax.fill_between(prior.time, lower[:, k], upper[:, k], color="tab:blue", alpha=0.2,
+                        lw=0, label=f"{100 * level:.0f} % envelope")
+        if states is not None:
+            ax.plot(prior.time, states[:, :, k].T, color="0.4", lw=0.7)
+        ax.plot(prior.time, prior.mean[:, k], color="tab:blue", lw=1.8, label="prior mean")
+        ax.set_ylabel(f"{prior.state_names[k]} [{unit[k // A]}]")
+        if k // A == 1:
+            ax.set_xlabel("time [s]")
+    axes[0, 0].legend(fontsize=7, loc="best")
+    fig.suptitle(title or f"{prior.kind} prior against time")
+    return _finish(fig, path, dpi)
