@@ -1,7 +1,7 @@
 """Kinematics of real arms: Pinocchio models, joint limits, end effector, collision spheres,
 vectorized forward kinematics with Jacobians, and inverse kinematics for initialisation."""
-from .errors import (InvalidArrayError, RobotError, SphereFileError, UnknownFrameError,
-                     UnknownRobotError, UnsupportedJointError, URDFParseError)
+from .errors import (CollisionGeometryError, InvalidArrayError, RobotError, SphereFileError,
+                     UnknownFrameError, UnknownRobotError, UnsupportedJointError, URDFParseError)
 from .ik import IKResult, IKTrajectoryResult
 from .kinematics import EndEffectorKinematics
 from .robot import Robot
@@ -12,6 +12,6 @@ __all__ = [
     "Robot", "load_robot", "available_robots", "EndEffectorKinematics", "SphereModel",
     "IKResult", "IKTrajectoryResult",
     "RobotError", "UnknownRobotError", "UnknownFrameError", "URDFParseError", "UnsupportedJointError",
-    "InvalidArrayError", "SphereFileError",
+    "InvalidArrayError", "SphereFileError", "CollisionGeometryError",
 ]
 

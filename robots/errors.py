@@ -48,3 +48,7 @@ class CollisionGeometryError(RobotError):
 
 class SphereFileError(RobotError):
     """A collision-sphere file that is missing or malformed."""
+
+
+class CollisionGeometryError(RobotError):
+    """Collision geometry that cannot be read or sampled, or bad sphere-fitting settings."""
