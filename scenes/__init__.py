@@ -1,14 +1,20 @@
 """The world and what was shown in it: obstacles, scenes, signed distance fields,
 demonstration sets (import/export, resampling, time alignment) and synthetic skills."""
+from .datasets import shared_dataset
+from .demonstrations import NOMINAL_DURATION, Demonstrations
 from .errors import (DemonstrationFileError, InvalidArgumentError, InvalidDemonstrationsError,
                      InvalidObstacleError, SceneFileError, ScenesError, UnknownSkillError)
+from .io import load_demonstrations, save_csv
 from .obstacles import Box, Cylinder, Obstacle, Sphere
 from .scene import DEFAULT_WORKSPACE, Scene, available_scenes, builtin_scene
 from .sdf import SignedDistanceField
+from .synthetic import SKILLS, make_demonstrations
 
 __all__ = [
     "Box", "Cylinder", "Obstacle", "Sphere", "Scene", "SignedDistanceField", "DEFAULT_WORKSPACE",
     "available_scenes", "builtin_scene",
+    "Demonstrations", "NOMINAL_DURATION", "load_demonstrations", "save_csv", "shared_dataset",
+    "make_demonstrations", "SKILLS",
     "ScenesError", "InvalidArgumentError", "InvalidObstacleError", "SceneFileError",
     "InvalidDemonstrationsError", "DemonstrationFileError", "UnknownSkillError",
 ]

@@ -1,0 +1,244 @@
+"""A set of M demonstrations sharing one time axis: positions and velocities (M,T,3), time (T,)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .alignment import dtw_warp
+from .errors import InvalidDemonstrationsError, InvalidObstacleError
+from .obstacles import Obstacle, obstacle_from_dict
+from .validation import as_array, as_count, as_vector
+
+#: Duration (s) given to demonstrations recorded without time stamps (e.g. TLGC smoothData).
+NOMINAL_DURATION = 10.0
+
+_E = InvalidDemonstrationsError
+_SAME = object()
+
+
+def _check_time(time: Any, name: str, length: int) -> np.ndarray:
+    t = as_array(time, name, _E)
+    if t.ndim == 2 and 1 in t.shape:
+        t = t.reshape(-1)
+    if t.shape != (length,):
+        raise _E(f"{name}: expected shape ({length},) to match the positions, got {t.shape}")
+    if np.any(np.diff(t) <= 0):
+        first = int(np.argmax(np.diff(t) <= 0))
+        raise _E(f"{name}: expected strictly increasing time stamps, "
+                 f"but {name}[{first + 1}] = {t[first + 1]} <= {name}[{first}] = {t[first]}")
+    return t
+
+
+def _check_obstacles(obstacles: Any, count: int) -> list[list[Obstacle]] | None:
+    if obstacles is None:
+        return None
+    obstacles = list(obstacles)
+    if len(obstacles) != count:
+        raise _E(f"obstacles: expected one list per demonstration ({count}), got {len(obstacles)}")
+    out = []
+    for m, group in enumerate(obstacles):
+        group = list(group)
+        for k, ob in enumerate(group):
+            if not isinstance(ob, Obstacle):
+                raise _E(f"obstacles[{m}][{k}]: expected a Box, Sphere or Cylinder, got {type(ob).__name__}")
+        out.append(group)
+    return out
+
+
+class Demonstrations:
+    """M demonstrations on a common time axis.
+
+    positions (M,T,3) m, velocities (M,T,3) m/s, time (T,) s strictly increasing,
+    obstacles: per demonstration a list of the obstacles present (or None), name: label.
+    Requires M >= 2 and T >= 2; raises InvalidDemonstrationsError naming what is wrong.
+    """
+
+    def __init__(self, positions: Any, velocities: Any, time: Any,
+                 obstacles: Sequence[Sequence[Obstacle]] | None = None, name: str = ""):
+        p = as_array(positions, "positions", _E)
+        if p.ndim != 3:
+            raise _E(f"positions: expected rank 3 (M demonstrations, T steps, 3), got shape {p.shape}")
+        if p.shape[-1] != 3:
+            raise _E(f"positions: expected last dimension 3 (x, y, z), got shape {p.shape}")
+        if p.shape[0] < 2:
+            raise _E(f"positions: expected at least 2 demonstrations, got {p.shape[0]}")
+        if p.shape[1] < 2:
+            raise _E(f"positions: expected at least 2 time steps, got {p.shape[1]}")
+        v = as_array(velocities, "velocities", _E)
+        if v.shape != p.shape:
+            raise _E(f"velocities: expected shape {p.shape} like positions, got {v.shape}")
+        self.positions = p
+        self.velocities = v
+        self.time = _check_time(time, "time", p.shape[1])
+        self.obstacles = _check_obstacles(obstacles, p.shape[0])
+        self.name = str(name)
+
+    # -- basic properties -------------------------------------------------------------
+    @property
+    def M(self) -> int:
+        """Number of demonstrations."""
+        return self.positions.shape[0]
+
+    @property
+    def T(self) -> int:
+        """Number of time steps."""
+        return self.positions.shape[1]
+
+    @property
+    def dt(self) -> float:
+        """Median time step (s): the exact step for uniform time, and the nominal step of
+        recordings with a few irregular stamps (box_closing.mat: 0.16 s, with nine 0.08 s steps)."""
+        return float(np.median(np.diff(self.time)))
+
+    @property
+    def duration(self) -> float:
+        """time[-1] - time[0] in seconds."""
+        return float(self.time[-1] - self.time[0])
+
+    @property
+    def states(self) -> np.ndarray:
+        """Workspace states (M,T,6) = [position, velocity]."""
+        return np.concatenate([self.positions, self.velocities], axis=-1)
+
+    def mean_position(self) -> np.ndarray:
+        """Pointwise mean position (T,3) over the demonstrations."""
+        return self.positions.mean(axis=0)
+
+    def __len__(self) -> int:
+        return self.M
+
+    def __repr__(self) -> str:
+        return f"Demonstrations(name={self.name!r}, M={self.M}, T={self.T}, dt={self.dt:.4g})"
+
+    def _replace(self, positions: np.ndarray, velocities: np.ndarray, time: np.ndarray,
+                 obstacles: Any = _SAME) -> "Demonstrations":
+        return Demonstrations(positions, velocities, time,
+                              self.obstacles if obstacles is _SAME else obstacles, self.name)
+
+    # -- transformations ---------------------------------------------------------------
+    def resample(self, T: int) -> "Demonstrations":
+        """T uniformly spaced steps over the same time span; positions and velocities are
+        each interpolated by a cubic spline in time."""
+        T = as_count(T, "T", 2, _E)
+        new_time = np.linspace(self.time[0], self.time[-1], T)
+        pos = CubicSpline(self.time, self.positions, axis=1)(new_time)
+        vel = CubicSpline(self.time, self.velocities, axis=1)(new_time)
+        return self._replace(pos, vel, new_time)
+
+    def align_dtw(self, reference: int = 0) -> "Demonstrations":
+        """Warp every demonstration onto demonstration ``reference``'s time axis by DTW.
+
+        Each demonstration is re-sampled (cubic spline over its sample index) at the fractional
+        indices matched to the reference's steps (see alignment.dtw_warp); velocities are the
+        time derivative of a cubic spline through the warped positions. The reference is unchanged.
+        """
+        if isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) \
+                or not -self.M <= reference < self.M:
+            raise _E(f"reference: expected a demonstration index in [0, {self.M}), got {reference!r}")
+        ref = self.positions[reference]
+        index = np.arange(self.T)
+        pos = self.positions.copy()
+        vel = self.velocities.copy()
+        for m in range(self.M):
+            if m == reference % self.M:
+                continue
+            warp = dtw_warp(ref, self.positions[m])
+            pos[m] = CubicSpline(index, self.positions[m], axis=0)(warp)
+            vel[m] = CubicSpline(self.time, pos[m], axis=0)(self.time, 1)
+        return self._replace(pos, vel, self.time)
+
+    def translated(self, offset: Any) -> "Demonstrations":
+        """Every position and recorded obstacle moved by offset (3,) metres."""
+        offset = as_vector(offset, "offset", 3, _E)
+        obstacles = None if self.obstacles is None else [[ob.translated(offset) for ob in group]
+                                                         for group in self.obstacles]
+        return self._replace(self.positions + offset, self.velocities, self.time, obstacles)
+
+    # -- construction ------------------------------------------------------------------
+    @classmethod
+    def from_trajectories(cls, trajectories: Sequence[Any], times: Sequence[Any] | None = None,
+                          num_points: int | None = None, *, velocities: Sequence[Any] | None = None,
+                          obstacles: Sequence[Sequence[Obstacle]] | None = None, name: str = "",
+                          duration: float | None = None) -> "Demonstrations":
+        """Demonstrations from M position arrays (T_m,3) of possibly unequal length.
+
+        Each demonstration's time is normalised to its own duration (phase s in [0,1]) and
+        resampled by a cubic spline at ``num_points`` (default: the longest T_m) uniform phases.
+        The common time axis spans the mean duration. ``times`` (T_m,) per demonstration;
+        without them every demonstration lasts ``duration`` (default NOMINAL_DURATION s).
+        Velocities: given ones (T_m,3) are spline-resampled and scaled by D_m / D_mean so they
+        stay the derivative of the re-timed positions; otherwise the spline's time derivative.
+        """
+        trajectories = list(trajectories)
+        if len(trajectories) < 2:
+            raise _E(f"trajectories: expected at least 2 demonstrations, got {len(trajectories)}")
+        paths = []
+        for m, traj in enumerate(trajectories):
+            p = as_array(traj, f"trajectories[{m}]", _E)
+            if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 2:
+                raise _E(f"trajectories[{m}]: expected shape (T_m >= 2, 3), got {p.shape}")
+            paths.append(p)
+        if times is not None:
+            times = list(times)
+            if len(times) != len(paths):
+                raise _E(f"times: expected {len(paths)} arrays (one per trajectory), got {len(times)}")
+            stamps = [_check_time(t, f"times[{m}]", len(p)) for m, (t, p) in enumerate(zip(times, paths))]
+        else:
+            total = NOMINAL_DURATION if duration is None else float(
+                as_vector([duration], "duration", 1, _E)[0])
+            if total <= 0:
+                raise _E(f"duration: expected a positive number of seconds, got {duration}")
+            stamps = [np.linspace(0.0, total, len(p)) for p in paths]
+        if velocities is not None:
+            velocities = list(velocities)
+            if len(velocities) != len(paths):
+                raise _E(f"velocities: expected {len(paths)} arrays, got {len(velocities)}")
+            velocities = [as_array(v, f"velocities[{m}]", _E) for m, v in enumerate(velocities)]
+            for m, (v, p) in enumerate(zip(velocities, paths)):
+                if v.shape != p.shape:
+                    raise _E(f"velocities[{m}]: expected shape {p.shape} like trajectories[{m}], got {v.shape}")
+        T = max(len(p) for p in paths) if num_points is None else as_count(num_points, "num_points", 2, _E)
+        durations = np.array([t[-1] - t[0] for t in stamps])
+        mean_duration = float(durations.mean())
+        phase = np.linspace(0.0, 1.0, T)
+        pos = np.empty((len(paths), T, 3))
+        vel = np.empty_like(pos)
+        for m, (p, t) in enumerate(zip(paths, stamps)):
+            s = (t - t[0]) / durations[m]
+            spline = CubicSpline(s, p, axis=0)
+            pos[m] = spline(phase)
+            if velocities is None:
+                vel[m] = spline(phase, 1) / mean_duration
+            else:
+                vel[m] = CubicSpline(s, velocities[m], axis=0)(phase) * durations[m] / mean_duration
+        return cls(pos, vel, phase * mean_duration, obstacles, name)
+
+    # -- storage -----------------------------------------------------------------------
+    def save_npz(self, path: str | Path) -> None:
+        """Write positions, velocities, time, name and obstacles (JSON text) to an .npz file."""
+        obstacles = "null" if self.obstacles is None else json.dumps(
+            [[ob.to_dict() for ob in group] for group in self.obstacles])
+        np.savez_compressed(path, positions=self.positions, velocities=self.velocities, time=self.time,
+                            name=np.array(self.name), obstacles=np.array(obstacles))
+
+    @classmethod
+    def load_npz(cls, path: str | Path) -> "Demonstrations":
+        """Read a file written by :meth:`save_npz` (see scenes.io.load_demonstrations for errors)."""
+        with np.load(path, allow_pickle=False) as data:
+            missing = {"positions", "velocities", "time"} - set(data.files)
+            if missing:
+                raise _E(f"{path}: missing array(s) {sorted(missing)}; found {sorted(data.files)}")
+            name = str(data["name"]) if "name" in data.files else Path(path).stem
+            raw = json.loads(str(data["obstacles"])) if "obstacles" in data.files else None
+            obstacles = None
+            if raw is not None:
+                try:
+                    obstacles = [[obstacle_from_dict(d, f"obstacles[{m}][{k}]") for k, d in enumerate(group)]
+                                 for m, group in enumerate(raw)]
+                except (InvalidObstacleError, TypeError) as exc:
+                    raise _E(f"{path}: {exc}") from None
+            return cls(data["positions"], data["velocities"], data["time"], obstacles, name)

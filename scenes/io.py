@@ -1,0 +1,185 @@
+"""Reading and writing demonstration files.
+
+Formats (chosen by suffix, then by content):
+
+* ``.mat`` CLAMP reference: struct array ``dataset`` with fields ``pos`` (T,3), ``vel`` (T,3),
+  ``time`` (T,) and optional ``obs`` (K,6) boxes [cx,cy,cz,sx,sy,sz]; scalar ``dt``.
+  Missing ``time`` becomes ``arange(T) * dt``; missing ``vel`` the cubic-spline derivative.
+* ``.mat`` TLGC reference: cell array ``smoothData`` of (N,3) positions without time; time is
+  ``linspace(0, NOMINAL_DURATION, N)`` (10 s), velocities the cubic-spline derivative.
+* ``.npz``: written by :meth:`Demonstrations.save_npz`.
+* ``.csv``: header ``demo,t,x,y,z`` or ``demo,t,x,y,z,vx,vy,vz``, one row per sample; ``demo`` is
+  an integer label (order of first appearance), ``t`` in seconds, positions in metres,
+  velocities in m/s. Without velocity columns they are the cubic-spline derivative.
+
+Demonstrations sharing the same time stamps are taken as they are; otherwise they are
+resampled with :meth:`Demonstrations.from_trajectories`.
+"""
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.io
+from scipy.interpolate import CubicSpline
+
+from .demonstrations import NOMINAL_DURATION, Demonstrations
+from .errors import DemonstrationFileError, InvalidDemonstrationsError, InvalidObstacleError
+from .obstacles import Box
+
+CSV_COLUMNS = ("demo", "t", "x", "y", "z")
+CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
+
+
+def load_demonstrations(path: str | Path) -> Demonstrations:
+    """Read demonstrations from a .mat (CLAMP or TLGC), .npz or .csv file.
+
+    Raises DemonstrationFileError (missing/unreadable file, unknown suffix or content,
+    malformed fields) naming the file and what was expected.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DemonstrationFileError(f"{path}: no such file")
+    suffix = path.suffix.lower()
+    readers = {".mat": _load_mat, ".npz": _load_npz, ".csv": _load_csv}
+    if suffix not in readers:
+        raise DemonstrationFileError(f"{path}: unknown suffix {suffix!r}; expected one of {sorted(readers)}")
+    try:
+        return readers[suffix](path)
+    except (InvalidDemonstrationsError, InvalidObstacleError) as exc:
+        raise DemonstrationFileError(f"{path}: {exc}") from None
+
+
+def _load_mat(path: Path) -> Demonstrations:
+    try:
+        data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
+    except Exception as exc:  # scipy raises several types for corrupt files
+        raise DemonstrationFileError(f"{path}: not a readable MATLAB file ({exc})") from None
+    if "dataset" in data:
+        return _from_clamp(path, data)
+    if "smoothData" in data:
+        return _from_tlgc(path, data)
+    keys = sorted(k for k in data if not k.startswith("__"))
+    raise DemonstrationFileError(f"{path}: expected variable 'dataset' (CLAMP) or 'smoothData' (TLGC), "
+                                 f"found {keys}")
+
+
+def _field(path: Path, item: Any, index: int, field: str, required: bool = True) -> Any:
+    if not hasattr(item, field):
+        if required:
+            raise DemonstrationFileError(f"{path}: dataset({index + 1}) has no field '{field}'")
+        return None
+    return getattr(item, field)
+
+
+def _from_clamp(path: Path, data: dict[str, Any]) -> Demonstrations:
+    entries = np.atleast_1d(data["dataset"])
+    if entries.dtype != object or not all(hasattr(e, "_fieldnames") for e in entries):
+        raise DemonstrationFileError(f"{path}: 'dataset' must be a struct array with fields pos, vel, time")
+    dt = data.get("dt")
+    positions, velocities, times, obstacles = [], [], [], []
+    for m, item in enumerate(entries):
+        pos = np.asarray(_field(path, item, m, "pos"), dtype=float)
+        if pos.ndim != 2 or pos.shape[1] != 3:
+            raise DemonstrationFileError(f"{path}: dataset({m + 1}).pos: expected shape (T, 3), got {pos.shape}")
+        vel = _field(path, item, m, "vel", required=False)
+        time = _field(path, item, m, "time", required=False)
+        if time is None:
+            if dt is None:
+                raise DemonstrationFileError(f"{path}: dataset({m + 1}) has neither 'time' nor a file-level 'dt'")
+            time = np.arange(len(pos)) * float(dt)
+        obs = _field(path, item, m, "obs", required=False)
+        boxes = []
+        if obs is not None and np.size(obs):
+            rows = np.atleast_2d(np.asarray(obs, dtype=float))
+            if rows.shape[1] != 6:
+                raise DemonstrationFileError(f"{path}: dataset({m + 1}).obs: expected shape (K, 6) "
+                                             f"[cx,cy,cz,sx,sy,sz], got {rows.shape}")
+            for k, row in enumerate(rows):
+                try:
+                    boxes.append(Box.from_reference(row))
+                except InvalidObstacleError as exc:
+                    raise DemonstrationFileError(f"{path}: dataset({m + 1}).obs row {k + 1}: {exc}") from None
+        positions.append(pos)
+        velocities.append(None if vel is None else np.asarray(vel, dtype=float))
+        times.append(np.asarray(time, dtype=float).reshape(-1))
+        obstacles.append(boxes)
+    has_obstacles = any(obstacles)
+    return _assemble(positions, velocities, times, obstacles if has_obstacles else None, path.stem)
+
+
+def _from_tlgc(path: Path, data: dict[str, Any]) -> Demonstrations:
+    cells = np.atleast_1d(data["smoothData"])
+    if cells.dtype != object:
+        cells = cells[None] if cells.ndim == 2 else cells
+    positions = []
+    for m, cell in enumerate(cells):
+        pos = np.asarray(cell, dtype=float)
+        if pos.ndim != 2 or pos.shape[1] != 3:
+            raise DemonstrationFileError(f"{path}: smoothData{{{m + 1}}}: expected shape (N, 3), got {pos.shape}")
+        positions.append(pos)
+    times = [np.linspace(0.0, NOMINAL_DURATION, len(p)) for p in positions]
+    return _assemble(positions, [None] * len(positions), times, None, path.stem)
+
+
+def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], times: list[np.ndarray],
+              obstacles: list | None, name: str) -> Demonstrations:
+    """Demonstrations as they are when all share one time axis, else resampled."""
+    if len(positions) < 2:
+        raise InvalidDemonstrationsError(f"expected at least 2 demonstrations, got {len(positions)}")
+    same_time = all(len(t) == len(times[0]) and np.array_equal(t, times[0]) for t in times)
+    if same_time and all(len(p) == len(times[0]) for p in positions):
+        pos = np.stack(positions)
+        if all(v is not None for v in velocities):
+            vel = np.stack(velocities)
+        else:
+            vel = np.stack([v if v is not None else CubicSpline(times[0], p, axis=0)(times[0], 1)
+                            for p, v in zip(positions, velocities)])
+        return Demonstrations(pos, vel, times[0], obstacles, name)
+    given = velocities if all(v is not None for v in velocities) else None
+    return Demonstrations.from_trajectories(positions, times, velocities=given, obstacles=obstacles, name=name)
+
+
+def _load_npz(path: Path) -> Demonstrations:
+    try:
+        return Demonstrations.load_npz(path)
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        if isinstance(exc, InvalidDemonstrationsError):
+            raise
+        raise DemonstrationFileError(f"{path}: not a readable demonstrations .npz ({exc})") from None
+
+
+def _load_csv(path: Path) -> Demonstrations:
+    with open(path) as handle:
+        header = tuple(c.strip() for c in handle.readline().strip().split(","))
+    if header not in (CSV_COLUMNS, CSV_COLUMNS + CSV_VELOCITY_COLUMNS):
+        raise DemonstrationFileError(f"{path}: expected header {','.join(CSV_COLUMNS)}"
+                                     f"[,{','.join(CSV_VELOCITY_COLUMNS)}], got {','.join(header)!r}")
+    try:
+        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as exc:
+        raise DemonstrationFileError(f"{path}: malformed CSV row ({exc})") from None
+    if table.size == 0:
+        raise DemonstrationFileError(f"{path}: no data rows after the header")
+    if table.shape[1] != len(header):
+        raise DemonstrationFileError(f"{path}: expected {len(header)} columns, got {table.shape[1]}")
+    if not np.all(np.isfinite(table)):
+        raise DemonstrationFileError(f"{path}: contains NaN/inf values")
+    labels, first = np.unique(table[:, 0], return_index=True)
+    order = labels[np.argsort(first)]
+    groups = [table[table[:, 0] == label] for label in order]
+    positions = [g[:, 2:5] for g in groups]
+    velocities = [g[:, 5:8] if len(header) == 8 else None for g in groups]
+    times = [g[:, 1] for g in groups]
+    return _assemble(positions, velocities, times, None, path.stem)
+
+
+def save_csv(demos: Demonstrations, path: str | Path) -> None:
+    """Write demonstrations as CSV with columns demo,t,x,y,z,vx,vy,vz (see module docstring)."""
+    M, T = demos.M, demos.T
+    table = np.column_stack([np.repeat(np.arange(M), T), np.tile(demos.time, M),
+                             demos.positions.reshape(-1, 3), demos.velocities.reshape(-1, 3)])
+    np.savetxt(path, table, delimiter=",", header=",".join(CSV_COLUMNS + CSV_VELOCITY_COLUMNS),
+               comments="", fmt=["%d"] + ["%.17g"] * 7)

@@ -1,0 +1,112 @@
+"""Seeded synthetic demonstrations of named skills in a Kinova Jaco2's workspace.
+
+Base at the origin, z up. Every skill stays in the region the real box-closing demonstrations
+use (x 0.1..0.5, y -0.6..-0.2, z 0.05..0.45), more than 0.2 m from the base axis and above
+z = 0.02. A skill is a list of nominal waypoints with a spread (m) per waypoint: each
+demonstration perturbs the waypoints with seeded Gaussian offsets of that spread (small where
+the skill is constrained), passes a cubic spline through them (knots at the nominal chord-length
+fractions) and traverses it with a minimum-jerk timing law, itself slightly warped per
+demonstration. Velocities are the exact time derivative of the positions (chain rule).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .demonstrations import Demonstrations
+from .errors import InvalidArgumentError, UnknownSkillError
+from .obstacles import Box, Obstacle
+from .validation import as_count, as_positive
+
+
+@dataclass(frozen=True)
+class SkillSpec:
+    """Nominal waypoints (K,3) m, spread per waypoint (K,) m, obstacles shown with the skill."""
+
+    waypoints: np.ndarray
+    spread: np.ndarray
+    obstacles: tuple[Obstacle, ...] = field(default_factory=tuple)
+
+
+def _spec(rows: list[tuple[float, float, float, float]], obstacles: tuple[Obstacle, ...] = ()) -> SkillSpec:
+    table = np.array(rows, dtype=float)
+    return SkillSpec(table[:, :3], table[:, 3], obstacles)
+
+
+#: Obstacle the curved_reach demonstrations go around (also their recorded obstacle).
+CURVED_REACH_OBSTACLE = Box([0.32, -0.40, 0.14], [0.08, 0.08, 0.26])
+
+_SPECS: dict[str, SkillSpec] = {
+    # reach up and over to the lid, then slide it shut (ends constrained).
+    "box_closing": _spec([(0.20, -0.47, 0.26, 0.030), (0.26, -0.42, 0.37, 0.020),
+                          (0.36, -0.33, 0.41, 0.010), (0.42, -0.29, 0.29, 0.006),
+                          (0.44, -0.27, 0.14, 0.004)]),
+    # approach a target from straight above.
+    "reach_from_above": _spec([(0.15, -0.52, 0.27, 0.040), (0.28, -0.42, 0.36, 0.020),
+                               (0.35, -0.35, 0.30, 0.008), (0.35, -0.35, 0.20, 0.004),
+                               (0.35, -0.35, 0.10, 0.002)]),
+    # wide start, narrow middle (the needle's eye), wide end.
+    "needle_threading": _spec([(0.14, -0.55, 0.32, 0.040), (0.24, -0.46, 0.26, 0.015),
+                               (0.31, -0.39, 0.22, 0.002), (0.38, -0.31, 0.25, 0.015),
+                               (0.46, -0.22, 0.33, 0.040)]),
+    # pick at one place, carry over, put down at another.
+    "pick_place": _spec([(0.25, -0.52, 0.30, 0.030), (0.21, -0.46, 0.17, 0.010),
+                         (0.20, -0.45, 0.07, 0.003), (0.25, -0.41, 0.26, 0.015),
+                         (0.42, -0.28, 0.22, 0.010), (0.42, -0.28, 0.08, 0.003)]),
+    # go around the obstacle region on the side away from the base.
+    "curved_reach": _spec([(0.17, -0.53, 0.20, 0.020), (0.30, -0.52, 0.21, 0.008),
+                           (0.42, -0.45, 0.21, 0.008), (0.46, -0.30, 0.20, 0.015)],
+                          (CURVED_REACH_OBSTACLE,)),
+    # press one target, then a second one.
+    "two_target_press": _spec([(0.20, -0.50, 0.30, 0.030), (0.25, -0.40, 0.22, 0.010),
+                               (0.25, -0.40, 0.10, 0.002), (0.32, -0.35, 0.24, 0.010),
+                               (0.40, -0.28, 0.10, 0.002), (0.42, -0.26, 0.26, 0.020)]),
+}
+
+#: Names of the synthetic skills.
+SKILLS: tuple[str, ...] = ("box_closing", "reach_from_above", "needle_threading", "pick_place",
+                           "curved_reach", "two_target_press")
+
+#: Largest per-demonstration timing warp a (monotone for |a| < 1).
+_TIMING_WARP = 0.25
+
+
+def skill_spec(skill: str) -> SkillSpec:
+    """Waypoints and spreads of a named skill; UnknownSkillError lists the valid names."""
+    if skill not in _SPECS:
+        raise UnknownSkillError(f"skill: unknown {skill!r}; expected one of {list(SKILLS)}")
+    return _SPECS[skill]
+
+
+def make_demonstrations(skill: str, num_demos: int = 6, num_points: int = 250, dt: float = 0.16,
+                        seed: int = 0) -> Demonstrations:
+    """num_demos seeded demonstrations of ``skill`` (see SKILLS) with num_points steps of dt s.
+
+    Returns Demonstrations (M=num_demos, T=num_points), time = arange(T) * dt, named after the
+    skill; skills shown around an obstacle record it for every demonstration.
+    """
+    spec = skill_spec(skill)
+    M = as_count(num_demos, "num_demos", 2, InvalidArgumentError)
+    T = as_count(num_points, "num_points", 4, InvalidArgumentError)
+    step = as_positive(dt, "dt")
+    rng = np.random.default_rng(seed)
+    duration = (T - 1) * step
+    chord = np.linalg.norm(np.diff(spec.waypoints, axis=0), axis=1)
+    knots = np.concatenate([[0.0], np.cumsum(chord)]) / chord.sum()
+    tau = np.linspace(0.0, 1.0, T)
+    positions = np.empty((M, T, 3))
+    velocities = np.empty((M, T, 3))
+    for m in range(M):
+        points = spec.waypoints + rng.normal(size=spec.waypoints.shape) * spec.spread[:, None]
+        path = CubicSpline(knots, points, axis=0, bc_type="natural")
+        a = rng.uniform(-_TIMING_WARP, _TIMING_WARP)
+        w = tau + a * tau * (1.0 - tau)              # monotone warp of [0,1]
+        dw = 1.0 + a * (1.0 - 2.0 * tau)
+        s = w**3 * (10.0 - 15.0 * w + 6.0 * w**2)    # minimum-jerk phase, rest to rest
+        ds = 30.0 * w**2 * (1.0 - w) ** 2
+        positions[m] = path(s)
+        velocities[m] = path(s, 1) * (ds * dw / duration)[:, None]
+    obstacles = [list(spec.obstacles) for _ in range(M)] if spec.obstacles else None
+    return Demonstrations(positions, velocities, tau * duration, obstacles, skill)
