@@ -56,7 +56,8 @@ class LinearGaussianPrior:
     """Discrete linear-Gaussian (LTV-SDE) trajectory prior over T support states of size D.
 
     Attributes (float64 arrays):
-        time (T,) s; dt float (mean step, s); T, D ints; num_axes = D // 2;
+        time (T,) s; dt float (median step, s: the nominal step of recordings with a few
+        irregular stamps, as scenes.Demonstrations.dt); T, D ints; num_axes = D // 2;
         Phi (T-1, D, D) transition matrices; u (T-1, D) biases; Q (T-1, D, D) process noise;
         mean0 (D,), cov0 (D, D) initial state; mean (T, D), cov (T, D, D) marginals;
         state_names tuple of D strings; kind str ("workspace", "joint", ...);
@@ -88,7 +89,7 @@ class LinearGaussianPrior:
                 raise InvalidParameterError(f"{name}: expected symmetric covariance matrices")
         self.T, self.D = steps + 1, D
         self.num_axes = D // 2
-        self.dt = float(np.mean(np.diff(self.time)))
+        self.dt = float(np.median(np.diff(self.time)))
         self.kind = str(kind or self.default_kind)
         self.info = dict(info or {})
         if state_names is None:

@@ -1,0 +1,279 @@
+"""Tests of clamp.learning: per-step ridge regression of the workspace / joint-space prior."""
+from __future__ import annotations
+
+import types
+import warnings
+
+import numpy as np
+import pytest
+import scipy.io
+
+from clamp import errors
+from clamp.learning import fit_transitions, learn_joint_prior, learn_prior, state_groups
+from clamp.prior import LinearGaussianPrior, WorkspacePrior
+
+
+def synthetic_states(num_demos: int = 8, num_points: int = 60, axes: int = 3, dt: float = 0.1,
+                     seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Demonstrations with genuinely random dynamics: positions, velocities (M, T, A), time (T,).
+
+    A smooth common motion plus per-demonstration amplitude, start offset and a velocity
+    random walk, integrated so velocities are the positions' derivatives.
+    """
+    rng = np.random.default_rng(seed)
+    time = dt * np.arange(num_points)
+    phase = np.linspace(0.0, np.pi, num_points)
+    base_vel = np.stack([np.cos(phase + k) for k in range(axes)], axis=1) * 0.2
+    amplitude = 1.0 + 0.3 * rng.standard_normal((num_demos, 1, axes))
+    walk = np.cumsum(0.02 * rng.standard_normal((num_demos, num_points, axes)), axis=1)
+    velocities = amplitude * base_vel + walk
+    start = 0.05 * rng.standard_normal((num_demos, 1, axes)) + np.arange(axes) * 0.1
+    positions = start + dt * np.concatenate(
+        [np.zeros((num_demos, 1, axes)), np.cumsum(velocities[:, :-1], axis=1)], axis=1)
+    return positions, velocities, time
+
+
+def box_closing(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)["dataset"]
+    positions = np.stack([d.pos for d in data])
+    velocities = np.stack([d.vel for d in data])
+    return positions, velocities, np.asarray(data[0].time, dtype=float)
+
+
+def biased_covariance(states: np.ndarray) -> np.ndarray:
+    """Per-step 1/M covariance (T, D, D) of states (M, T, D)."""
+    centred = states - states.mean(axis=0)
+    return np.einsum("mti,mtj->tij", centred, centred) / states.shape[0]
+
+
+def block_mask(axes: int) -> np.ndarray:
+    mask = np.zeros((2 * axes, 2 * axes), bool)
+    for d in range(axes):
+        mask[np.ix_([d, d + axes], [d, d + axes])] = True
+    return mask
+
+
+def correlation_error(cov: np.ndarray, reference: np.ndarray, mask: np.ndarray) -> float:
+    """max |cov - reference| / sqrt(var_a var_b of reference) over masked entries."""
+    sd = np.sqrt(np.einsum("tii->ti", reference))
+    return float((np.abs(cov - reference) / (sd[:, :, None] * sd[:, None, :]))[:, mask].max())
+
+
+@pytest.fixture
+def synthetic():
+    return synthetic_states()
+
+
+# ---------------------------------------------------------------------- mean and covariance
+@pytest.mark.parametrize("ridge", [1e-12, 1e-6, 1.0])
+def test_mean_reproduces_demonstration_mean_synthetic(synthetic, ridge):
+    positions, velocities, time = synthetic
+    prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=ridge)
+    assert isinstance(prior, WorkspacePrior)
+    np.testing.assert_allclose(prior.mean[:, :3], positions.mean(axis=0), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(prior.mean[:, 3:], velocities.mean(axis=0), rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("coupled", [False, True])
+def test_mean_reproduces_demonstration_mean_box_closing(shared_dataset, coupled):
+    positions, velocities, time = box_closing(shared_dataset("box_closing"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", errors.ClampWarning)
+        prior = learn_prior(positions=positions, velocities=velocities, time=time,
+                            ridge=1e-12, coupled=coupled)
+    assert prior.T == 250 and prior.dt == pytest.approx(0.16)
+    np.testing.assert_allclose(prior.mean[:, :3], positions.mean(axis=0), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(prior.mean[:, 3:], velocities.mean(axis=0), rtol=0, atol=1e-6)
+
+
+def test_per_axis_covariance_equals_demonstration_covariance(synthetic, shared_dataset):
+    """ridge = 0: Phi cov Phi^T + Q = Cov(x_{i+1}) exactly (eq. 13 with 1/M), per axis block."""
+    for positions, velocities, time in (synthetic, box_closing(shared_dataset("box_closing"))):
+        prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=0.0,
+                            jitter=1e-24)
+        reference = biased_covariance(np.concatenate([positions, velocities], axis=2))
+        assert correlation_error(prior.cov, reference, block_mask(3)) < 1e-6
+        # Per-axis learning makes the axes independent: no cross-axis covariance.
+        assert np.all(prior.cov[:, ~block_mask(3)] == 0.0)
+
+
+def test_coupled_covariance_equals_full_demonstration_covariance():
+    positions, velocities, time = synthetic_states(num_demos=14, seed=3)
+    prior = learn_prior(positions=positions, velocities=velocities, time=time, coupled=True,
+                        ridge=0.0, jitter=1e-24)
+    reference = biased_covariance(np.concatenate([positions, velocities], axis=2))
+    assert correlation_error(prior.cov, reference, np.ones((6, 6), bool)) < 1e-6
+
+
+def test_samples_reproduce_demonstration_covariance(shared_dataset):
+    """4000 prior samples: covariance whitened by the demos' covariance ~ I (Wishart error)."""
+    positions, velocities, time = box_closing(shared_dataset("box_closing"))
+    prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=0.0,
+                        jitter=1e-24)
+    count = 4000
+    samples = prior.sample(count, np.random.default_rng(7))
+    reference = biased_covariance(np.concatenate([positions, velocities], axis=2))
+    # Whitened sample covariance W = L^-1 S L^-T has sd(W_jj) = sqrt(2/N), sd(W_jk) = sqrt(1/N).
+    tolerance = 5.0 * np.sqrt(2.0 / count)
+    for step in (0, 40, 125, 200, 249):
+        for d in range(3):
+            idx = [d, d + 3]
+            sample_cov = np.cov(samples[:, step, idx].T, bias=True)
+            chol = np.linalg.cholesky(reference[step][np.ix_(idx, idx)])
+            white = np.linalg.solve(chol, np.linalg.solve(chol, sample_cov).T)
+            assert np.abs(white - np.eye(2)).max() < tolerance, (step, d)
+        sd = np.sqrt(np.diag(prior.cov[step]))
+        mean_error = samples[:, step].mean(axis=0) - prior.mean[step]
+        assert np.all(np.abs(mean_error) < 5.0 * sd / np.sqrt(count))
+
+
+# ---------------------------------------------------------------------- regression itself
+def test_per_axis_regression_matches_least_squares(synthetic):
+    """Each axis block of Phi_i, u_i against numpy lstsq of [p_d, v_d]_{i+1} on [1, p_d, v_d]_i."""
+    positions, velocities, time = synthetic
+    prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=0.0,
+                        jitter=0.0 + 1e-15)
+    states = np.concatenate([positions, velocities], axis=2)
+    for step in (0, 17, 58):
+        for d in range(3):
+            idx = [d, d + 3]
+            design = np.column_stack([np.ones(len(states)), states[:, step, idx]])
+            coef, *_ = np.linalg.lstsq(design, states[:, step + 1, idx], rcond=None)
+            np.testing.assert_allclose(prior.Phi[step][np.ix_(idx, idx)], coef[1:].T,
+                                       rtol=1e-8, atol=1e-10)
+            np.testing.assert_allclose(prior.u[step][idx], coef[0], rtol=1e-8, atol=1e-10)
+            residual = states[:, step + 1, idx] - design @ coef
+            np.testing.assert_allclose(prior.Q[step][np.ix_(idx, idx)],
+                                       residual.T @ residual / len(states) + 1e-15 * np.eye(2),
+                                       rtol=1e-7, atol=1e-14)
+
+
+def test_ridge_matches_normal_equations_with_free_bias(synthetic):
+    """Penalised slopes, unpenalised bias: (X^T X + ridge diag(0, 1, 1)) b = X^T y."""
+    positions, velocities, time = synthetic
+    ridge = 0.05
+    prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=ridge)
+    states = np.concatenate([positions, velocities], axis=2)
+    step, d = 23, 1
+    idx = [d, d + 3]
+    design = np.column_stack([np.ones(len(states)), states[:, step, idx]])
+    coef = np.linalg.solve(design.T @ design + ridge * np.diag([0.0, 1.0, 1.0]),
+                           design.T @ states[:, step + 1, idx])
+    np.testing.assert_allclose(prior.Phi[step][np.ix_(idx, idx)], coef[1:].T, rtol=1e-9)
+    np.testing.assert_allclose(prior.u[step][idx], coef[0], rtol=1e-9, atol=1e-12)
+
+
+def test_coupled_regression_matches_least_squares():
+    positions, velocities, time = synthetic_states(num_demos=12, seed=5)
+    states = np.concatenate([positions, velocities], axis=2)
+    Phi, u, Q = fit_transitions(states, state_groups(3, coupled=True), ridge=0.0, jitter=0.0)
+    step = 31
+    design = np.column_stack([np.ones(len(states)), states[:, step]])
+    coef, *_ = np.linalg.lstsq(design, states[:, step + 1], rcond=None)
+    np.testing.assert_allclose(Phi[step], coef[1:].T, rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(u[step], coef[0], rtol=1e-7, atol=1e-9)
+
+
+def test_per_axis_structure_is_block_diagonal(synthetic):
+    positions, velocities, time = synthetic
+    per_axis = learn_prior(positions=positions, velocities=velocities, time=time)
+    mask = block_mask(3)
+    for name in ("Phi", "Q", "cov"):
+        assert np.all(getattr(per_axis, name)[:, ~mask] == 0.0), name
+    assert np.all(per_axis.cov0[~mask] == 0.0)
+    # The [p, v] ordering: x-axis position couples with x-axis velocity (indices 0 and 3).
+    assert np.all(np.abs(per_axis.Phi[:, 0, 3]) > 0)
+    coupled = learn_prior(positions=positions, velocities=velocities, time=time, coupled=True)
+    assert np.abs(coupled.Phi[:, ~mask]).max() > 1e-3
+    assert per_axis.info == {"coupled": False, "ridge": 1e-6, "jitter": 1e-12, "num_demos": 8}
+
+
+def test_jitter_makes_covariances_positive_definite():
+    positions, velocities, time = synthetic_states(num_demos=3)
+    velocities[:, 0] = 0.0                              # degenerate first velocities
+    prior = learn_prior(positions=positions, velocities=velocities, time=time, jitter=1e-9)
+    assert np.linalg.eigvalsh(prior.Q).min() >= 1e-9 * (1 - 1e-6)
+    assert np.linalg.eigvalsh(prior.cov0).min() >= 1e-9 * (1 - 1e-6)
+
+
+# ---------------------------------------------------------------------- likelihood of demos
+def test_demo_more_likely_than_shifted_demo(shared_dataset):
+    positions, velocities, time = box_closing(shared_dataset("box_closing"))
+    prior = learn_prior(positions=positions, velocities=velocities, time=time)
+    states = np.concatenate([positions, velocities], axis=2)
+    shifted = states.copy()
+    shifted[:, :, :3] += np.array([0.02, -0.01, 0.01])
+    assert np.all(prior.log_likelihood(states) > prior.log_likelihood(shifted))
+    # A translated demo keeps its shape but not its start: with initial=False only the
+    # transitions count (and Phi_i is not a pure shift, so they still penalise it a little).
+    assert np.all(prior.log_likelihood(states, initial=False)
+                  > prior.log_likelihood(shifted, initial=False))
+    assert np.all(prior.mahalanobis(states) < prior.mahalanobis(shifted))
+
+
+# ---------------------------------------------------------------------- inputs
+def test_accepts_demonstrations_objects(synthetic):
+    positions, velocities, time = synthetic
+    duck = types.SimpleNamespace(positions=positions, velocities=velocities, time=time)
+    reference = learn_prior(positions=positions, velocities=velocities, time=time)
+    np.testing.assert_array_equal(learn_prior(duck).Phi, reference.Phi)
+    scenes = pytest.importorskip("scenes")
+    if not hasattr(scenes, "Demonstrations"):
+        pytest.skip("scenes.Demonstrations not available yet")
+    demos = scenes.Demonstrations(positions, velocities, time)
+    prior = learn_prior(demos)
+    np.testing.assert_allclose(prior.mean[:, :3], demos.positions.mean(axis=0), atol=1e-6)
+    assert prior.dt == pytest.approx(demos.dt)
+
+
+def test_joint_space_variant():
+    q, qdot, time = synthetic_states(num_demos=6, axes=7, seed=11)
+    prior = learn_joint_prior(q, qdot, time, ridge=1e-12)
+    assert isinstance(prior, LinearGaussianPrior) and not isinstance(prior, WorkspacePrior)
+    assert (prior.D, prior.num_axes, prior.kind) == (14, 7, "joint")
+    assert prior.state_names[:2] == ("q0", "q1") and prior.state_names[7] == "qdot0"
+    np.testing.assert_allclose(prior.mean, np.concatenate([q, qdot], 2).mean(0), atol=1e-6)
+    assert np.all(prior.Phi[:, ~block_mask(7)] == 0.0)
+    # The same learner as the workspace prior: a 3-joint "arm" equals the 3-axis workspace.
+    p, v, t = synthetic_states()
+    np.testing.assert_array_equal(learn_joint_prior(p, v, t).Phi,
+                                  learn_prior(positions=p, velocities=v, time=t).Phi)
+    samples = prior.sample(3, 0)
+    assert samples.shape == (3, prior.T, 14)
+
+
+def test_error_catalogue(synthetic):
+    positions, velocities, time = synthetic
+    kw = dict(positions=positions, velocities=velocities, time=time)
+    cases = [
+        (errors.InsufficientDemonstrationsError, "at least 2",
+         dict(kw, positions=positions[:1], velocities=velocities[:1])),
+        (errors.InsufficientDemonstrationsError, "ridge > 0",
+         dict(kw, positions=positions[:2], velocities=velocities[:2], ridge=0.0)),
+        (errors.InsufficientDemonstrationsError, "at least 7",
+         dict(kw, coupled=True, ridge=0.0, positions=positions[:6], velocities=velocities[:6])),
+        (errors.NonFiniteError, "positions", dict(kw, positions=np.where(
+            np.arange(positions.size).reshape(positions.shape) == 5, np.nan, positions))),
+        (errors.NonFiniteError, "velocities", dict(kw, velocities=velocities + np.inf)),
+        (errors.ShapeError, "velocities", dict(kw, velocities=velocities[:, :-1])),
+        (errors.ShapeError, "positions", dict(kw, positions=positions[..., :2],
+                                              velocities=velocities[..., :2])),
+        (errors.ShapeError, "time", dict(kw, time=time[:-1])),
+        (errors.InvalidParameterError, "increasing", dict(kw, time=time[::-1].copy())),
+        (errors.InvalidParameterError, "ridge", dict(kw, ridge=-1.0)),
+        (errors.InvalidParameterError, "jitter", dict(kw, jitter=float("nan"))),
+        (errors.InvalidParameterError, "or all of", dict(kw, positions=None)),
+    ]
+    for error, text, kwargs in cases:
+        with pytest.raises(error, match=text):
+            learn_prior(**kwargs)
+        assert issubclass(error, errors.ClampError) and issubclass(error, ValueError)
+    with pytest.raises(errors.InvalidParameterError, match="not both"):
+        learn_prior(types.SimpleNamespace(positions=positions, velocities=velocities,
+                                          time=time), time=time)
+    with pytest.raises(errors.ShapeError, match="lacks"):
+        learn_prior(types.SimpleNamespace(positions=positions))
+    with pytest.raises(errors.ShapeError, match="qdot"):
+        learn_joint_prior(positions, velocities[..., :2], time)
+    with pytest.warns(errors.ClampWarning, match="underdetermined"):
+        learn_prior(**dict(kw, coupled=True, positions=positions[:6], velocities=velocities[:6]))
