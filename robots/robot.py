@@ -104,7 +104,7 @@ class Robot:
                 raise RobotError("collision_model: this robot was not loaded from a URDF file")
             try:
                 self._collision_model = pin.buildGeomFromUrdf(
-                    self.model, str(self.urdf_path), pin.GeometryType.COLLISION, list(self.package_dirs))
+                    self.model, str(self.urdf_path), pin.GeometryType.COLLISION, package_dirs=list(self.package_dirs))
             except Exception as exc:
                 raise URDFParseError(f"cannot load collision geometry of {str(self.urdf_path)!r} "
                                      f"(package_dirs={list(self.package_dirs)}): {exc}") from exc
