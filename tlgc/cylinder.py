@@ -1,0 +1,333 @@
+"""The generalized cylinder: directrix, Bishop frames and cross-section boundaries.
+
+``fit_cylinder`` resamples M demonstrations to N points, takes the pointwise mean as the
+directrix, builds rotation-minimising frames along it and expresses the k-th point of every
+demonstration in frame k's normal plane (the effective points of section k, whose centroid is
+the directrix point). The cross-section boundaries enclose those points (see cross_sections).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from os import PathLike
+from typing import Any, Sequence
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.spatial import cKDTree
+
+from .cross_sections import CROSS_SECTION_TYPES, CrossSections, cross_section_type, polar
+from .errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
+                     TooFewDemonstrationsError)
+from .frames import bishop_frames
+from .validation import as_array, as_count, as_points
+
+MIN_DEMONSTRATIONS = 2
+CONTAINMENT_WINDOW = 6     # sections searched either side of the nearest directrix point
+
+
+def resample_demonstrations(trajectories: Sequence[np.ndarray] | np.ndarray,
+                            num_points: int) -> np.ndarray:
+    """Resample each trajectory (T_m, 3) to ``num_points`` by a cubic spline over its index.
+
+    Trajectories are parameterised uniformly in [0, 1] over their samples (time-aligned
+    resampling, as in the paper). Returns (M, num_points, 3) [m].
+    """
+    num_points = as_count(num_points, "num_points", minimum=2, error=InvalidDemonstrationsError)
+    out = np.empty((len(trajectories), num_points, 3))
+    target = np.linspace(0.0, 1.0, num_points)
+    for m, traj in enumerate(trajectories):      # one spline per demonstration, not per point
+        x = np.asarray(traj, dtype=float)
+        if len(x) == num_points:
+            out[m] = x
+        else:
+            out[m] = CubicSpline(np.linspace(0.0, 1.0, len(x)), x, axis=0)(target)
+    return out
+
+
+def as_demonstration_array(demos: Any, num_points: int | None = None) -> np.ndarray:
+    """Demonstrations as an (M, N, 3) float array [m].
+
+    ``demos``: an (M, T, 3) array, a sequence of (T_m, 3) arrays, or an object with a
+    ``positions`` (M, T, 3) attribute (scenes.Demonstrations). ``num_points`` N: resample to N
+    points (default: keep T, or the longest T_m for unequal lengths).
+    """
+    source = getattr(demos, "positions", demos)
+    if isinstance(source, np.ndarray) or not isinstance(source, (list, tuple)):
+        arr = as_points(source, "demos", error=InvalidDemonstrationsError)
+        if arr.ndim != 3:
+            raise InvalidDemonstrationsError(f"demos: expected shape (M, T, 3), got {arr.shape}")
+        trajectories: list[np.ndarray] = list(arr)
+    else:
+        trajectories = []
+        for m, traj in enumerate(source):
+            x = as_points(traj, f"demos[{m}]", error=InvalidDemonstrationsError)
+            if x.ndim != 2:
+                raise InvalidDemonstrationsError(f"demos[{m}]: expected shape (T, 3), got {x.shape}")
+            trajectories.append(x)
+    if len(trajectories) < MIN_DEMONSTRATIONS:
+        raise TooFewDemonstrationsError(
+            f"demos: a generalized cylinder needs at least {MIN_DEMONSTRATIONS} demonstrations, "
+            f"got {len(trajectories)}")
+    lengths = [len(x) for x in trajectories]
+    if min(lengths) < 2:
+        raise InvalidDemonstrationsError(
+            f"demos: every demonstration needs at least 2 points, got lengths {lengths}")
+    if num_points is None:
+        num_points = max(lengths)
+    return resample_demonstrations(trajectories, num_points)
+
+
+@dataclass(frozen=True)
+class Containment:
+    """Where points (P,) lie relative to a cylinder.
+
+    index: section whose plane holds the point; angle [rad] in that plane (from the normal
+    towards the binormal); distance [m] from the directrix point within the plane; radius [m]
+    of the boundary at that angle; ratio = distance / radius (inside: <= 1); offset [m] along
+    the section's tangent (non-zero only beyond the ends or far from the directrix).
+    """
+
+    index: np.ndarray
+    angle: np.ndarray
+    distance: np.ndarray
+    radius: np.ndarray
+    ratio: np.ndarray
+    offset: np.ndarray
+
+    @property
+    def inside(self) -> np.ndarray:
+        """Boolean (P,): ratio <= 1."""
+        return self.ratio <= 1.0
+
+
+class GeneralizedCylinder:
+    """Directrix (N,3) [m], frames (N,3,3) rows [tangent, normal, binormal], cross-sections.
+
+    ``effective_points`` (M, N, 2) [m] and ``demonstrations`` (M, N, 3) [m] are kept when known
+    (fitted cylinders) and may be None for cylinders built from a bare boundary.
+    """
+
+    def __init__(self, directrix: np.ndarray, frames: np.ndarray, cross_sections: CrossSections,
+                 effective_points: np.ndarray | None = None,
+                 demonstrations: np.ndarray | None = None) -> None:
+        self.directrix = as_points(directrix, "directrix")
+        n = len(self.directrix)
+        if self.directrix.shape != (n, 3) or n < 2:
+            raise InvalidArgumentError(f"directrix: expected shape (N, 3), N >= 2, got {self.directrix.shape}")
+        self.frames = as_array(frames, "frames")
+        if self.frames.shape != (n, 3, 3):
+            raise InvalidArgumentError(f"frames: expected shape ({n}, 3, 3), got {self.frames.shape}")
+        if not isinstance(cross_sections, CrossSections) or cross_sections.num_sections != n:
+            raise InvalidArgumentError(
+                f"cross_sections: expected a CrossSections object with {n} sections")
+        self.cross_sections = cross_sections
+        self.effective_points = None if effective_points is None else as_array(effective_points, "effective_points")
+        if self.effective_points is not None and self.effective_points.shape[1:] != (n, 2):
+            raise InvalidArgumentError(
+                f"effective_points: expected shape (M, {n}, 2), got {self.effective_points.shape}")
+        self.demonstrations = None if demonstrations is None else as_points(demonstrations, "demonstrations")
+        if self.demonstrations is not None and self.demonstrations.shape[1:] != (n, 3):
+            raise InvalidArgumentError(
+                f"demonstrations: expected shape (M, {n}, 3), got {self.demonstrations.shape}")
+
+    # ------------------------------------------------------------------ basic geometry
+    @property
+    def num_sections(self) -> int:
+        """Number N of cross-sections (= directrix points)."""
+        return len(self.directrix)
+
+    @property
+    def cross_section(self) -> str:
+        """Cross-section type name ("circle", "ellipse" or "spline")."""
+        return self.cross_sections.kind
+
+    @property
+    def tangents(self) -> np.ndarray:
+        """Unit tangents (N, 3)."""
+        return self.frames[:, 0]
+
+    @property
+    def normals(self) -> np.ndarray:
+        """Unit normals (N, 3) (angle 0 of every section)."""
+        return self.frames[:, 1]
+
+    @property
+    def binormals(self) -> np.ndarray:
+        """Unit binormals (N, 3) (angle pi/2 of every section)."""
+        return self.frames[:, 2]
+
+    @cached_property
+    def arc_length(self) -> np.ndarray:
+        """Normalised arc length u (N,) of the directrix, 0 at the start and 1 at the end."""
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self.directrix, axis=0), axis=1))])
+        return s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(s))
+
+    @cached_property
+    def _tree(self) -> cKDTree:
+        return cKDTree(self.directrix)
+
+    def radius(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+        """Boundary radius [m] of sections ``index`` (...) at ``angle`` (...) [rad], broadcast."""
+        return self.cross_sections.radius(index, angle)
+
+    # ------------------------------------------------------------------ coordinates
+    def to_local(self, points: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """In-plane coordinates (..., 2) [m] of points (..., 3) in sections ``index`` (...)."""
+        idx = self.cross_sections.check_index(index)
+        d = as_points(points, "points") - self.directrix[idx]
+        return np.stack([np.einsum("...i,...i->...", d, self.normals[idx]),
+                         np.einsum("...i,...i->...", d, self.binormals[idx])], axis=-1)
+
+    def to_world(self, local: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """World points (..., 3) [m] of in-plane coordinates (..., 2) in sections ``index`` (...)."""
+        idx = self.cross_sections.check_index(index)
+        q = np.asarray(local, dtype=float)
+        return (self.directrix[idx] + q[..., :1] * self.normals[idx]
+                + q[..., 1:2] * self.binormals[idx])
+
+    def ratio(self, points: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Ratio (...) of points (..., 3) to the boundary of their given sections ``index`` (...).
+
+        The point is projected onto the section's plane; <= 1 means inside.
+        """
+        return self.cross_sections.ratio(index, self.to_local(points, index))
+
+    def containment(self, points: np.ndarray) -> Containment:
+        """Section, angle and boundary ratio of many points (P, 3) at once (see Containment).
+
+        The section is the one among the few around the nearest directrix point whose plane
+        passes closest to the point.
+        """
+        p = as_points(points, "points")
+        if p.ndim != 2:
+            raise InvalidArgumentError(f"points: expected shape (P, 3), got {p.shape}")
+        nearest = self._tree.query(p)[1] if len(p) else np.zeros(0, dtype=np.intp)
+        window = np.arange(-CONTAINMENT_WINDOW, CONTAINMENT_WINDOW + 1)
+        candidates = np.clip(nearest[:, None] + window, 0, self.num_sections - 1)   # (P, W)
+        offsets = np.einsum("pwi,pwi->pw", p[:, None, :] - self.directrix[candidates],
+                            self.tangents[candidates])
+        best = np.argmin(np.abs(offsets), axis=1)
+        index = candidates[np.arange(len(p)), best]
+        offset = offsets[np.arange(len(p)), best]
+        distance, angle = polar(self.to_local(p, index))
+        radius = self.radius(index, angle)
+        return Containment(index=index, angle=angle, distance=distance, radius=radius,
+                           ratio=distance / radius, offset=offset)
+
+    # ------------------------------------------------------------------ surfaces
+    def boundary_points(self, num_angles: int = 64, indices: np.ndarray | None = None) -> np.ndarray:
+        """Boundary curves (K, A, 3) [m] of sections ``indices`` (default all N), A angles."""
+        num_angles = as_count(num_angles, "num_angles", minimum=3)
+        idx = np.arange(self.num_sections) if indices is None else self.cross_sections.check_index(
+            np.atleast_1d(indices))
+        angles = np.linspace(0.0, 2.0 * np.pi, num_angles, endpoint=False)
+        r = self.radius(idx[:, None], angles[None, :])
+        local = r[..., None] * np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+        return self.to_world(local, idx[:, None])
+
+    def surface(self, num_angles: int = 48, step: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Surface grid X, Y, Z each (K, A+1) [m] over every ``step``-th section (closed in angle)."""
+        step = as_count(step, "step")
+        idx = np.unique(np.r_[np.arange(0, self.num_sections, step), self.num_sections - 1])
+        ring = self.boundary_points(num_angles, idx)
+        ring = np.concatenate([ring, ring[:, :1]], axis=1)
+        return ring[..., 0], ring[..., 1], ring[..., 2]
+
+    # ------------------------------------------------------------------ derived cylinders
+    def with_cross_sections(self, cross_sections: CrossSections) -> "GeneralizedCylinder":
+        """Same directrix and frames, new boundaries (N sections); effective points kept."""
+        return GeneralizedCylinder(self.directrix, self.frames, cross_sections,
+                                   self.effective_points, self.demonstrations)
+
+    def with_directrix(self, directrix: np.ndarray,
+                       initial_normal: np.ndarray | None = None) -> "GeneralizedCylinder":
+        """A cylinder whose cross-sections (same 2-D shapes) follow a new directrix (N, 3).
+
+        Frames are rebuilt as Bishop frames along the new directrix. The first normal is this
+        cylinder's first normal carried by the minimal rotation that turns the old first tangent
+        into the new one, unless ``initial_normal`` (3,) is given. Demonstrations are mapped
+        along (effective points placed in the new frames).
+        """
+        new = as_points(directrix, "directrix")
+        if new.shape != self.directrix.shape:
+            raise InvalidArgumentError(
+                f"directrix: expected shape {self.directrix.shape} (same number of sections), got {new.shape}")
+        if initial_normal is None:
+            frames = bishop_frames(new)
+            initial_normal = _minimal_rotation(self.tangents[0], frames[0, 0]) @ self.normals[0]
+        frames = bishop_frames(new, initial_normal)
+        moved = GeneralizedCylinder(new, frames, self.cross_sections, self.effective_points)
+        if self.effective_points is not None:
+            moved.demonstrations = moved.to_world(self.effective_points, np.arange(len(new)))
+        return moved
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | PathLike) -> None:
+        """Write the cylinder to an .npz file."""
+        arrays = {f"section_{k}": v for k, v in self.cross_sections.to_arrays().items()}
+        if self.effective_points is not None:
+            arrays["effective_points"] = self.effective_points
+        if self.demonstrations is not None:
+            arrays["demonstrations"] = self.demonstrations
+        np.savez(path, directrix=self.directrix, frames=self.frames,
+                 cross_section=np.array(self.cross_section), **arrays)
+
+    @classmethod
+    def load(cls, path: str | PathLike) -> "GeneralizedCylinder":
+        """Read a cylinder written by :meth:`save`."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                files = {k: data[k] for k in data.files}
+        except (OSError, ValueError) as exc:
+            raise CylinderFileError(f"path: cannot read cylinder file {path}: {exc}") from None
+        missing = {"directrix", "frames", "cross_section"} - files.keys()
+        if missing:
+            raise CylinderFileError(f"path: {path} lacks arrays {sorted(missing)}")
+        kind = str(files["cross_section"])
+        if kind not in CROSS_SECTION_TYPES:
+            raise CylinderFileError(f"path: {path} has unknown cross_section {kind!r}")
+        sections = {k[len("section_"):]: v for k, v in files.items() if k.startswith("section_")}
+        try:
+            cross = cross_section_type(kind).from_arrays(sections)
+        except KeyError as exc:
+            raise CylinderFileError(f"path: {path} lacks cross-section array {exc}") from None
+        return cls(files["directrix"], files["frames"], cross,
+                   files.get("effective_points"), files.get("demonstrations"))
+
+    def __repr__(self) -> str:
+        m = None if self.effective_points is None else len(self.effective_points)
+        return f"GeneralizedCylinder(N={self.num_sections}, cross_section={self.cross_section!r}, M={m})"
+
+
+def _minimal_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotation (3,3) turning unit vector a into unit vector b about a x b (identity if equal)."""
+    k = np.cross(a, b)
+    c = float(a @ b)
+    if c < -1.0 + 1e-12:                         # opposite: any half-turn about a normal of a
+        axis = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
+        axis /= np.linalg.norm(axis)
+        return 2.0 * np.outer(axis, axis) - np.eye(3)
+    skew = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + skew + skew @ skew / (1.0 + c)
+
+
+def fit_cylinder(demos: Any, cross_section: str = "spline",
+                 num_points: int | None = None) -> GeneralizedCylinder:
+    """Fit a generalized cylinder to demonstrations.
+
+    demos: (M, T, 3) array [m], a sequence of (T_m, 3) arrays, or scenes.Demonstrations;
+    cross_section: "circle", "ellipse" or "spline" (closed periodic cubic spline);
+    num_points: N sections after cubic-spline resampling (default: keep T / longest T_m).
+    """
+    kind = cross_section_type(cross_section)       # check the name before any work
+    x = as_demonstration_array(demos, num_points)
+    directrix = x.mean(axis=0)
+    try:
+        frames = bishop_frames(directrix)
+    except InvalidArgumentError as exc:
+        raise InvalidDemonstrationsError(f"demos: the mean trajectory is degenerate ({exc})") from None
+    d = x - directrix
+    effective = np.stack([np.einsum("mni,ni->mn", d, frames[:, 1]),
+                          np.einsum("mni,ni->mn", d, frames[:, 2])], axis=-1)
+    return GeneralizedCylinder(directrix, frames, kind.fit(effective), effective, x)

@@ -1,0 +1,34 @@
+"""Errors raised by the tlgc package on bad input (all subclasses of ValueError).
+
+Other tlgc modules may add subclasses here; every message names the offending argument and
+what was expected.
+"""
+from __future__ import annotations
+
+
+class TLGCError(ValueError):
+    """Base class of every error raised by :mod:`tlgc` on bad input."""
+
+
+class InvalidArgumentError(TLGCError):
+    """An argument has the wrong type, shape or value, or contains NaN/inf."""
+
+
+class InvalidDemonstrationsError(TLGCError):
+    """Demonstrations have the wrong shape, contain NaN/inf, or are degenerate."""
+
+
+class TooFewDemonstrationsError(InvalidDemonstrationsError):
+    """Fewer demonstrations than a generalized cylinder needs (at least 2)."""
+
+
+class UnknownCrossSectionError(TLGCError):
+    """A cross-section type name is not one of :data:`tlgc.cross_sections.CROSS_SECTION_TYPES`."""
+
+
+class StartOutsideError(TLGCError):
+    """A reproduction start lies outside the first cross-section (ratio > 1)."""
+
+
+class CylinderFileError(TLGCError):
+    """A saved generalized-cylinder file cannot be read or has the wrong content."""
