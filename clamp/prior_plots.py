@@ -23,6 +23,10 @@ from clamp.validation import as_array, as_count, as_scalar
 
 __all__ = ["plot_prior_3d", "plot_prior_time", "envelope_tube"]
 
+#: Mean-path steps shorter than this fraction of the longest step count as stationary: the
+#: tube keeps the neighbouring direction there instead of following a noisy tangent.
+STATIONARY_FRACTION = 0.05
+
 
 def _demo_states(demos: object, prior: LinearGaussianPrior) -> np.ndarray | None:
     """Demonstrations as states (M, T, D): a Demonstrations-like object or an array."""
@@ -44,13 +48,33 @@ def _finish(fig: Figure, path: str | os.PathLike[str] | None, dpi: int) -> Figur
     return fig
 
 
+def _transported_normals(tangent: np.ndarray) -> np.ndarray:
+    """Unit normals (T, 3) carried along unit tangents (T, 3) without twisting.
+
+    Parallel transport: each normal is the previous one rotated by the rotation taking the
+    previous tangent to the current one (a cheap O(T) recursion, plotting only).
+    """
+    first = np.eye(3)[np.argmin(np.abs(tangent[0]))]
+    normals = np.empty_like(tangent)
+    normals[0] = np.cross(tangent[0], first) / np.linalg.norm(np.cross(tangent[0], first))
+    for i in range(1, len(tangent)):
+        n = normals[i - 1] - tangent[i] * (tangent[i] @ normals[i - 1])
+        norm = np.linalg.norm(n)
+        if norm < 1e-9:  # tangent turned onto the old normal: restart from a fixed helper
+            n = np.cross(tangent[i], np.eye(3)[np.argmin(np.abs(tangent[i]))])
+            norm = np.linalg.norm(n)
+        normals[i] = n / norm
+    return normals
+
+
 def envelope_tube(prior: LinearGaussianPrior, level: float = 0.95,
                   resolution: int = 24) -> np.ndarray:
     """Surface points (T, resolution, 3) of the position envelope tube of a prior.
 
     At support state i the cross-section is the ellipse ``mean_i + z L_i [cos a, sin a]``
-    in the plane normal to the mean path, L_i the Cholesky factor of the position covariance
-    projected on that plane, z the two-sided normal quantile of ``level`` (1.96 for 0.95).
+    in the plane normal to the mean path (frames carried by parallel transport so the surface
+    does not twist), L_i the Cholesky factor of the position covariance projected on that
+    plane, z the two-sided normal quantile of ``level`` (1.96 for 0.95).
     """
     if prior.num_axes != 3:
         raise ShapeError(f"prior: expected a workspace prior with 3 position axes, "
@@ -61,25 +85,21 @@ def envelope_tube(prior: LinearGaussianPrior, level: float = 0.95,
     resolution = as_count(resolution, "resolution", minimum=3)
     z = float(stats.norm.ppf(0.5 + 0.5 * level))
     centre = prior.mean[:, :3]
-    tangent = np.gradient(centre, axis=0) if prior.T > 1 else np.zeros_like(centre)
+    tangent = np.gradient(centre, axis=0)
     length = np.linalg.norm(tangent, axis=1)
-    valid = length > 1e-12 * max(float(length.max()), 1e-300)
+    valid = length > STATIONARY_FRACTION * max(float(length.max()), 1e-300)
     if not np.any(valid):
         tangent, valid = np.tile([0.0, 0.0, 1.0], (prior.T, 1)), np.ones(prior.T, bool)
     # Carry the last valid tangent over stationary stretches (forward, then backward fill).
-    idx = np.where(valid, np.arange(prior.T), 0)
-    idx = np.maximum.accumulate(idx)
+    idx = np.maximum.accumulate(np.where(valid, np.arange(prior.T), 0))
     idx = np.where(valid[idx], idx, np.argmax(valid))
     tangent = tangent[idx] / np.linalg.norm(tangent[idx], axis=1, keepdims=True)
-    helper = np.eye(3)[np.argmin(np.abs(tangent), axis=1)]
-    normal = np.cross(tangent, helper)
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = _transported_normals(tangent)
     binormal = np.cross(tangent, normal)
     basis = np.stack([normal, binormal], axis=2)                  # (T, 3, 2)
     cov2 = np.swapaxes(basis, 1, 2) @ prior.cov[:, :3, :3] @ basis  # (T, 2, 2)
-    cov2 = cov2 + 1e-300 * np.eye(2)
-    evals, evecs = np.linalg.eigh(cov2)
-    root = evecs * np.sqrt(np.clip(evals, 0.0, None))[:, None, :]  # (T, 2, 2)
+    scale = max(float(np.trace(cov2, axis1=1, axis2=2).max()), 1e-300)
+    root = np.linalg.cholesky(cov2 + 1e-12 * scale * np.eye(2))   # continuous in cov2
     angle = np.linspace(0.0, 2.0 * np.pi, resolution)
     circle = np.stack([np.cos(angle), np.sin(angle)])             # (2, R)
     offsets = basis @ root @ circle                               # (T, 3, R)
