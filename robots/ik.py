@@ -55,13 +55,15 @@ def _position_jacobian(robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float, max_iter: int,
-                         damping: float = 1e-2, max_step: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+                         damping: float = 1e-2, max_step: float = 0.5,
+                         until_any: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Solve B position IK problems together; returns q (B, n) within limits and errors (B,) [m].
 
     targets (B, 3), q0 (B, n) seeds (projected onto the limits). Each step is
     dq = J^T (J J^T + lambda^2 I)^-1 e with joints held at a limit that the step would push
     through removed from J, scaled to at most `max_step` rad, and projected onto the limits;
     a step is kept only if it lowers the error (lambda halves) else lambda grows fourfold.
+    With `until_any` the iteration stops as soon as one problem is solved (restarts).
     """
     lower, upper = robot.lower_limits, robot.upper_limits
     q = np.clip(np.array(q0, dtype=float), lower, upper)
@@ -72,7 +74,7 @@ def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float,
     eye = np.eye(3)
     for _ in range(int(max_iter)):
         active = np.flatnonzero(error > tol)
-        if active.size == 0:
+        if active.size == 0 or (until_any and active.size < len(error)):
             break
         qa, ja, ra, la = q[active], jac[active], residual[active], lam[active]
         gradient = np.einsum("bin,bi->bn", ja, ra)                  # descent direction J^T e
@@ -97,9 +99,9 @@ def solve_ik(robot, target, seed=None, tol: float = 1e-4, max_iter: int = 200, r
              rng: np.random.Generator | int | None = 0) -> IKResult:
     """Joint values (n,) that put the end effector at `target` (3,) [m], within the limits.
 
-    Starts from `seed` (n,) (default: middle of the limits) and, solved in the same batch,
-    `restarts` random configurations drawn from `rng`; returns the seed's solution when it
-    succeeds, else the best one.
+    Starts from `seed` (n,) (default: middle of the limits); if that fails, `restarts` random
+    configurations drawn from `rng` are solved together in one batch until one succeeds, and the
+    best solution is returned.
     """
     _check_settings(tol, max_iter)
     target = as_point(target, "target")
@@ -109,28 +111,40 @@ def solve_ik(robot, target, seed=None, tol: float = 1e-4, max_iter: int = 200, r
     if int(restarts) != restarts or restarts < 0:
         raise RobotError(f"restarts: expected a non-negative integer, got {restarts!r}")
     generator = _as_generator(rng)
-    starts = np.vstack([seed] + [robot.random_configuration(generator) for _ in range(int(restarts))])
-    q, errors = damped_least_squares(robot, np.broadcast_to(target, (len(starts), 3)), starts, tol, max_iter)
-    best = 0 if errors[0] <= tol else int(np.argmin(errors))
+    q, errors = damped_least_squares(robot, target[None], seed[None], tol, max_iter)
+    if errors[0] > tol and restarts > 0:
+        starts = np.array([robot.random_configuration(generator) for _ in range(int(restarts))])
+        q_more, errors_more = damped_least_squares(robot, np.broadcast_to(target, (len(starts), 3)), starts,
+                                                   tol, max_iter, until_any=True)
+        q, errors = np.vstack((q, q_more)), np.concatenate((errors, errors_more))
+    best = int(np.argmin(errors))
     return IKResult(q[best], float(errors[best]), bool(errors[best] <= tol))
 
 
 def solve_ik_trajectory(robot, targets, seed=None, tol: float = 1e-4, max_iter: int = 100,
-                        rng: np.random.Generator | int | None = 0, sequential_iter: int = 2) -> IKTrajectoryResult:
+                        rng: np.random.Generator | int | None = 0, stride: int = 8,
+                        sequential_iter: int = 10) -> IKTrajectoryResult:
     """Joint trajectory (T, n) following the end-effector path `targets` (T, 3) [m].
 
-    The first step is solved with solve_ik from `seed` (plus restarts); then a sequential pass
-    seeds every step with the previous step's solution (`sequential_iter` iterations each), and
+    The first step is solved with solve_ik from `seed` (plus restarts). A sequential pass then
+    walks every `stride`-th step, each seeded by the previous one (`sequential_iter` iterations),
+    which fixes the branch; the steps in between start from joint-space linear interpolation, and
     finally all T steps are refined together in one batch (`max_iter` iterations), each from its
-    own seed, which keeps neighbouring configurations on the same branch.
+    own start, so neighbouring configurations stay on the same branch.
     """
     _check_settings(tol, max_iter)
     targets = as_points(targets, "targets")
+    if int(stride) != stride or stride < 1:
+        raise RobotError(f"stride: expected a positive integer, got {stride!r}")
     first = solve_ik(robot, targets[0], seed=seed, tol=tol, max_iter=max(200, int(max_iter)), rng=rng)
     T = len(targets)
-    q = np.empty((T, robot.n))
-    q[0] = first.q
-    for t in range(1, T):
-        q[t], _ = damped_least_squares(robot, targets[t:t + 1], q[t - 1:t], tol, sequential_iter)
+    coarse = np.unique(np.append(np.arange(0, T, int(stride)), T - 1))
+    q_coarse = np.empty((len(coarse), robot.n))
+    q_coarse[0] = first.q
+    for i in range(1, len(coarse)):
+        t = coarse[i]
+        q_coarse[i], _ = damped_least_squares(robot, targets[t:t + 1], q_coarse[i - 1:i], tol, sequential_iter)
+    steps = np.arange(T)
+    q = np.column_stack([np.interp(steps, coarse, q_coarse[:, j]) for j in range(robot.n)])
     q, errors = damped_least_squares(robot, targets, q, tol, max_iter)
     return IKTrajectoryResult(q, errors, bool(np.all(errors <= tol)))

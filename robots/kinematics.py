@@ -38,7 +38,8 @@ class EndEffectorKinematics:
 @dataclass(frozen=True)
 class FrameAttachment:
     """Where a frame sits on the chain: joint index (0 = base, k = after the k-th chain joint)
-    and its placement (rotation (3,3), translation (3,)) in that joint's frame."""
+    and its placement (rotation (3,3), translation (3,)) in that joint's axis-aligned frame
+    (the joint frame turned by a constant rotation so that its z axis is the joint axis)."""
 
     joint: int
     rotation: np.ndarray
@@ -50,7 +51,8 @@ class JointFrames:
     """Joint frames for a batch of B configurations, in the base frame.
 
     rotations (B, n+1, 3, 3) and origins (B, n+1, 3): index 0 is the model's root frame,
-    index k the frame of the k-th chain joint after its motion; axes (B, n, 3) world joint axes.
+    index k the axis-aligned frame of the k-th chain joint after its motion (z = joint axis);
+    axes (B, n, 3) joint axes in the base frame.
     """
 
     rotations: np.ndarray
@@ -65,8 +67,12 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+def _axis_frame(axis: np.ndarray) -> np.ndarray:
+    """A rotation (3, 3) whose third column is the unit vector `axis`."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = helper - axis * (helper @ axis)
+    x /= np.linalg.norm(x)
+    return np.column_stack((x, np.cross(axis, x), axis))
 
 
 def _classify_joint(model: pin.Model, joint_id: int) -> tuple[str, np.ndarray]:
@@ -117,9 +123,12 @@ class SerialChain:
         self.nq = model.nq
         self.placement_rotations = np.array([model.jointPlacements[k].rotation for k in range(1, n + 1)])
         self.placement_translations = np.array([model.jointPlacements[k].translation for k in range(1, n + 1)])
-        skews = np.array([_skew(a) for a in self.axes])
-        self._skews = skews                                                   # (n, 3, 3)
-        self._skews2 = skews @ skews
+        # Internally every joint frame is turned by a constant rotation U_k so that its z axis is
+        # the joint axis (U_0 = I for the root); placements are re-expressed accordingly.
+        aligned = np.concatenate((np.eye(3)[None], np.array([_axis_frame(a) for a in self.axes])))
+        self._aligned = aligned                                               # (n+1, 3, 3)
+        self._steps = np.einsum("kji,kjl,klm->kim", aligned[:-1], self.placement_rotations, aligned[1:])
+        self._offsets = np.einsum("kji,kj->ki", aligned[:-1], self.placement_translations)
         self.base_frame = base_frame
         if base_frame is None:
             self.base_rotation, self.base_translation = np.eye(3), np.zeros(3)
@@ -152,9 +161,11 @@ class SerialChain:
         if fid < 0:
             raise KeyError(name)
         frame = self.model.frames[fid]
-        rotation = np.array(frame.placement.rotation)
-        translation = np.array(frame.placement.translation)
-        return FrameAttachment(int(frame.parentJoint), rotation, translation)
+        joint = int(frame.parentJoint)
+        to_aligned = self._aligned[joint].T
+        rotation = to_aligned @ np.array(frame.placement.rotation)
+        translation = to_aligned @ np.array(frame.placement.translation)
+        return FrameAttachment(joint, rotation, translation)
 
     # ------------------------------------------------------ joint conversions
     def to_pinocchio(self, q: np.ndarray) -> np.ndarray:
@@ -183,25 +194,24 @@ class SerialChain:
         B = q.shape[0]
         rotations = np.empty((B, self.n + 1, 3, 3))
         origins = np.empty((B, self.n + 1, 3))
-        axes = np.empty((B, self.n, 3))
         rotations[:, 0] = self.base_rotation
         origins[:, 0] = self.base_translation
-        identity = np.eye(3)
+        cos, sin = np.cos(q), np.sin(q)
         for k in range(self.n):
-            parent_r = rotations[:, k]
-            placed = parent_r @ self.placement_rotations[k]                      # (B, 3, 3)
-            origin = origins[:, k] + parent_r @ self.placement_translations[k]
-            axis = placed @ self.axes[k]                                       # (B, 3)
-            qk = q[:, k]
+            parent = rotations[:, k]
+            placed = (parent.reshape(3 * B, 3) @ self._steps[k]).reshape(B, 3, 3)  # z column = joint axis
+            origin = origins[:, k] + parent @ self._offsets[k]
             if self.is_prismatic[k]:
                 rotations[:, k + 1] = placed
-                origins[:, k + 1] = origin + axis * qk[:, None]
+                origins[:, k + 1] = origin + placed[:, :, 2] * q[:, k, None]
             else:
-                s, c = np.sin(qk)[:, None, None], np.cos(qk)[:, None, None]
-                rotations[:, k + 1] = placed @ (identity + s * self._skews[k] + (1.0 - c) * self._skews2[k])
+                c, s = cos[:, k, None], sin[:, k, None]
+                x, y = placed[:, :, 0], placed[:, :, 1]
+                rotations[:, k + 1, :, 0] = c * x + s * y                  # rotation about the local z axis
+                rotations[:, k + 1, :, 1] = c * y - s * x
+                rotations[:, k + 1, :, 2] = placed[:, :, 2]
                 origins[:, k + 1] = origin
-            axes[:, k] = axis
-        return JointFrames(rotations, origins, axes)
+        return JointFrames(rotations, origins, rotations[:, 1:, :, 2])
 
     def points(self, frames: JointFrames, joints: np.ndarray, local: np.ndarray,
                jacobians: bool) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:

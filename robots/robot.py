@@ -201,7 +201,7 @@ class Robot:
                                      columns.transpose(0, 2, 1).reshape(shape3n),
                                      velocity_jacobian.reshape(shape3n))
 
-    def _sphere_attachments(self) -> tuple[np.ndarray, np.ndarray]:
+    def sphere_attachments(self) -> tuple[np.ndarray, np.ndarray]:
         """Chain joint (S,) and centre in that joint's frame (S, 3) of every collision sphere."""
         spheres = self.spheres
         if self._sphere_cache is None or self._sphere_cache[0] is not spheres:
@@ -220,7 +220,7 @@ class Robot:
         """Collision sphere centres (..., S, 3) [m] in the base frame and, if asked,
         their Jacobians (..., S, 3, n) with respect to q (..., n)."""
         flat, lead = self._batch(q, "q")
-        joints, local = self._sphere_attachments()
+        joints, local = self.sphere_attachments()
         frames = self.chain.joint_frames(flat)
         pos, columns, _ = self.chain.points(frames, joints, local, jacobians)
         S = len(joints)
