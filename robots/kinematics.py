@@ -240,9 +240,10 @@ class SerialChain:
         Uses d col_i / d q_k = w_k x col_i for k <= i and w_i x col_k for k > i.
         """
         weighted = columns * qdot[:, :, None]                                  # qdot_i col_i
-        velocity = weighted.sum(axis=1)
-        downstream = np.cumsum(weighted[:, ::-1], axis=1)[:, ::-1]             # sum over i >= k
-        spin = np.cumsum(angular * qdot[:, :, None], axis=1)
-        upstream = np.concatenate((np.zeros_like(spin[:, :1]), spin[:, :-1]), axis=1)  # sum over i < k
+        partial = np.cumsum(weighted, axis=1)
+        velocity = partial[:, -1]
+        downstream = velocity[:, None] - partial + weighted                    # sum over i >= k
+        spin = angular * qdot[:, :, None]
+        upstream = np.cumsum(spin, axis=1) - spin                              # sum over i < k
         derivative = _cross(angular, downstream) + _cross(upstream, columns)   # (B, n, 3)
         return velocity, derivative.transpose(0, 2, 1)
