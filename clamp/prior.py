@@ -52,6 +52,26 @@ def _is_symmetric(cov: np.ndarray) -> bool:
     return bool(np.allclose(cov, np.swapaxes(cov, -1, -2), rtol=0.0, atol=1e-9 * scale))
 
 
+def prefix_compose(Phi: np.ndarray, u: np.ndarray,
+                   Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Running compositions of the steps x -> Phi_i x + u_i, C -> Phi_i C Phi_i^T + Q_i.
+
+    Phi (S, D, D), u (S, D), Q (S, D, D). Returns A (S, D, D), b (S, D), B (S, D, D) with
+    ``mean_{i+1} = A_i mean_0 + b_i`` and ``cov_{i+1} = A_i cov_0 A_i^T + B_i``, i.e.
+    A_i = Phi_i ... Phi_0. Hillis-Steele scan: ceil(log2 S) rounds of batched products,
+    using (A2, b2, B2) o (A1, b1, B1) = (A2 A1, A2 b1 + b2, A2 B1 A2^T + B2).
+    """
+    A, b, B = Phi.copy(), u.copy(), Q.copy()
+    shift = 1
+    while shift < len(A):
+        late = A[shift:]
+        b[shift:] = np.einsum("sij,sj->si", late, b[:-shift]) + b[shift:]
+        B[shift:] = late @ B[:-shift] @ np.swapaxes(late, 1, 2) + B[shift:]
+        A[shift:] = late @ A[:-shift]
+        shift *= 2
+    return A, b, B
+
+
 class LinearGaussianPrior:
     """Discrete linear-Gaussian (LTV-SDE) trajectory prior over T support states of size D.
 
@@ -114,16 +134,16 @@ class LinearGaussianPrior:
 
     # ------------------------------------------------------------------ marginals
     def _marginals(self) -> tuple[np.ndarray, np.ndarray]:
-        """O(T) recursion of eq. (8): marginal means (T, D) and covariances (T, D, D)."""
-        mean = np.empty((self.T, self.D))
-        cov = np.empty((self.T, self.D, self.D))
-        mean[0], cov[0] = self.mean0, self.cov0
-        for i in range(self.T - 1):
-            Phi = self.Phi[i]
-            mean[i + 1] = Phi @ mean[i] + self.u[i]
-            c = Phi @ cov[i] @ Phi.T + self.Q[i]
-            cov[i + 1] = 0.5 * (c + c.T)
-        return mean, cov
+        """Marginal means (T, D) and covariances (T, D, D) of eq. (8), O(T log T) work.
+
+        The recursion mean_{i+1} = Phi_i mean_i + u_i, cov_{i+1} = Phi_i cov_i Phi_i^T + Q_i
+        composes affine maps; their running compositions come from a log-depth prefix scan
+        of batched 6x6 products (ceil(log2 T) numpy calls instead of T Python iterations).
+        """
+        A, b, B = prefix_compose(self.Phi, self.u, self.Q)
+        mean = np.concatenate([self.mean0[None], A @ self.mean0 + b])
+        cov = np.concatenate([self.cov0[None], A @ self.cov0 @ np.swapaxes(A, 1, 2) + B])
+        return mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
 
     @property
     def std(self) -> np.ndarray:

@@ -6,7 +6,7 @@ import pytest
 from scipy import stats
 
 from clamp import errors
-from clamp.prior import FILE_FORMAT, LinearGaussianPrior, WorkspacePrior
+from clamp.prior import FILE_FORMAT, LinearGaussianPrior, WorkspacePrior, prefix_compose
 
 
 def random_system(T: int = 5, D: int = 4, seed: int = 0) -> dict[str, np.ndarray]:
@@ -55,6 +55,22 @@ def test_marginals_match_dense_eq8(system, prior):
                                    rtol=1e-10, atol=1e-10)
     assert (prior.T, prior.D, prior.num_axes) == (5, 4, 2)
     assert prior.dt == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("steps", [1, 2, 7, 256, 300])
+def test_prefix_scan_equals_sequential_recursion(steps):
+    p = random_system(T=steps + 1, D=6, seed=steps)
+    p["Phi"] = 0.9 * p["Phi"] / np.linalg.norm(p["Phi"], ord=2, axis=(1, 2))[:, None, None]
+    A, b, B = prefix_compose(p["Phi"], p["u"], p["Q"])
+    mean, cov, product = p["mean0"], p["cov0"], np.eye(6)
+    for i in range(steps):
+        mean = p["Phi"][i] @ mean + p["u"][i]
+        cov = p["Phi"][i] @ cov @ p["Phi"][i].T + p["Q"][i]
+        product = p["Phi"][i] @ product
+        np.testing.assert_allclose(A[i], product, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(A[i] @ p["mean0"] + b[i], mean, rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(A[i] @ p["cov0"] @ A[i].T + B[i], cov, rtol=1e-10,
+                                   atol=1e-10)
 
 
 def test_log_likelihood_and_mahalanobis_match_dense_gaussian(system, prior):
