@@ -25,13 +25,15 @@ result reports which was used (:attr:`TPSMap.degree`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping
+from typing import Any, Mapping
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.interpolate import RBFInterpolator
 
+from .cross_sections import fit_cross_sections
+from .cylinder import GeneralizedCylinder
 from .errors import InvalidArgumentError
 from .validation import as_points, as_scalar, as_count
 
@@ -255,3 +257,106 @@ def shape_distortion(original: np.ndarray, deformed: np.ndarray) -> float:
         raise InvalidArgumentError("original: a straight, evenly spaced path has no shape to compare")
     fit = fit_similarity(a, b, translation=False)
     return float(np.linalg.norm(b - fit(a))) / norm
+
+
+# --------------------------------------------------------------------------------------------
+# Cylinders
+# --------------------------------------------------------------------------------------------
+SECTION_SAMPLES = 32      # boundary samples standing in for effective points when a cylinder has none
+
+
+def _check_cylinder(cyl: Any) -> None:
+    if not isinstance(cyl, GeneralizedCylinder):
+        raise InvalidArgumentError(f"cyl: expected a GeneralizedCylinder, got {type(cyl).__name__}")
+
+
+def _section_points(cyl: GeneralizedCylinder) -> np.ndarray:
+    """In-plane points (M, N, 2) [m] that define the cross-sections: the effective points, or
+    boundary samples (one per angle) for a cylinder built without them."""
+    if cyl.effective_points is not None:
+        return cyl.effective_points
+    ring = cyl.boundary_points(SECTION_SAMPLES)                       # (N, A, 3)
+    local = cyl.to_local(ring, np.arange(cyl.num_sections)[:, None])  # (N, A, 2)
+    return np.moveaxis(local, 1, 0)
+
+
+def _rebuilt(frame_source: GeneralizedCylinder, sections: str, points: np.ndarray,
+             demonstrations: np.ndarray | None) -> GeneralizedCylinder:
+    """Cylinder on frame_source's directrix/frames with ``sections`` fitted to points (M,N,2)."""
+    return GeneralizedCylinder(frame_source.directrix, frame_source.frames,
+                               fit_cross_sections(sections, points), points, demonstrations)
+
+
+def tps_generalize(cyl: GeneralizedCylinder, source_landmarks: np.ndarray,
+                   target_landmarks: np.ndarray, smoothing: float = 0.0,
+                   anchors: np.ndarray | None = None, keep_start: bool = True
+                   ) -> GeneralizedCylinder:
+    """Generalize ``cyl`` by a thin-plate-spline map of source (L,3) to target (L,3) landmarks.
+
+    Algorithm 3: z = fit_tps(...) maps the directrix m -> z(m) and the effective points of
+    every section (in 3-D) -> z(points); the new cylinder has Bishop frames along z(m), and
+    its cross-sections (same type) are fitted to the mapped points expressed in the new normal
+    planes. ``anchors`` (A,3) are points that must not move; ``keep_start`` adds the directrix
+    start to them (a reproduction starting where the robot is stays valid). See the module
+    docstring for too few landmarks.
+    """
+    _check_cylinder(cyl)
+    extra = [] if anchors is None else [as_points(anchors, "anchors").reshape(-1, 3)]
+    if keep_start:
+        extra.append(cyl.directrix[:1])
+    z = fit_tps(source_landmarks, target_landmarks, smoothing,
+                np.concatenate(extra) if extra else None)
+    idx = np.arange(cyl.num_sections)
+    points3 = cyl.to_world(_section_points(cyl), idx[None, :])          # (M, N, 3)
+    moved = cyl.with_directrix(z(cyl.directrix))
+    local = moved.to_local(z(points3), idx[None, :])
+    demos = None if cyl.demonstrations is None else z(cyl.demonstrations)
+    return _rebuilt(moved, cyl.cross_section, local, demos)
+
+
+def landmark_constraints(cyl: GeneralizedCylinder, source_landmarks: np.ndarray,
+                         target_landmarks: np.ndarray, keep_start: bool = True
+                         ) -> dict[int, np.ndarray]:
+    """LTE constraints {directrix index: position} from landmark pairs (L,3), (L,3).
+
+    Each source landmark is attached to its nearest directrix point, which is moved by the
+    landmark's displacement. ``keep_start`` pins the directrix start unless a landmark is
+    attached to it (with one moving landmark alone, LTE could only translate the path).
+    """
+    _check_cylinder(cyl)
+    src = as_points(source_landmarks, "source_landmarks").reshape(-1, 3)
+    dst = as_points(target_landmarks, "target_landmarks").reshape(-1, 3)
+    if src.shape != dst.shape or len(src) == 0:
+        raise InvalidArgumentError(
+            "source_landmarks, target_landmarks: expected equal shapes (L, 3) with L >= 1, got "
+            f"{np.shape(source_landmarks)} and {np.shape(target_landmarks)}")
+    nearest = np.argmin(np.linalg.norm(cyl.directrix[None] - src[:, None], axis=-1), axis=1)
+    if len(np.unique(nearest)) != len(nearest):
+        raise InvalidArgumentError(
+            "source_landmarks: two landmarks are nearest to the same directrix point")
+    constraints = {int(k): cyl.directrix[k] + (d - s) for k, s, d in zip(nearest, src, dst)}
+    if keep_start and 0 not in constraints:
+        constraints[0] = cyl.directrix[0].copy()
+    return constraints
+
+
+def lte_generalize(cyl: GeneralizedCylinder, constraints: Mapping[int, np.ndarray],
+                   iterations: int = 5, scale_cross_sections: bool = True) -> GeneralizedCylinder:
+    """Generalize ``cyl`` by Laplacian trajectory editing of its directrix (Algorithm 4).
+
+    ``constraints`` {directrix index: new position (3,)} (see :func:`landmark_constraints`);
+    the edited directrix passes through them exactly. The cross-sections keep their 2-D shape
+    in Bishop frames along the edited directrix (first normal turned by the estimated rotation
+    R), scaled by the estimated scale s when ``scale_cross_sections``.
+    """
+    _check_cylinder(cyl)
+    edited, transform = lte_deform(cyl.directrix, constraints, iterations)
+    normal = transform.rotation @ cyl.normals[0]
+    try:
+        moved = cyl.with_directrix(edited, normal)
+    except InvalidArgumentError:             # turned normal parallel to the new tangent
+        moved = cyl.with_directrix(edited)
+    scale = transform.scale if scale_cross_sections else 1.0
+    points = scale * _section_points(cyl)
+    demos = moved.to_world(points, np.arange(cyl.num_sections)[None, :])
+    return _rebuilt(moved, cyl.cross_section, points, demos)
