@@ -60,6 +60,5 @@ def load_robot(name: str) -> Robot:
     robot = _BUILTIN[name]()
     override = sphere_override_path(name)
     if override.is_file():
-        from .sphere_model import load_sphere_file
-        robot.spheres = load_sphere_file(override)
+        robot.spheres = override
     return robot

@@ -9,6 +9,7 @@ import pinocchio as pin
 
 from .errors import RobotError, UnknownFrameError, URDFParseError
 from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain
+from .sphere_model import SphereModel, load_sphere_file
 from .validation import as_joint_array
 
 
@@ -33,6 +34,15 @@ def _frame_names(model: pin.Model) -> tuple[str, ...]:
     return tuple(dict.fromkeys(f.name for f in model.frames))
 
 
+def _as_sphere_model(spheres) -> SphereModel | None:
+    """A SphereModel, a path to a sphere JSON file, or None (fit on first use)."""
+    if spheres is None or isinstance(spheres, SphereModel):
+        return spheres
+    if isinstance(spheres, (str, Path)):
+        return load_sphere_file(spheres)
+    raise RobotError(f"spheres: expected a SphereModel, a sphere file path or None, got {type(spheres).__name__}")
+
+
 class Robot:
     """A serial arm for planning: joint angles in, end-effector and sphere kinematics out.
 
@@ -43,9 +53,13 @@ class Robot:
     `to_pinocchio` / `from_pinocchio`.
     """
 
-    def __init__(self, model: pin.Model, end_effector: str, spheres=None, name: str | None = None,
-                 base_frame: str | None = None, urdf_path: str | Path | None = None,
+    def __init__(self, model: pin.Model, end_effector: str, spheres: SphereModel | str | Path | None = None,
+                 name: str | None = None, base_frame: str | None = None, urdf_path: str | Path | None = None,
                  package_dirs: Sequence[str | Path] = ()):
+        if not isinstance(model, pin.Model):
+            raise RobotError(f"model: expected a pinocchio.Model, got {type(model).__name__}")
+        if not isinstance(end_effector, str):
+            raise RobotError(f"end_effector: expected a frame name (str), got {type(end_effector).__name__}")
         ee_id = _frame_id(model, end_effector)
         if ee_id < 0:
             raise UnknownFrameError("end_effector", end_effector, _frame_names(model))
@@ -71,14 +85,15 @@ class Robot:
         self.upper_limits: np.ndarray = np.where(continuous, np.inf, upper)
         self.velocity_limits: np.ndarray = np.array(model.velocityLimit[:self.n], dtype=float)
         self._ee = self.chain.attachment(end_effector)
-        self._spheres = spheres
+        self._spheres = _as_sphere_model(spheres)
         self._sphere_cache: tuple[object, np.ndarray, np.ndarray] | None = None
         self._collision_model = None
 
     # ------------------------------------------------------------ construction
     @classmethod
     def from_urdf(cls, path: str | Path, end_effector: str, package_dirs: Sequence[str | Path] | None = None,
-                  spheres=None, name: str | None = None, base_frame: str | None = None) -> "Robot":
+                  spheres: SphereModel | str | Path | None = None, name: str | None = None,
+                  base_frame: str | None = None) -> "Robot":
         """Load an arm from a URDF file; `package_dirs` resolve package:// mesh URIs (only needed
         for the collision geometry). Raises URDFParseError when the file is missing or invalid."""
         path = Path(path)
@@ -111,16 +126,17 @@ class Robot:
         return self._collision_model
 
     @property
-    def spheres(self):
-        """Collision spheres (SphereModel): given at construction, else fitted from the URDF."""
+    def spheres(self) -> SphereModel:
+        """Collision spheres: given at construction (a SphereModel or a sphere JSON file),
+        else fitted from the URDF's collision geometry on first use (slow: seconds)."""
         if self._spheres is None:
             from .spheres import fit_spheres  # sphere fitting lives in its own module
             self._spheres = fit_spheres(self.model, self.collision_model)
         return self._spheres
 
     @spheres.setter
-    def spheres(self, value) -> None:
-        self._spheres = value
+    def spheres(self, value: SphereModel | str | Path | None) -> None:
+        self._spheres = _as_sphere_model(value)
         self._sphere_cache = None
 
     def attachment(self, frame: str, argument: str = "frame"):

@@ -188,3 +188,39 @@ def test_bad_array_message_names_argument_and_shape(sawyer):
         sawyer.fk(np.zeros(6))
     with pytest.raises(InvalidArrayError, match="qdot: contains NaN"):
         sawyer.ee_kinematics(np.zeros(7), [np.nan] * 7)
+
+
+BRANCHED_URDF = """<?xml version="1.0"?>
+<robot name="branched">
+  <link name="root"/><link name="l1"/><link name="l2"/><link name="finger"/>
+  <joint name="j1" type="revolute"><parent link="root"/><child link="l1"/>
+    <origin xyz="0 0 0.2"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="finger_joint" type="revolute"><parent link="l1"/><child link="finger"/>
+    <origin xyz="0.1 0 0"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0 0.3"/><axis xyz="1 0 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+</robot>
+"""
+
+
+def test_joints_off_the_end_effector_chain_are_locked(tmp_path):
+    path = tmp_path / "branched.urdf"
+    path.write_text(BRANCHED_URDF)
+    robot = Robot.from_urdf(path, end_effector="l2")
+    assert robot.joint_names == ("j1", "j2") and robot.n == 2
+    np.testing.assert_allclose(robot.fk([0.0, np.pi / 2]), [0.0, 0.0, 0.5], atol=1e-12)
+    finger = Robot.from_urdf(path, end_effector="finger")
+    assert finger.joint_names == ("j1", "finger_joint")
+
+
+def test_spheres_from_a_sphere_file(tmp_path, sawyer):
+    from robots.sphere_model import save_sphere_file
+
+    spheres = SphereModel(("right_l3",), np.array([[0.0, 0.1, 0.0]]), np.array([0.04]))
+    save_sphere_file(spheres, tmp_path / "s.json")
+    robot = Robot.from_urdf(sawyer.urdf_path, end_effector="right_hand", spheres=tmp_path / "s.json")
+    np.testing.assert_allclose(robot.spheres.centres, spheres.centres)
+    with pytest.raises(RobotError, match="spheres"):
+        Robot.from_urdf(sawyer.urdf_path, end_effector="right_hand", spheres=[1, 2, 3])
+    with pytest.raises(RobotError, match="model"):
+        Robot("not a model", end_effector="right_hand")
