@@ -134,6 +134,8 @@ def solve_ik_trajectory(robot, targets, seed=None, tol: float = 1e-4, max_iter: 
     """
     _check_settings(tol, max_iter)
     targets = as_points(targets, "targets")
+    if len(targets) == 0:
+        raise RobotError("targets: expected at least one point, got shape (0, 3)")
     if int(stride) != stride or stride < 1:
         raise RobotError(f"stride: expected a positive integer, got {stride!r}")
     first = solve_ik(robot, targets[0], seed=seed, tol=tol, max_iter=max(200, int(max_iter)), rng=rng)

@@ -140,7 +140,8 @@ class Robot:
         self._sphere_cache = None
 
     def attachment(self, frame: str, argument: str = "frame"):
-        """Chain joint index and placement of `frame`; UnknownFrameError lists the valid names."""
+        """Chain joint index of `frame` and its placement in that joint's axis-aligned frame
+        (see robots.kinematics.FrameAttachment); UnknownFrameError lists the valid names."""
         try:
             return self.chain.attachment(frame)
         except KeyError:
