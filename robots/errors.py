@@ -43,12 +43,4 @@ class SphereFileError(RobotError):
 
 
 class CollisionGeometryError(RobotError):
-    """Collision geometry that cannot be sampled or fitted (unsupported shape, no geometry on a link)."""
-
-
-class SphereFileError(RobotError):
-    """A collision-sphere file that is missing or malformed."""
-
-
-class CollisionGeometryError(RobotError):
     """Collision geometry that cannot be read or sampled, or bad sphere-fitting settings."""
