@@ -22,6 +22,7 @@ configuration-space prior (A = n joints, :func:`learn_joint_prior`, paper sectio
 from __future__ import annotations
 
 import warnings
+from typing import cast
 
 import numpy as np
 
@@ -174,8 +175,7 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
     states, t = _stack_states(positions, velocities, time, ("positions", "velocities"), 3)
     prior = _learn(states, t, coupled=coupled, ridge=ridge, jitter=jitter,
                    prior_class=WorkspacePrior, kind=WorkspacePrior.default_kind, state_names=None)
-    assert isinstance(prior, WorkspacePrior)
-    return prior
+    return cast(WorkspacePrior, prior)
 
 
 def learn_joint_prior(q: np.ndarray, qdot: np.ndarray, time: np.ndarray, *,

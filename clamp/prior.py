@@ -47,6 +47,13 @@ def _cholesky(cov: np.ndarray, name: str) -> np.ndarray:
             f"{smallest[worst]:.3g} (learn with a larger jitter)") from None
 
 
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    """Read-only copy: a prior's parameters and cached marginals must stay consistent."""
+    out = np.array(arr, dtype=np.float64, copy=True)
+    out.flags.writeable = False
+    return out
+
+
 def _is_symmetric(cov: np.ndarray) -> bool:
     scale = max(float(np.max(np.abs(cov))), 1e-300)
     return bool(np.allclose(cov, np.swapaxes(cov, -1, -2), rtol=0.0, atol=1e-9 * scale))
@@ -82,6 +89,7 @@ class LinearGaussianPrior:
         mean0 (D,), cov0 (D, D) initial state; mean (T, D), cov (T, D, D) marginals;
         state_names tuple of D strings; kind str ("workspace", "joint", ...);
         info dict of JSON-serialisable learning settings (ridge, jitter, coupled, ...).
+    The arrays are read-only copies (the marginals are cached from the parameters).
     The state is ordered ``[positions (D/2), velocities (D/2)]``.
     """
 
@@ -98,12 +106,12 @@ class LinearGaussianPrior:
         if D % 2:
             raise ShapeError(f"Phi: expected an even state size D = 2 * axes "
                              f"([positions, velocities]), got D = {D}")
-        self.time = as_time(time, "time", steps + 1)
-        self.Phi = Phi
-        self.u = as_array(u, "u", (steps, D))
-        self.Q = as_array(Q, "Q", (steps, D, D))
-        self.mean0 = as_array(mean0, "mean0", (D,))
-        self.cov0 = as_array(cov0, "cov0", (D, D))
+        self.time = _frozen(as_time(time, "time", steps + 1))
+        self.Phi = _frozen(Phi)
+        self.u = _frozen(as_array(u, "u", (steps, D)))
+        self.Q = _frozen(as_array(Q, "Q", (steps, D, D)))
+        self.mean0 = _frozen(as_array(mean0, "mean0", (D,)))
+        self.cov0 = _frozen(as_array(cov0, "cov0", (D, D)))
         for name, cov in (("Q", self.Q), ("cov0", self.cov0)):
             if not _is_symmetric(cov):
                 raise InvalidParameterError(f"{name}: expected symmetric covariance matrices")
@@ -126,7 +134,7 @@ class LinearGaussianPrior:
         self._chol_Q, self._chol_0 = chol_Q, chol_0
         self._logdet_Q = 2.0 * np.log(np.diagonal(chol_Q, axis1=1, axis2=2)).sum(axis=1)
         self._logdet_0 = 2.0 * float(np.log(np.diag(chol_0)).sum())
-        self.mean, self.cov = self._marginals()
+        self.mean, self.cov = (_frozen(a) for a in self._marginals())
 
     def _default_state_names(self) -> tuple[str, ...]:
         n = self.num_axes

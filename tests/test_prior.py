@@ -205,3 +205,13 @@ def test_constructor_and_argument_errors(system, prior):
         prior.sample(2, None)  # type: ignore[arg-type]
     with pytest.raises(errors.InvalidParameterError, match="level"):
         prior.envelope(1.5)
+
+
+def test_parameters_are_read_only_copies(system):
+    phi = system["Phi"].copy()
+    prior = LinearGaussianPrior(**dict(system, Phi=phi))
+    phi[0] = 0.0                                      # the caller's array stays theirs
+    assert np.any(prior.Phi[0] != 0.0)
+    for name in ("time", "Phi", "u", "Q", "mean0", "cov0", "mean", "cov"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(prior, name)[...] = 0.0
