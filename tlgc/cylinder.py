@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 from .cross_sections import CROSS_SECTION_TYPES, CrossSections, cross_section_type, polar
 from .errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
                      TooFewDemonstrationsError)
-from .frames import bishop_frames
+from .frames import bishop_frames, unit_tangents
 from .validation import as_array, as_count, as_points
 
 MIN_DEMONSTRATIONS = 2
@@ -254,8 +254,8 @@ class GeneralizedCylinder:
             raise InvalidArgumentError(
                 f"directrix: expected shape {self.directrix.shape} (same number of sections), got {new.shape}")
         if initial_normal is None:
-            frames = bishop_frames(new)
-            initial_normal = _minimal_rotation(self.tangents[0], frames[0, 0]) @ self.normals[0]
+            first_tangent = unit_tangents(new)[0]
+            initial_normal = _minimal_rotation(self.tangents[0], first_tangent) @ self.normals[0]
         frames = bishop_frames(new, initial_normal)
         moved = GeneralizedCylinder(new, frames, self.cross_sections, self.effective_points)
         if self.effective_points is not None:

@@ -16,7 +16,7 @@ _TINY = 1e-12
 
 
 def unit_tangents(points: np.ndarray) -> np.ndarray:
-    """Unit tangents (N,3) of a polyline (N,3) by central differences (one-sided at the ends).
+    """Unit tangents (N,3) of a polyline (N,3) by central differences.
 
     Where the polyline stalls (repeated points) the tangent of the nearest moving stretch is
     used; a polyline that never moves raises InvalidArgumentError.
@@ -25,6 +25,12 @@ def unit_tangents(points: np.ndarray) -> np.ndarray:
     if x.ndim != 2 or x.shape[0] < 2:
         raise InvalidArgumentError(f"points: expected shape (N, 3) with N >= 2, got {x.shape}")
     d = np.gradient(x, axis=0)
+    if len(x) >= 3:
+        # Second-order one-sided end differences where they agree with the end chords (they do
+        # not at a start from rest, where the second-order formula is pure round-off).
+        second = np.gradient(x[[0, 1, 2, -3, -2, -1]], axis=0, edge_order=2)[[0, -1]]
+        agree = np.einsum("ij,ij->i", second, d[[0, -1]]) > 0
+        d[[0, -1]] = np.where(agree[:, None], second, d[[0, -1]])
     norm = np.linalg.norm(d, axis=1)
     scale = max(float(np.ptp(x, axis=0).max()), 1.0) * _TINY
     moving = norm > scale
@@ -89,6 +95,11 @@ def bishop_frames(points: np.ndarray, initial_normal: np.ndarray | None = None) 
         n0 = n0 / np.linalg.norm(n0)
 
     chord = np.diff(x, axis=0)                                   # (N-1, 3)
+    # Where the polyline stalls, reflect in the tangent instead: the pair of reflections is then
+    # the minimal rotation turning t_i into t_{i+1} (never a lone, handedness-flipping one).
+    scale = max(float(np.ptp(x, axis=0).max()), 1.0) * _TINY
+    stalled = np.linalg.norm(chord, axis=1) <= scale
+    chord[stalled] = t[:-1][stalled]
     first = _reflect(chord)                                      # (N-1, 3, 3)
     t_reflected = np.einsum("kij,kj->ki", first, t[:-1])
     second = _reflect(t[1:] - t_reflected)

@@ -1,0 +1,191 @@
+"""Generalized cylinder: fitting (real and synthetic data), containment, derived cylinders, files."""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import scipy.io
+
+from scenes import make_demonstrations
+from tlgc import (CROSS_SECTION_TYPES, GeneralizedCylinder, InvalidArgumentError,
+                  InvalidDemonstrationsError, TooFewDemonstrationsError, UnknownCrossSectionError,
+                  fit_cylinder)
+from tlgc.errors import CylinderFileError
+
+KINDS = sorted(CROSS_SECTION_TYPES)
+
+
+def load_smooth_data(path) -> np.ndarray:
+    """TLGC .mat file -> demonstrations (M, N, 3)."""
+    data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
+    return np.stack([np.asarray(d, dtype=float) for d in data["smoothData"]])
+
+
+@pytest.fixture(scope="module")
+def synthetic() -> np.ndarray:
+    return make_demonstrations("curved_reach", num_demos=5, num_points=300, seed=0).positions
+
+
+def effective_ratios(cyl: GeneralizedCylinder) -> np.ndarray:
+    """Ratios (M, N) of every effective point to the boundary of its own section."""
+    return cyl.cross_sections.ratio(np.arange(cyl.num_sections)[None, :], cyl.effective_points)
+
+
+@pytest.mark.parametrize("dataset", ["needle_threading", "pick_place"])
+@pytest.mark.parametrize("kind", KINDS)
+def test_real_data_boundaries_enclose_and_touch_the_effective_points(shared_dataset, dataset, kind):
+    demos = load_smooth_data(shared_dataset(dataset))
+    cyl = fit_cylinder(demos, kind)
+    assert cyl.num_sections == demos.shape[1] == 1500
+    ratio = effective_ratios(cyl)
+    assert ratio.max() <= 1.0 + 1e-9
+    np.testing.assert_allclose(ratio.max(axis=0), 1.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_synthetic_boundaries_enclose_and_touch_the_effective_points(synthetic, kind):
+    cyl = fit_cylinder(synthetic, kind)
+    ratio = effective_ratios(cyl)
+    assert ratio.max() <= 1.0 + 1e-9
+    np.testing.assert_allclose(ratio.max(axis=0), 1.0, atol=1e-9)
+
+
+def test_directrix_is_the_mean_and_the_centroid_of_the_effective_points(synthetic):
+    cyl = fit_cylinder(synthetic, "spline")
+    np.testing.assert_allclose(cyl.directrix, synthetic.mean(axis=0), atol=1e-15)
+    np.testing.assert_allclose(cyl.effective_points.mean(axis=0), 0.0, atol=1e-14)
+    # Effective points plus the along-tangent offset give back the demonstrations.
+    along = np.einsum("mni,ni->mn", synthetic - cyl.directrix, cyl.tangents)
+    rebuilt = cyl.to_world(cyl.effective_points, np.arange(300)[None, :]) + along[..., None] * cyl.tangents
+    np.testing.assert_allclose(rebuilt, synthetic, atol=1e-14)
+    np.testing.assert_allclose(cyl.arc_length[[0, -1]], [0.0, 1.0])
+    assert np.all(np.diff(cyl.arc_length) >= 0)
+
+
+def test_accepts_demonstration_objects_lists_and_resamples():
+    demos = make_demonstrations("pick_place", num_demos=4, num_points=120, seed=1)
+    from_object = fit_cylinder(demos, "circle")
+    from_array = fit_cylinder(demos.positions, "circle")
+    np.testing.assert_array_equal(from_object.directrix, from_array.directrix)
+    assert fit_cylinder(SimpleNamespace(positions=demos.positions), "circle").num_sections == 120
+    # Unequal lengths: each resampled by a cubic spline to the longest; a cubic is reproduced.
+    s = np.linspace(0.0, 1.0, 50)
+    cubic = np.stack([s, s**2, s**3], axis=1)
+    trajectories = [cubic + 0.01 * k for k in range(3)]
+    trajectories[1] = np.stack([np.linspace(0, 1, 80), np.linspace(0, 1, 80) ** 2,
+                                np.linspace(0, 1, 80) ** 3], axis=1) + 0.01
+    cyl = fit_cylinder(trajectories, "ellipse")
+    assert cyl.num_sections == 80
+    u = np.linspace(0, 1, 80)
+    np.testing.assert_allclose(cyl.demonstrations[0], np.stack([u, u**2, u**3], axis=1), atol=1e-12)
+    assert fit_cylinder(trajectories, "spline", num_points=33).num_sections == 33
+
+
+def local_points(cyl: GeneralizedCylinder, index: np.ndarray, angle: np.ndarray, ratio: np.ndarray):
+    r = ratio * cyl.radius(index, angle)
+    return cyl.to_world(np.stack([r * np.cos(angle), r * np.sin(angle)], axis=-1), index)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_containment_recovers_section_angle_and_ratio(synthetic, kind):
+    cyl = fit_cylinder(synthetic, kind)
+    rng = np.random.default_rng(7)
+    index = rng.integers(1, 299, 500)
+    angle = rng.uniform(0, 2 * np.pi, 500)
+    ratio = rng.uniform(0.0, 1.5, 500)
+    c = cyl.containment(local_points(cyl, index, angle, ratio))
+    np.testing.assert_array_equal(c.index, index)
+    np.testing.assert_allclose(c.ratio, ratio, atol=1e-9)
+    keep = ratio > 1e-6
+    np.testing.assert_allclose(np.cos(c.angle[keep] - angle[keep]), 1.0, atol=1e-9)
+    np.testing.assert_array_equal(c.inside, ratio <= 1.0)
+    np.testing.assert_allclose(c.offset, 0.0, atol=1e-12)
+    np.testing.assert_allclose(c.distance, c.ratio * c.radius, rtol=1e-12)
+
+
+def test_ratio_per_index_matches_the_effective_points(synthetic):
+    cyl = fit_cylinder(synthetic, "ellipse")
+    ratio = cyl.ratio(cyl.demonstrations, np.arange(300)[None, :])
+    np.testing.assert_allclose(ratio, effective_ratios(cyl), atol=1e-12)
+
+
+def test_with_directrix_moves_rigidly_and_keeps_the_sections(synthetic):
+    cyl = fit_cylinder(synthetic, "spline")
+    angle = 0.7
+    rot = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    offset = np.array([0.3, -0.1, 0.2])
+    moved = cyl.with_directrix(cyl.directrix @ rot.T + offset, initial_normal=rot @ cyl.normals[0])
+    np.testing.assert_allclose(moved.frames, np.einsum("ij,nkj->nki", rot, cyl.frames), atol=1e-6)
+    np.testing.assert_allclose(moved.demonstrations, synthetic @ rot.T + offset
+                               - np.einsum("mni,ni->mn", synthetic - cyl.directrix, cyl.tangents)[..., None]
+                               * moved.tangents, atol=1e-6)
+    shifted = cyl.with_directrix(cyl.directrix + offset)
+    np.testing.assert_allclose(shifted.frames, cyl.frames, atol=1e-9)
+    np.testing.assert_allclose(shifted.boundary_points(12), cyl.boundary_points(12) + offset, atol=1e-12)
+    # Without an initial normal the old one is carried by the minimal rotation of the tangent.
+    default = cyl.with_directrix(cyl.directrix @ rot.T + offset)
+    t_old, t_new = cyl.tangents[0], default.tangents[0]
+    axis = np.cross(t_old, t_new)
+    axis /= np.linalg.norm(axis)
+    np.testing.assert_allclose(default.normals[0] @ axis, cyl.normals[0] @ axis, atol=1e-12)
+    np.testing.assert_allclose(default.normals[0] @ t_new, 0.0, atol=1e-12)
+    with pytest.raises(InvalidArgumentError, match="directrix"):
+        cyl.with_directrix(cyl.directrix[:10])
+
+
+def test_with_cross_sections_replaces_only_the_boundary(synthetic):
+    cyl = fit_cylinder(synthetic, "spline")
+    circles = fit_cylinder(synthetic, "circle").cross_sections
+    swapped = cyl.with_cross_sections(circles)
+    assert swapped.cross_section == "circle"
+    np.testing.assert_array_equal(swapped.directrix, cyl.directrix)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_save_load_round_trip(tmp_path, synthetic, kind):
+    cyl = fit_cylinder(synthetic, kind)
+    path = tmp_path / "cyl.npz"
+    cyl.save(path)
+    back = GeneralizedCylinder.load(path)
+    assert back.cross_section == kind
+    np.testing.assert_array_equal(back.frames, cyl.frames)
+    np.testing.assert_array_equal(back.effective_points, cyl.effective_points)
+    angles = np.linspace(0, 6, 25)
+    np.testing.assert_array_equal(back.radius(np.arange(300)[:, None], angles),
+                                  cyl.radius(np.arange(300)[:, None], angles))
+    with pytest.raises(CylinderFileError, match="cannot read"):
+        GeneralizedCylinder.load(tmp_path / "missing.npz")
+    np.savez(tmp_path / "bad.npz", directrix=cyl.directrix)
+    with pytest.raises(CylinderFileError, match="lacks"):
+        GeneralizedCylinder.load(tmp_path / "bad.npz")
+
+
+def test_surface_and_boundary_shapes(synthetic):
+    cyl = fit_cylinder(synthetic, "ellipse")
+    x, y, z = cyl.surface(num_angles=20, step=7)
+    assert x.shape == y.shape == z.shape == (len(range(0, 300, 7)) + 1, 21)
+    ring = cyl.boundary_points(16, indices=[0, 5])
+    np.testing.assert_allclose(cyl.ratio(ring, np.array([[0], [5]])), 1.0, atol=1e-12)
+
+
+def test_error_catalogue(synthetic):
+    with pytest.raises(TooFewDemonstrationsError, match="at least 2"):
+        fit_cylinder(synthetic[:1])
+    bad = synthetic.copy()
+    bad[1, 5, 2] = np.nan
+    with pytest.raises(InvalidDemonstrationsError, match="NaN"):
+        fit_cylinder(bad)
+    with pytest.raises(InvalidDemonstrationsError, match=r"\(M, T, 3\)"):
+        fit_cylinder(synthetic[None])
+    with pytest.raises(InvalidDemonstrationsError, match="demos"):
+        fit_cylinder(synthetic[:, :, :2])
+    with pytest.raises(UnknownCrossSectionError, match="circle, ellipse, spline"):
+        fit_cylinder(synthetic, "hexagon")
+    with pytest.raises(InvalidDemonstrationsError, match="degenerate"):
+        fit_cylinder(np.ones((3, 10, 3)))
+    with pytest.raises(InvalidDemonstrationsError, match="num_points"):
+        fit_cylinder(synthetic, num_points=1)
+    cyl = fit_cylinder(synthetic, "circle")
+    with pytest.raises(InvalidArgumentError, match=r"points: expected shape \(P, 3\)"):
+        cyl.containment(np.zeros(3))
