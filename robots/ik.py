@@ -50,8 +50,8 @@ def _position_jacobian(robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """End-effector positions (B, 3) and Jacobians (B, 3, n) for validated q (B, n)."""
     att = robot.attachment(robot.end_effector)
     frames = robot.chain.joint_frames(q)
-    pos, columns, _ = robot.chain.points(frames, np.array([att.joint]), att.translation[None], True)
-    return pos[:, 0], columns[:, 0].transpose(0, 2, 1)
+    pos, jac, _ = robot.chain.points(frames, np.array([att.joint]), att.translation[None], True)
+    return pos[:, 0], jac[:, 0]
 
 
 def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float, max_iter: int,

@@ -215,28 +215,38 @@ class SerialChain:
 
     def points(self, frames: JointFrames, joints: np.ndarray, local: np.ndarray,
                jacobians: bool) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """Positions of P points fixed to chain joints, and their Jacobian columns.
+        """Positions of P points fixed to chain joints, and their Jacobians.
 
         joints (P,) chain joint index of each point (0 = base); local (P, 3) point in that joint's
-        frame. Returns positions (B, P, 3), columns (B, P, n, 3) = d position / d q_k (or None)
-        and the angular joint axes (B, n, 3) (zero for prismatic joints; None without jacobians).
+        axis-aligned frame. Returns positions (B, P, 3), Jacobians (B, P, 3, n) = d position / d q
+        (or None) and the angular joint axes (B, n, 3) (zero for prismatic joints; None without
+        jacobians). Column k is w_k x (p - o_k) for a revolute joint and the axis for a prismatic
+        one, and zero unless the point moves with joint k.
         """
         rot = frames.rotations[:, joints]                                      # (B, P, 3, 3)
         pos = frames.origins[:, joints] + np.einsum("bpij,pj->bpi", rot, local)
         if not jacobians:
             return pos, None, None
+        moves = (np.arange(1, self.n + 1)[None, :] <= joints[:, None]).astype(float)  # (P, n)
         angular = np.where(self.is_prismatic[:, None], 0.0, frames.axes)       # (B, n, 3)
-        linear = np.where(self.is_prismatic[:, None], frames.axes, 0.0)
-        columns = _cross(angular[:, None], pos[:, :, None] - frames.origins[:, None, 1:]) + linear[:, None]
-        moves = np.arange(1, self.n + 1)[None, :] <= joints[:, None]           # (P, n)
-        return pos, columns * moves[None, :, :, None], angular
+        w = [angular[:, None, :, c] * moves for c in range(3)]                 # (B, P, n) each
+        d = [pos[:, :, c, None] - frames.origins[:, None, 1:, c] for c in range(3)]
+        jac = np.empty(pos.shape[:2] + (3, self.n))
+        jac[:, :, 0] = w[1] * d[2] - w[2] * d[1]
+        jac[:, :, 1] = w[2] * d[0] - w[0] * d[2]
+        jac[:, :, 2] = w[0] * d[1] - w[1] * d[0]
+        if self.is_prismatic.any():
+            linear = np.where(self.is_prismatic[:, None], frames.axes, 0.0)    # (B, n, 3)
+            jac += linear.transpose(0, 2, 1)[:, None] * moves[None, :, None, :]
+        return pos, jac, angular
 
     @staticmethod
     def velocity_and_derivative(columns: np.ndarray, angular: np.ndarray,
                                 qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Velocity J qdot (B, 3) and d(J qdot)/dq (B, 3, n) of one point.
 
-        columns (B, n, 3) Jacobian columns of the point; angular (B, n, 3) angular joint axes.
+        columns (B, n, 3) Jacobian columns (transposed Jacobian) of the point; angular (B, n, 3)
+        angular joint axes.
         Uses d col_i / d q_k = w_k x col_i for k <= i and w_i x col_k for k > i.
         """
         weighted = columns * qdot[:, :, None]                                  # qdot_i col_i

@@ -207,15 +207,16 @@ class Robot:
             if lead_dot != lead:
                 raise RobotError(f"qdot: expected shape {lead + (self.n,)} like q, got {lead_dot + (self.n,)}")
         frames = self.chain.joint_frames(flat)
-        pos, columns, angular = self.chain.points(
+        pos, jac, angular = self.chain.points(
             frames, np.array([self._ee.joint]), self._ee.translation[None], True)
-        columns = columns[:, 0]                                                 # (B, n, 3)
-        velocity, velocity_jacobian = self.chain.velocity_and_derivative(columns, angular, qdot_flat)
+        jacobian = jac[:, 0]                                                # (B, 3, n)
+        velocity, velocity_jacobian = self.chain.velocity_and_derivative(
+            jacobian.transpose(0, 2, 1), angular, qdot_flat)
         shape3, shape3n = lead + (3,), lead + (3, self.n)
         if not jacobians:
             return EndEffectorKinematics(pos[:, 0].reshape(shape3), velocity.reshape(shape3), None, None)
         return EndEffectorKinematics(pos[:, 0].reshape(shape3), velocity.reshape(shape3),
-                                     columns.transpose(0, 2, 1).reshape(shape3n),
+                                     jacobian.reshape(shape3n),
                                      velocity_jacobian.reshape(shape3n))
 
     def sphere_attachments(self) -> tuple[np.ndarray, np.ndarray]:
@@ -239,12 +240,12 @@ class Robot:
         flat, lead = self._batch(q, "q")
         joints, local = self.sphere_attachments()
         frames = self.chain.joint_frames(flat)
-        pos, columns, _ = self.chain.points(frames, joints, local, jacobians)
+        pos, jac, _ = self.chain.points(frames, joints, local, jacobians)
         S = len(joints)
         centres = pos.reshape(lead + (S, 3))
         if not jacobians:
             return centres, None
-        return centres, columns.transpose(0, 1, 3, 2).reshape(lead + (S, 3, self.n))
+        return centres, jac.reshape(lead + (S, 3, self.n))
 
     def frame_positions(self, q) -> np.ndarray:
         """Points to draw the arm, (..., L, 3) [m]: base origin, each joint origin, end effector (L = n + 2)."""
