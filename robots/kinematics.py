@@ -67,6 +67,18 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
+def frame_index(model: pin.Model, name: str) -> int:
+    """Index of the frame called `name` in `model`, preferring a body frame; -1 when absent."""
+    if model.existFrame(name, pin.FrameType.BODY):
+        return model.getFrameId(name, pin.FrameType.BODY)
+    return model.getFrameId(name) if model.existFrame(name) else -1
+
+
+def frame_names(model: pin.Model) -> tuple[str, ...]:
+    """Names of all frames of `model` (links, joints, fixed frames), without repeats."""
+    return tuple(dict.fromkeys(f.name for f in model.frames))
+
+
 def _axis_frame(axis: np.ndarray) -> np.ndarray:
     """A rotation (3, 3) whose third column is the unit vector `axis`."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
@@ -144,16 +156,12 @@ class SerialChain:
     # ----------------------------------------------------------------- frames
     def frame_id(self, name: str) -> int:
         """Index of the frame called `name`, preferring a body frame; -1 when absent."""
-        if not self.model.existFrame(name):
-            return -1
-        if self.model.existFrame(name, pin.FrameType.BODY):
-            return self.model.getFrameId(name, pin.FrameType.BODY)
-        return self.model.getFrameId(name)
+        return frame_index(self.model, name)
 
     @property
     def frame_names(self) -> tuple[str, ...]:
         """Names of all frames of the model (links, joints, fixed frames), without repeats."""
-        return tuple(dict.fromkeys(f.name for f in self.model.frames))
+        return frame_names(self.model)
 
     def attachment(self, name: str) -> FrameAttachment:
         """Where frame `name` sits on the chain; raises KeyError when it does not exist."""

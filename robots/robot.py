@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import RobotError, UnknownFrameError, URDFParseError
-from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain
+from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain, frame_index, frame_names
 from .sphere_model import SphereModel, load_sphere_file
 from .validation import as_joint_array
 
@@ -21,17 +21,6 @@ def _chain_to(model: pin.Model, frame_id: int) -> list[int]:
         joints.append(joint)
         joint = model.parents[joint]
     return joints[::-1]
-
-
-def _frame_id(model: pin.Model, name: str) -> int:
-    """Frame index of `name` preferring a body frame; -1 when absent."""
-    if model.existFrame(name, pin.FrameType.BODY):
-        return model.getFrameId(name, pin.FrameType.BODY)
-    return model.getFrameId(name) if model.existFrame(name) else -1
-
-
-def _frame_names(model: pin.Model) -> tuple[str, ...]:
-    return tuple(dict.fromkeys(f.name for f in model.frames))
 
 
 def _as_sphere_model(spheres) -> SphereModel | None:
@@ -60,11 +49,11 @@ class Robot:
             raise RobotError(f"model: expected a pinocchio.Model, got {type(model).__name__}")
         if not isinstance(end_effector, str):
             raise RobotError(f"end_effector: expected a frame name (str), got {type(end_effector).__name__}")
-        ee_id = _frame_id(model, end_effector)
+        ee_id = frame_index(model, end_effector)
         if ee_id < 0:
-            raise UnknownFrameError("end_effector", end_effector, _frame_names(model))
-        if base_frame is not None and _frame_id(model, base_frame) < 0:
-            raise UnknownFrameError("base_frame", base_frame, _frame_names(model))
+            raise UnknownFrameError("end_effector", end_effector, frame_names(model))
+        if base_frame is not None and frame_index(model, base_frame) < 0:
+            raise UnknownFrameError("base_frame", base_frame, frame_names(model))
         chain = _chain_to(model, ee_id)
         locked = [j for j in range(1, model.njoints) if j not in chain]
         if locked:
