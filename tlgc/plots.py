@@ -56,13 +56,11 @@ def plot_cylinder(cyl: GeneralizedCylinder, reproductions: np.ndarray | None = N
             ax.plot(*rep.T, color="tab:purple", lw=0.8, alpha=0.8,
                     label="reproductions" if r == 0 else None)
         ax.scatter(*reps[:, 0].T, color="k", s=8, label="starts")
-    lo, hi = np.min([x.min(), y.min(), z.min()]), np.max([x.max(), y.max(), z.max()])
     centre = np.array([x.mean(), y.mean(), z.mean()])
     half = 0.5 * max(np.ptp(x), np.ptp(y), np.ptp(z), 1e-9)
     ax.set_xlim(centre[0] - half, centre[0] + half)
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_zlim(centre[2] - half, centre[2] + half)
-    del lo, hi
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
