@@ -12,7 +12,7 @@ Two methods, both returning a new :class:`~tlgc.cylinder.GeneralizedCylinder`:
   chosen directrix points are moved to new positions (hard constraints). Large deformations
   rotate and scale a path, which Laplacian coordinates do not follow; as in Nierhoff et al.
   the best similarity (scale s, rotation R; eq. 15, by SVD) between the original and the
-  edited path is estimated and the coordinates are replaced by s R delta, a few times. The
+  edited path is estimated and the coordinates are replaced by s R delta, until it settles. The
   cross-sections keep their shape in the new frames, scaled by s.
 
 Too few landmarks for the affine part: an affine map in 3-D needs at least 4 landmarks that
@@ -200,19 +200,22 @@ def _check_constraints(constraints: Mapping[int, np.ndarray], num_points: int
     return idx_arr[order], np.asarray(pos)[order]
 
 
-def lte_deform(path: np.ndarray, constraints: Mapping[int, np.ndarray], iterations: int = 5
-               ) -> tuple[np.ndarray, Similarity]:
+def lte_deform(path: np.ndarray, constraints: Mapping[int, np.ndarray], iterations: int = 100,
+               tolerance: float = 1e-10) -> tuple[np.ndarray, Similarity]:
     """Laplacian trajectory editing of a path (N,3) under hard positional constraints.
 
     ``constraints`` maps point indices to new positions (3,). Returns the edited path (N,3),
     which passes exactly through the constraints, and the similarity (s, R) by which its
-    Laplacian coordinates were rotated and scaled (eq. 15; ``iterations`` re-estimations,
-    0 keeps the original coordinates).
+    Laplacian coordinates were rotated and scaled (eq. 15). The similarity is re-estimated
+    between the original and the edited path until it changes by less than ``tolerance``
+    (in s and in the entries of R), at most ``iterations`` times (0 keeps the original
+    coordinates: a purely local edit).
     """
     p = as_points(path, "path")
     if p.ndim != 2 or len(p) < 3:
         raise InvalidArgumentError(f"path: expected shape (N, 3) with N >= 3, got {p.shape}")
     iterations = as_count(iterations, "iterations", minimum=0)
+    tol = as_scalar(tolerance, "tolerance", minimum=0.0)
     n = len(p)
     idx, pos = _check_constraints(constraints, n)
     lap = laplacian_matrix(n)
@@ -235,8 +238,13 @@ def lte_deform(path: np.ndarray, constraints: Mapping[int, np.ndarray], iteratio
     edited = edit(delta)
     transform = Similarity(1.0, np.eye(3), np.zeros(3))
     for _ in range(iterations):
+        previous = transform
         transform = fit_similarity(p, edited)
         edited = edit(transform.scale * delta @ transform.rotation.T)
+        change = max(abs(transform.scale - previous.scale),
+                     float(np.abs(transform.rotation - previous.rotation).max()))
+        if change <= tol:
+            break
     return edited, transform
 
 
@@ -341,7 +349,7 @@ def landmark_constraints(cyl: GeneralizedCylinder, source_landmarks: np.ndarray,
 
 
 def lte_generalize(cyl: GeneralizedCylinder, constraints: Mapping[int, np.ndarray],
-                   iterations: int = 5, scale_cross_sections: bool = True) -> GeneralizedCylinder:
+                   iterations: int = 100, scale_cross_sections: bool = True) -> GeneralizedCylinder:
     """Generalize ``cyl`` by Laplacian trajectory editing of its directrix (Algorithm 4).
 
     ``constraints`` {directrix index: new position (3,)} (see :func:`landmark_constraints`);

@@ -1,7 +1,8 @@
 """Skill refinement (paper section 6).
 
-Incremental refinement (6.1): a corrected trajectory replaces a demonstration or joins the set,
-and the cylinder is fitted again (:func:`refine_demonstrations`).
+Incremental refinement (6.1): a corrected trajectory (any length; resampled to the set's N
+points) replaces a demonstration or joins the set, and the cylinder is fitted again
+(:func:`refine_incrementally`).
 
 Constraint-based refinement (6.2): from a reproduction (N,3) and the teacher's correction of it
 (N,3), the refinement matrix V = [v_1 ... v_N] (v_k = corrected_k - original_k) is formed.
@@ -23,10 +24,11 @@ can be added, removed and combined (applied in order) without fitting anything a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterator, Sequence
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 
+from .cylinder import GeneralizedCylinder, as_demonstration_array, fit_cylinder, resample_demonstrations
 from .errors import InvalidArgumentError
 from .validation import as_points, as_scalar
 
@@ -172,3 +174,22 @@ class RefinementSet:
         for c in self._constraints:
             out = c.apply(out)
         return out
+
+
+def refine_incrementally(demos: Any, corrected: np.ndarray, replace: int | None = None,
+                         cross_section: str = "spline") -> tuple[np.ndarray, GeneralizedCylinder]:
+    """Incremental refinement: the demonstrations (M, N, 3) with ``corrected`` (T, 3) [m]
+    (resampled to N points) replacing demonstration ``replace``, or appended when None, and
+    the cylinder fitted to them (same ``cross_section`` type)."""
+    x = as_demonstration_array(demos)
+    c = _as_path(corrected, "corrected")
+    new = resample_demonstrations([c], x.shape[1])
+    if replace is None:
+        x = np.concatenate([x, new])
+    else:
+        if isinstance(replace, bool) or not isinstance(replace, (int, np.integer)) or not -len(x) <= replace < len(x):
+            raise InvalidArgumentError(
+                f"replace: expected None or a demonstration index in [0, {len(x)}), got {replace!r}")
+        x = x.copy()
+        x[replace] = new[0]
+    return x, fit_cylinder(x, cross_section)
