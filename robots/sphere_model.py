@@ -138,7 +138,10 @@ def load_sphere_file(path: str | Path) -> SphereModel:
 
 
 def save_sphere_file(model: SphereModel, path: str | Path) -> None:
-    """Write `model` as a JSON sphere file (parent folders must exist)."""
+    """Write `model` as a JSON sphere file, one sphere per line (parent folders must exist)."""
     if not isinstance(model, SphereModel):
         raise SphereFileError(f"model: expected a SphereModel, got {type(model).__name__}")
-    Path(path).write_text(json.dumps(model.to_dict(), indent=1) + "\n", encoding="utf-8")
+    data = model.to_dict()
+    spheres = ",\n  ".join(json.dumps(entry) for entry in data.pop("spheres"))
+    header = json.dumps(data)[:-1]
+    Path(path).write_text(f'{header}, "spheres": [\n  {spheres}\n]}}\n', encoding="utf-8")
