@@ -30,7 +30,7 @@ class SignedDistanceField:
     """Signed distance values (nx,ny,nz) on a grid with corner ``origin`` (3,) and isotropic ``cell_size`` (m)."""
 
     def __init__(self, values: Any, origin: Any, cell_size: float):
-        values = np.asarray(values, dtype=float)
+        values = np.ascontiguousarray(values, dtype=float)
         if values.ndim != 3 or min(values.shape) < 2:
             raise InvalidArgumentError(f"values: expected a 3-D grid with >= 2 nodes per axis, got shape {values.shape}")
         if np.any(np.isnan(values)):
@@ -65,8 +65,12 @@ class SignedDistanceField:
         occupancy at the nodes (exact distance tests on each obstacle's bounding block) and
         takes Euclidean distance transforms outside and inside, shifted by half a cell so the
         zero crossing lies between occupied and free nodes (error about half a cell);
-        ``exact=True`` evaluates the analytic distance at every node (slower). An obstacle
-        too thin to contain a node marks the node nearest its centre.
+        ``exact=True`` evaluates the analytic distance at every node (cost grows with the number
+        of obstacles). An obstacle too thin to contain a node marks the node nearest its centre.
+
+        Accuracy at 1 cm (tests/test_sdf.py): both modes stay within one cell of the analytic
+        distance inside the grid; near curved surfaces the EDT mode's staircase tilts the
+        gradient by up to ~25 degrees (mean ~6 degrees at 3-10 cm), the exact mode by < 5.
         """
         h = as_positive(cell_size, "cell_size")
         if h > DEFAULT_CELL_SIZE + 1e-12:
@@ -151,18 +155,20 @@ class SignedDistanceField:
         i0 = np.clip(np.floor(u).astype(int), 0, n - 2)
         f = u - i0
         g = 1.0 - f
-        v = self.values
-        x0, y0, z0 = i0.T
-        c = v[x0[:, None, None, None] + np.arange(2)[None, :, None, None],
-              y0[:, None, None, None] + np.arange(2)[None, None, :, None],
-              z0[:, None, None, None] + np.arange(2)[None, None, None, :]]   # (P,2,2,2)
-        wx = np.stack([g[:, 0], f[:, 0]], axis=-1)
-        wy = np.stack([g[:, 1], f[:, 1]], axis=-1)
-        wz = np.stack([g[:, 2], f[:, 2]], axis=-1)
-        value = np.einsum("pijk,pi,pj,pk->p", c, wx, wy, wz)
-        dx = np.einsum("pjk,pj,pk->p", c[:, 1] - c[:, 0], wy, wz)
-        dy = np.einsum("pik,pi,pk->p", c[:, :, 1] - c[:, :, 0], wx, wz)
-        dz = np.einsum("pij,pi,pj->p", c[:, :, :, 1] - c[:, :, :, 0], wx, wy)
+        nx, ny, nz = self.shape
+        base = (i0[:, 0] * ny + i0[:, 1]) * nz + i0[:, 2]
+        corner = np.array([(a * ny + b) * nz + c for a in (0, 1) for b in (0, 1) for c in (0, 1)])
+        c = self.values.reshape(-1)[base[:, None] + corner].reshape(-1, 2, 2, 2)  # (P, x, y, z)
+        # interpolate along z, then y, then x, keeping the differences for the gradient
+        cz = c[..., 0] * g[:, 2, None, None] + c[..., 1] * f[:, 2, None, None]      # (P,2,2)
+        dcz = c[..., 1] - c[..., 0]
+        cy = cz[:, :, 0] * g[:, 1, None] + cz[:, :, 1] * f[:, 1, None]              # (P,2)
+        value = cy[:, 0] * g[:, 0] + cy[:, 1] * f[:, 0]
+        dx = cy[:, 1] - cy[:, 0]
+        dcy = cz[:, :, 1] - cz[:, :, 0]
+        dy = dcy[:, 0] * g[:, 0] + dcy[:, 1] * f[:, 0]
+        dzy = dcz[:, :, 0] * g[:, 1, None] + dcz[:, :, 1] * f[:, 1, None]
+        dz = dzy[:, 0] * g[:, 0] + dzy[:, 1] * f[:, 0]
         grad = np.stack([dx, dy, dz], axis=-1) / h
         offset = flat - clamped
         outside = np.any(offset != 0.0, axis=-1)
