@@ -1,0 +1,128 @@
+"""The TLGC boundary factor for CLAMP: residual, Jacobians, GTSAM adapter."""
+from __future__ import annotations
+
+import gtsam
+import numpy as np
+import pytest
+
+from robots import load_robot
+from tlgc.boundary_factor import (BoundaryFactorMaker, boundary_distance, boundary_residuals,
+                                  boundary_state_residuals, section_indices)
+from tlgc.cylinder import fit_cylinder
+from tlgc.errors import InvalidArgumentError
+
+T = 12
+
+
+def _tube(path: np.ndarray, cross_section: str, spread: float = 0.02) -> object:
+    """Cylinder around a path (N,3) from five offset copies (uneven, so shapes are not round)."""
+    offsets = spread * np.array([[1, 0, 0], [0, 1.5, 0], [-0.7, -0.4, 1], [0, 0, -0.5], [-1, 0.3, 0]])
+    return fit_cylinder(path[None] + offsets[:, None], cross_section)
+
+
+def _robot_setup(name: str, seed: int, cross_section: str = "spline"):
+    robot = load_robot(name)
+    rng = np.random.default_rng(seed)
+    a, b = robot.random_configuration(rng), robot.random_configuration(rng)
+    q_path = a + np.linspace(0, 1, T)[:, None] * (b - a)
+    cyl = _tube(robot.fk(q_path), cross_section)
+    q = q_path + 0.15 * rng.standard_normal(q_path.shape)   # pushes the end effector outside
+    return robot, cyl, q
+
+
+def test_section_indices_match_normalised_index():
+    np.testing.assert_array_equal(section_indices(np.arange(5), 5, 101), [0, 25, 50, 75, 100])
+    np.testing.assert_array_equal(section_indices(np.arange(3), 3, 3), [0, 1, 2])
+    assert section_indices(np.array(0), 1, 50) == 0
+    with pytest.raises(InvalidArgumentError, match="index"):
+        section_indices(np.array([5]), 5, 10)
+    with pytest.raises(InvalidArgumentError, match="num_states"):
+        section_indices(np.array([0]), 0, 10)
+
+
+@pytest.mark.parametrize("cross_section", ["circle", "ellipse", "spline"])
+def test_distance_gradient_matches_finite_differences(cross_section):
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 1, 40)
+    path = np.stack([t, 0.2 * np.sin(2 * t), 0.1 * t], axis=1)
+    cyl = _tube(path, cross_section)
+    k = rng.integers(0, 40, 25)
+    p = cyl.directrix[k] + rng.normal(scale=0.04, size=(25, 3))
+    d = boundary_distance(cyl, k, p)
+    step = 1e-6
+    fd = np.stack([(boundary_distance(cyl, k, p + step * e).distance
+                    - boundary_distance(cyl, k, p - step * e).distance) / (2 * step)
+                   for e in np.eye(3)], axis=1)
+    np.testing.assert_allclose(d.gradient, fd, atol=2e-6)
+    # distance = rho - r(angle): points on the boundary have distance 0
+    local = d.rho[:, None] * np.stack([np.cos(d.angle), np.sin(d.angle)], axis=1)
+    on = cyl.to_world(local * (cyl.radius(k, d.angle) / d.rho)[:, None], k)
+    np.testing.assert_allclose(boundary_distance(cyl, k, on).distance, 0.0, atol=1e-12)
+
+
+def test_hinge_is_zero_inside_and_counts_margin():
+    t = np.linspace(0, 1, 30)
+    cyl = _tube(np.stack([t, 0 * t, 0 * t], axis=1), "circle")
+    k = np.array([15, 15, 15])
+    r = float(cyl.radius(15, 0.0))
+    p = cyl.directrix[k] + np.array([[0, 0, 0.5 * r], [0, 0, 1.5 * r], [0, 0, 0.0]])
+    h, grad = boundary_residuals(cyl, k, p)
+    assert h[0] == 0.0 and h[2] == 0.0 and np.all(grad[[0, 2]] == 0.0)
+    assert h[1] == pytest.approx(0.5 * r)
+    h_margin, _ = boundary_residuals(cyl, k, p, margin=0.6 * r)
+    assert h_margin[0] == pytest.approx(0.1 * r) and h_margin[1] == pytest.approx(1.1 * r)
+
+
+@pytest.mark.parametrize("name", ["jaco", "sawyer"])
+def test_state_jacobian_matches_finite_differences(name):
+    robot, cyl, q = _robot_setup(name, seed=1)
+    sections = section_indices(np.arange(T), T, cyl.num_sections)
+    h, jac = boundary_state_residuals(cyl, robot, sections, q)
+    assert np.count_nonzero(h) >= T // 2                # most states are outside: hinge active
+    assert np.all(jac[:, robot.n:] == 0.0)              # velocities do not enter
+    step = 1e-6
+    fd = np.zeros((T, robot.n))
+    for j in range(robot.n):
+        e = np.zeros(robot.n)
+        e[j] = step
+        fd[:, j] = (boundary_state_residuals(cyl, robot, sections, q + e)[0]
+                    - boundary_state_residuals(cyl, robot, sections, q - e)[0]) / (2 * step)
+    active = h > 1e-4                                   # away from the hinge's kink
+    np.testing.assert_allclose(jac[active, : robot.n], fd[active], atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["jaco", "sawyer"])
+def test_gtsam_adapter_matches_numpy_residual(name):
+    robot, cyl, q = _robot_setup(name, seed=2)
+    sigma = 0.02
+    maker = BoundaryFactorMaker(cyl, robot, margin=0.005, sigma=sigma)
+    sections = section_indices(np.arange(T), T, cyl.num_sections)
+    h, jac = boundary_state_residuals(cyl, robot, sections, q, margin=0.005)
+    values = gtsam.Values()
+    rng = np.random.default_rng(0)
+    for i in range(T):
+        key = gtsam.symbol("x", i)
+        values.insert(key, np.concatenate([q[i], rng.normal(size=robot.n)]))
+        factor = maker(i, T, key)
+        assert factor.dim() == 1
+        np.testing.assert_allclose(factor.unwhitenedError(values), [h[i]], atol=1e-12)
+        a, b = factor.linearize(values).jacobian()
+        np.testing.assert_allclose(a, jac[i][None] / sigma, atol=1e-9)
+        np.testing.assert_allclose(b, [-h[i] / sigma], atol=1e-9)
+        assert factor.error(values) == pytest.approx(0.5 * (h[i] / sigma) ** 2)
+
+
+def test_maker_restricts_states_and_checks_arguments():
+    robot, cyl, _ = _robot_setup("jaco", seed=3)
+    maker = BoundaryFactorMaker(cyl, robot, states=[0, 5])
+    assert maker(3, T, gtsam.symbol("x", 3)) is None
+    assert maker(5, T, gtsam.symbol("x", 5)) is not None
+    assert maker.section(T - 1, T) == cyl.num_sections - 1
+    with pytest.raises(InvalidArgumentError, match="cylinder"):
+        BoundaryFactorMaker("tube", robot)
+    with pytest.raises(InvalidArgumentError, match="robot"):
+        BoundaryFactorMaker(cyl, "arm")
+    with pytest.raises(InvalidArgumentError, match="sigma"):
+        BoundaryFactorMaker(cyl, robot, sigma=0.0)
+    with pytest.raises(InvalidArgumentError, match="q"):
+        boundary_state_residuals(cyl, robot, np.zeros(2, dtype=int), np.zeros((2, 3)))
