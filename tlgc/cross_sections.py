@@ -155,8 +155,11 @@ class EllipseSections(CrossSections):
                 f"{self.major.shape}, {self.minor.shape}, {self.orientation.shape}")
         if np.any(self.major <= 0) or np.any(self.minor <= 0):
             raise InvalidArgumentError("major, minor: expected positive semi-axes")
-        self._cos = np.cos(self.orientation)
-        self._sin = np.sin(self.orientation)
+        # 1 / r(angle)^2 = A cos^2 + B cos sin + C sin^2 (quadratic form of the ellipse).
+        co, so = np.cos(self.orientation), np.sin(self.orientation)
+        ia, ib = 1.0 / self.major**2, 1.0 / self.minor**2
+        self._quadratic = (co * co * ia + so * so * ib, 2.0 * co * so * (ia - ib),
+                           so * so * ia + co * co * ib)
 
     @property
     def num_sections(self) -> int:
@@ -185,12 +188,12 @@ class EllipseSections(CrossSections):
         idx = self.check_index(index)
         ang = np.asarray(angle, dtype=float)
         c, s = np.cos(ang), np.sin(ang)
-        co, so = self._cos[idx], self._sin[idx]
-        a, b = self.major[idx], self.minor[idx]
-        # Coordinates of the unit direction along the axes (angle-difference identities).
-        along = (c * co + s * so) / a
-        across = (s * co - c * so) / b
-        return 1.0 / np.sqrt(along * along + across * across)
+        a, b, cc = (q[idx] for q in self._quadratic)
+        inverse_square = np.asarray(a * (c * c))
+        inverse_square += b * (c * s)
+        inverse_square += cc * (s * s)
+        np.sqrt(inverse_square, out=inverse_square)
+        return np.divide(1.0, inverse_square, out=inverse_square)
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         return {"major": self.major, "minor": self.minor, "orientation": self.orientation}
@@ -366,7 +369,7 @@ class SplineSections(CrossSections):
         piece = np.zeros(np.broadcast_shapes(idx.shape, ang.shape), dtype=np.uint8)
         for j in range(starts.shape[-1]):                              # K comparisons
             piece += (ang >= starts[..., j]).view(np.uint8)
-        flat = idx * (starts.shape[-1] + 1) + piece
+        flat = idx.astype(np.int32) * np.int32(starts.shape[-1] + 1) + piece
         t = ang - np.take(self._extended_starts, flat)
         c = self._columns
         r = np.take(c[3], flat)

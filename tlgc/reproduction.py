@@ -19,6 +19,7 @@ from .validation import as_count, as_generator, as_points, as_scalar
 
 DEFAULT_GAMMA = 10.0     # decay constant of eq. 10: exp(-10) = 4.5e-5 of the gap is left at the end
 OUTSIDE_TOLERANCE = 1e-9
+BLOCK = 64               # reproductions per block: keeps the (B, N) temporaries in cache
 
 
 def start_coordinates(cyl: GeneralizedCylinder, starts: np.ndarray,
@@ -68,16 +69,19 @@ def reproduce(cyl: GeneralizedCylinder, starts: np.ndarray, eta_final: float | N
             f"starts: {len(bad)} start(s) lie outside the first cross-section (ratio > 1), "
             f"e.g. starts[{bad[0]}] with ratio {eta0[bad[0]]:.4g}; pass allow_outside=True "
             f"to reproduce from them anyway")
-    eta = ratio_schedule(eta0, cyl.arc_length, eta_final, gamma)
-    scale = eta * cyl.radius(np.arange(cyl.num_sections)[None, :], angle[:, None])   # (R, N)
-    along_normal = scale * np.cos(angle)[:, None]
-    along_binormal = scale * np.sin(angle)[:, None]
-    out = np.empty(scale.shape + (3,))
-    for axis in range(3):          # p = c + eta r (cos n + sin b), one coordinate at a time
-        column = out[..., axis]
-        np.multiply(along_normal, cyl.normals[:, axis], out=column)
-        column += along_binormal * cyl.binormals[:, axis]
-        column += cyl.directrix[:, axis]
+    # p = c + eta r(theta) (cos theta n + sin theta b), in cache-sized blocks of starts.
+    sections = np.arange(cyl.num_sections)[None, :]
+    basis = cyl.frames[:, 1:].transpose(1, 0, 2).reshape(2, -1)                 # (2, N*3)
+    directions = np.stack([np.cos(angle), np.sin(angle)], axis=1)                 # (R, 2)
+    out = np.empty((len(p), cyl.num_sections, 3))
+    for block in range(0, len(p), BLOCK):
+        rows = slice(block, block + BLOCK)
+        scale = cyl.radius(sections, angle[rows, None])                           # (B, N)
+        scale *= ratio_schedule(eta0[rows], cyl.arc_length, eta_final, gamma)
+        chunk = out[rows]
+        np.matmul(directions[rows], basis, out=chunk.reshape(len(scale), -1))
+        chunk *= scale[..., None]
+        chunk += cyl.directrix
     return out[0] if single else out
 
 
