@@ -1,0 +1,162 @@
+"""Demonstrations: validation, construction from unequal trajectories, resampling, DTW."""
+import numpy as np
+import pytest
+
+from scenes import Box, Demonstrations, InvalidDemonstrationsError, NOMINAL_DURATION, make_demonstrations
+from scenes.alignment import dtw_cost, dtw_path
+
+
+def smooth_path(s):
+    """A smooth 3-D curve (…,3) of the phase s in [0, 1] (metres)."""
+    return np.stack([0.2 + 0.25 * s, -0.45 + 0.2 * np.sin(2.5 * s), 0.25 + 0.1 * np.sin(6 * s) * s], axis=-1)
+
+
+def valid(M=3, T=20):
+    rng = np.random.default_rng(0)
+    return rng.normal(size=(M, T, 3)), rng.normal(size=(M, T, 3)), np.linspace(0, 1, T)
+
+
+def with_value(array, value):
+    out = np.array(array)
+    out[1, 2, 0] = value
+    return out
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda p, v, t: (with_value(p, np.nan), v, t), "positions: contains 1 NaN"),
+    (lambda p, v, t: (p, with_value(v, np.inf), t), "velocities: contains 1 NaN/inf"),
+    (lambda p, v, t: (p[:1], v[:1], t), "at least 2 demonstrations, got 1"),
+    (lambda p, v, t: (p[0], v[0], t), r"rank 3 .* got shape \(20, 3\)"),
+    (lambda p, v, t: (p[..., :2], v[..., :2], t), r"last dimension 3 .* got shape \(3, 20, 2\)"),
+    (lambda p, v, t: (p, v, t[::-1]), "strictly increasing"),
+    (lambda p, v, t: (p, v, np.r_[t[:5], t[4], t[6:]]), r"time\[5\].*<= time\[4\]"),
+    (lambda p, v, t: (p, v[:, :10], t), r"velocities: expected shape \(3, 20, 3\)"),
+    (lambda p, v, t: (p, v, t[:10]), r"time: expected shape \(20,\)"),
+    (lambda p, v, t: (p[:, :1], v[:, :1], t[:1]), "at least 2 time steps"),
+    (lambda p, v, t: ([["a"]], v, t), "positions: expected a numeric array"),
+])
+def test_invalid_arrays_raise_naming_the_problem(change, message):
+    with pytest.raises(InvalidDemonstrationsError, match=message):
+        Demonstrations(*change(*valid()))
+
+
+def test_obstacles_must_match_demonstration_count():
+    p, v, t = valid()
+    with pytest.raises(InvalidDemonstrationsError, match="one list per demonstration"):
+        Demonstrations(p, v, t, obstacles=[[Box([0, 0, 0], [1, 1, 1])]])
+    with pytest.raises(InvalidDemonstrationsError, match=r"obstacles\[1\]\[0\]"):
+        Demonstrations(p, v, t, obstacles=[[], ["box"], []])
+
+
+def test_properties_and_mean_and_translation():
+    demos = make_demonstrations("curved_reach", num_demos=4, num_points=50, dt=0.1)
+    assert (demos.M, demos.T) == (4, 50) and np.isclose(demos.dt, 0.1)
+    assert np.isclose(demos.duration, 4.9)
+    assert np.allclose(demos.mean_position(), demos.positions.mean(axis=0))
+    assert demos.states.shape == (4, 50, 6)
+    moved = demos.translated([0.1, -0.2, 0.05])
+    assert np.allclose(moved.positions - demos.positions, [0.1, -0.2, 0.05])
+    assert np.allclose(moved.velocities, demos.velocities)
+    assert np.allclose(moved.obstacles[2][0].center, demos.obstacles[2][0].center + [0.1, -0.2, 0.05])
+    with pytest.raises(InvalidDemonstrationsError, match="offset"):
+        demos.translated([1, 2])
+
+
+def test_dt_is_the_median_step_for_irregular_stamps():
+    p, v, _ = valid(T=6)
+    t = np.array([0.0, 0.16, 0.24, 0.40, 0.56, 0.72])
+    assert np.isclose(Demonstrations(p, v, t).dt, 0.16)
+
+
+def test_from_trajectories_resamples_unequal_lengths_by_phase():
+    lengths, durations = [40, 55, 70], [3.0, 4.0, 5.0]
+    trajectories = [smooth_path(np.linspace(0, 1, n)) for n in lengths]
+    times = [np.linspace(1.0, 1.0 + d, n) for n, d in zip(lengths, durations)]
+    demos = Demonstrations.from_trajectories(trajectories, times, num_points=101)
+    assert demos.positions.shape == (3, 101, 3)
+    assert np.allclose(demos.time, np.linspace(0, 4.0, 101))
+    # same curve at the same phase: all three agree with the analytic curve
+    assert np.abs(demos.positions - smooth_path(np.linspace(0, 1, 101))).max() < 1e-5
+    # velocities are the time derivative on the common (mean-duration) axis
+    s = np.linspace(0, 1, 101)
+    eps = 1e-6
+    analytic = (smooth_path(s + eps) - smooth_path(s - eps)) / (2 * eps) / 4.0
+    assert np.abs(demos.velocities - analytic).max() < 1e-3
+    assert demos.T == 101
+    default = Demonstrations.from_trajectories(trajectories)
+    assert default.T == 70 and np.isclose(default.duration, NOMINAL_DURATION)
+
+
+def test_from_trajectories_rescales_given_velocities():
+    s40, s80 = np.linspace(0, 1, 40), np.linspace(0, 1, 80)
+    eps = 1e-6
+    vel = [(smooth_path(s + eps) - smooth_path(s - eps)) / (2 * eps) / d for s, d in ((s40, 2.0), (s80, 6.0))]
+    demos = Demonstrations.from_trajectories([smooth_path(s40), smooth_path(s80)],
+                                             [np.linspace(0, 2, 40), np.linspace(0, 6, 80)],
+                                             num_points=60, velocities=vel)
+    derivative = np.gradient(demos.positions, demos.time, axis=1)
+    assert np.abs(demos.velocities - derivative)[:, 2:-2].max() < 1e-3
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(trajectories=[np.zeros((5, 3))]), "at least 2 demonstrations"),
+    (dict(trajectories=[np.zeros((5, 3)), np.zeros((5, 2))]), r"trajectories\[1\]: expected shape"),
+    (dict(trajectories=[np.zeros((5, 3)), np.full((5, 3), np.nan)]), r"trajectories\[1\]: contains"),
+    (dict(trajectories=[np.zeros((5, 3))] * 2, times=[np.arange(5.0)]), "times: expected 2"),
+    (dict(trajectories=[np.zeros((5, 3))] * 2, times=[np.arange(5.0), np.ones(5)]), r"times\[1\]"),
+    (dict(trajectories=[np.zeros((5, 3))] * 2, num_points=1), "num_points"),
+    (dict(trajectories=[np.zeros((5, 3))] * 2, velocities=[np.zeros((5, 3)), np.zeros((4, 3))]), r"velocities\[1\]"),
+])
+def test_from_trajectories_errors(kwargs, message):
+    with pytest.raises(InvalidDemonstrationsError, match=message):
+        Demonstrations.from_trajectories(**kwargs)
+
+
+def test_resample_round_trip_on_smooth_data():
+    demos = make_demonstrations("box_closing", num_demos=4, num_points=250)
+    back = demos.resample(500).resample(250)
+    assert np.allclose(back.time, demos.time)
+    assert np.abs(back.positions - demos.positions).max() < 1e-6
+    assert np.abs(back.velocities - demos.velocities).max() < 1e-6
+    assert demos.resample(500).T == 500
+    with pytest.raises(InvalidDemonstrationsError, match="T: expected an integer >= 2"):
+        demos.resample(1)
+
+
+def test_dtw_realigns_a_time_warped_copy_within_a_millimetre():
+    T = 250
+    tau = np.linspace(0, 1, T)
+    reference = smooth_path(tau)
+    warp = tau + 0.3 * np.sin(np.pi * tau) * tau          # monotone, w(0)=0, w(1)=1
+    assert np.all(np.diff(warp) > 0)
+    warped = smooth_path(warp)
+    assert np.abs(warped - reference).max() > 0.05       # clearly out of step before alignment
+    time = np.linspace(0, 10, T)
+    demos = Demonstrations(np.stack([reference, warped]), np.zeros((2, T, 3)), time)
+    aligned = demos.align_dtw(reference=0)
+    assert np.linalg.norm(aligned.positions[1] - reference, axis=-1).max() < 1e-3
+    assert np.array_equal(aligned.positions[0], reference)
+    # velocities follow the aligned positions
+    assert np.abs(aligned.velocities[1] - np.gradient(aligned.positions[1], time, axis=0))[2:-2].max() < 1e-3
+
+
+def test_dtw_cost_matches_brute_force_recursion():
+    rng = np.random.default_rng(5)
+    a, b = rng.normal(size=(7, 3)), rng.normal(size=(9, 3))
+    local = np.linalg.norm(a[:, None] - b[None], axis=-1)
+    acc = np.full((8, 10), np.inf)
+    acc[0, 0] = 0
+    for i in range(1, 8):
+        for j in range(1, 10):
+            acc[i, j] = local[i - 1, j - 1] + min(acc[i - 1, j - 1], acc[i - 1, j], acc[i, j - 1])
+    assert np.allclose(dtw_cost(a, b), acc[1:, 1:])
+    ia, ib = dtw_path(a, b)
+    assert (ia[0], ib[0], ia[-1], ib[-1]) == (0, 0, 6, 8)
+    assert np.all(np.diff(ia) >= 0) and np.all(np.diff(ib) >= 0)
+    assert np.isclose(local[ia, ib].sum(), acc[-1, -1])
+
+
+def test_align_dtw_rejects_bad_reference():
+    demos = make_demonstrations("pick_place", num_demos=3, num_points=30)
+    with pytest.raises(InvalidDemonstrationsError, match="reference"):
+        demos.align_dtw(reference=3)
