@@ -235,17 +235,20 @@ class SerialChain:
         pos = frames.origins[:, joints] + np.einsum("bpij,pj->bpi", rot, local)
         if not jacobians:
             return pos, None, None
-        moves = (np.arange(1, self.n + 1)[None, :] <= joints[:, None]).astype(float)  # (P, n)
+        moves = np.arange(1, self.n + 1)[None, :] <= joints[:, None]           # (P, n)
         angular = np.where(self.is_prismatic[:, None], 0.0, frames.axes)       # (B, n, 3)
-        w = [angular[:, None, :, c] * moves for c in range(3)]                 # (B, P, n) each
-        d = [pos[:, :, c, None] - frames.origins[:, None, 1:, c] for c in range(3)]
-        jac = np.empty(pos.shape[:2] + (3, self.n))
-        jac[:, :, 0] = w[1] * d[2] - w[2] * d[1]
-        jac[:, :, 1] = w[2] * d[0] - w[0] * d[2]
-        jac[:, :, 2] = w[0] * d[1] - w[1] * d[0]
+        # w_k x (p - o_k) = w_k x p - w_k x o_k, the second term shared by all points
+        shift = _cross(angular, frames.origins[:, 1:])
         if self.is_prismatic.any():
-            linear = np.where(self.is_prismatic[:, None], frames.axes, 0.0)    # (B, n, 3)
-            jac += linear.transpose(0, 2, 1)[:, None] * moves[None, :, None, :]
+            shift -= np.where(self.is_prismatic[:, None], frames.axes, 0.0)
+        x0, x1, x2 = (pos[:, :, c, None] for c in range(3))                    # (B, P, 1)
+        w0, w1, w2 = (angular[:, None, :, c] for c in range(3))                # (B, 1, n)
+        jac = np.empty(pos.shape[:2] + (3, self.n))
+        jac[:, :, 0] = w1 * x2 - w2 * x1
+        jac[:, :, 1] = w2 * x0 - w0 * x2
+        jac[:, :, 2] = w0 * x1 - w1 * x0
+        jac -= shift.transpose(0, 2, 1)[:, None]
+        jac *= moves[None, :, None, :]
         return pos, jac, angular
 
     @staticmethod
