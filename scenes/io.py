@@ -152,17 +152,21 @@ def _load_npz(path: Path) -> Demonstrations:
 
 
 def _load_csv(path: Path) -> Demonstrations:
-    with open(path) as handle:
-        header = tuple(c.strip() for c in handle.readline().strip().split(","))
+    try:
+        lines = path.read_text().splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DemonstrationFileError(f"{path}: not a readable text CSV file ({exc})") from None
+    header = tuple(c.strip() for c in lines[0].split(",")) if lines else ()
     if header not in (CSV_COLUMNS, CSV_COLUMNS + CSV_VELOCITY_COLUMNS):
         raise DemonstrationFileError(f"{path}: expected header {','.join(CSV_COLUMNS)}"
                                      f"[,{','.join(CSV_VELOCITY_COLUMNS)}], got {','.join(header)!r}")
+    rows = [line for line in lines[1:] if line.strip()]
+    if not rows:
+        raise DemonstrationFileError(f"{path}: no data rows after the header")
     try:
-        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        table = np.loadtxt(rows, delimiter=",", ndmin=2)
     except ValueError as exc:
         raise DemonstrationFileError(f"{path}: malformed CSV row ({exc})") from None
-    if table.size == 0:
-        raise DemonstrationFileError(f"{path}: no data rows after the header")
     if table.shape[1] != len(header):
         raise DemonstrationFileError(f"{path}: expected {len(header)} columns, got {table.shape[1]}")
     if not np.all(np.isfinite(table)):

@@ -5,8 +5,9 @@ use (x 0.1..0.5, y -0.6..-0.2, z 0.05..0.45), more than 0.2 m from the base axis
 z = 0.02. A skill is a list of nominal waypoints with a spread (m) per waypoint: each
 demonstration perturbs the waypoints with seeded Gaussian offsets of that spread (small where
 the skill is constrained), passes a cubic spline through them (knots at the nominal chord-length
-fractions) and traverses it with a minimum-jerk timing law, itself slightly warped per
-demonstration. Velocities are the exact time derivative of the positions (chain rule).
+fractions) and traverses it with a minimum-jerk timing law, itself warped per demonstration
+by w = tau + a tau (1 - tau), a uniform in [-timing, timing] (none for needle_threading, whose
+narrow middle must stay narrow step by step). Velocities are the exact time derivative of the positions (chain rule).
 """
 from __future__ import annotations
 
@@ -23,16 +24,20 @@ from .validation import as_count, as_positive
 
 @dataclass(frozen=True)
 class SkillSpec:
-    """Nominal waypoints (K,3) m, spread per waypoint (K,) m, obstacles shown with the skill."""
+    """Nominal waypoints (K,3) m, spread per waypoint (K,) m, largest timing warp ``timing``
+    (dimensionless, < 1; 0 keeps every waypoint at the same time step in all demonstrations),
+    obstacles shown with the skill."""
 
     waypoints: np.ndarray
     spread: np.ndarray
+    timing: float = 0.1
     obstacles: tuple[Obstacle, ...] = field(default_factory=tuple)
 
 
-def _spec(rows: list[tuple[float, float, float, float]], obstacles: tuple[Obstacle, ...] = ()) -> SkillSpec:
+def _spec(rows: list[tuple[float, float, float, float]], timing: float = 0.1,
+          obstacles: tuple[Obstacle, ...] = ()) -> SkillSpec:
     table = np.array(rows, dtype=float)
-    return SkillSpec(table[:, :3], table[:, 3], obstacles)
+    return SkillSpec(table[:, :3], table[:, 3], timing, obstacles)
 
 
 #: Obstacle the curved_reach demonstrations go around (also their recorded obstacle).
@@ -50,27 +55,24 @@ _SPECS: dict[str, SkillSpec] = {
     # wide start, narrow middle (the needle's eye), wide end.
     "needle_threading": _spec([(0.14, -0.55, 0.32, 0.040), (0.24, -0.46, 0.26, 0.015),
                                (0.31, -0.39, 0.22, 0.002), (0.38, -0.31, 0.25, 0.015),
-                               (0.46, -0.22, 0.33, 0.040)]),
+                               (0.46, -0.22, 0.33, 0.040)], timing=0.0),
     # pick at one place, carry over, put down at another.
     "pick_place": _spec([(0.25, -0.52, 0.30, 0.030), (0.21, -0.46, 0.17, 0.010),
                          (0.20, -0.45, 0.07, 0.003), (0.25, -0.41, 0.26, 0.015),
-                         (0.42, -0.28, 0.22, 0.010), (0.42, -0.28, 0.08, 0.003)]),
+                         (0.42, -0.28, 0.22, 0.010), (0.42, -0.28, 0.08, 0.003)], timing=0.05),
     # go around the obstacle region on the side away from the base.
     "curved_reach": _spec([(0.17, -0.53, 0.20, 0.020), (0.30, -0.52, 0.21, 0.008),
                            (0.42, -0.45, 0.21, 0.008), (0.46, -0.30, 0.20, 0.015)],
-                          (CURVED_REACH_OBSTACLE,)),
+                          obstacles=(CURVED_REACH_OBSTACLE,)),
     # press one target, then a second one.
     "two_target_press": _spec([(0.20, -0.50, 0.30, 0.030), (0.25, -0.40, 0.22, 0.010),
                                (0.25, -0.40, 0.10, 0.002), (0.32, -0.35, 0.24, 0.010),
-                               (0.40, -0.28, 0.10, 0.002), (0.42, -0.26, 0.26, 0.020)]),
+                               (0.40, -0.28, 0.10, 0.002), (0.42, -0.26, 0.26, 0.020)], timing=0.05),
 }
 
 #: Names of the synthetic skills.
 SKILLS: tuple[str, ...] = ("box_closing", "reach_from_above", "needle_threading", "pick_place",
                            "curved_reach", "two_target_press")
-
-#: Largest per-demonstration timing warp a (monotone for |a| < 1).
-_TIMING_WARP = 0.25
 
 
 def skill_spec(skill: str) -> SkillSpec:
@@ -101,7 +103,7 @@ def make_demonstrations(skill: str, num_demos: int = 6, num_points: int = 250, d
     for m in range(M):
         points = spec.waypoints + rng.normal(size=spec.waypoints.shape) * spec.spread[:, None]
         path = CubicSpline(knots, points, axis=0, bc_type="natural")
-        a = rng.uniform(-_TIMING_WARP, _TIMING_WARP)
+        a = rng.uniform(-spec.timing, spec.timing)
         w = tau + a * tau * (1.0 - tau)              # monotone warp of [0,1]
         dw = 1.0 + a * (1.0 - 2.0 * tau)
         s = w**3 * (10.0 - 15.0 * w + 6.0 * w**2)    # minimum-jerk phase, rest to rest
