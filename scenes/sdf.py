@@ -17,7 +17,7 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 
 from .errors import InvalidArgumentError
-from .validation import as_array, as_points, as_positive
+from .validation import as_points, as_positive
 
 if TYPE_CHECKING:
     from .scene import Scene

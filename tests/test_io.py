@@ -5,7 +5,8 @@ import scipy.io
 from scipy.integrate import cumulative_trapezoid
 
 from scenes import (NOMINAL_DURATION, Box, DemonstrationFileError, Demonstrations, load_demonstrations,
-                    make_demonstrations, save_csv, shared_dataset)
+                    make_demonstrations, save_csv)
+from scenes import shared_dataset as find_shared_dataset
 
 
 @pytest.mark.parametrize("name, shape", [("box_closing", (6, 250, 3)), ("needle_threading", (4, 1500, 3)),
@@ -150,15 +151,15 @@ def test_malformed_mat_contents_raise(tmp_path):
 def test_shared_dataset_location(tmp_path, monkeypatch):
     monkeypatch.setenv("SKILLPLAN_DATASETS", str(tmp_path))
     (tmp_path / "mine.mat").write_bytes(b"")
-    assert shared_dataset("mine") == tmp_path / "mine.mat"
-    assert shared_dataset("mine.mat") == tmp_path / "mine.mat"
-    assert shared_dataset("definitely_not_here") is None
+    assert find_shared_dataset("mine") == tmp_path / "mine.mat"
+    assert find_shared_dataset("mine.mat") == tmp_path / "mine.mat"
+    assert find_shared_dataset("definitely_not_here") is None
     monkeypatch.delenv("SKILLPLAN_DATASETS")
     from pathlib import Path
 
     import scenes
     expected = Path(scenes.__file__).resolve().parents[2] / "shared" / "datasets" / "box_closing.mat"
-    assert shared_dataset("box_closing") == (expected if expected.is_file() else None)
+    assert find_shared_dataset("box_closing") == (expected if expected.is_file() else None)
 
 
 def test_demonstrations_constructed_directly_round_trip_through_npz(tmp_path):
