@@ -66,7 +66,8 @@ class SignedDistanceField:
         takes Euclidean distance transforms outside and inside, shifted by half a cell so the
         zero crossing lies between occupied and free nodes (error about half a cell);
         ``exact=True`` evaluates the analytic distance at every node (cost grows with the number
-        of obstacles). An obstacle too thin to contain a node marks the node nearest its centre.
+        of obstacles). An obstacle too thin to contain a node marks the node nearest its centre;
+        when no node is occupied (obstacles outside the bounds) the exact mode is used.
 
         Accuracy at 1 cm (tests/test_sdf.py): both modes stay within one cell of the analytic
         distance inside the grid; near curved surfaces the EDT mode's staircase tilts the
@@ -94,9 +95,9 @@ class SignedDistanceField:
             field._empty = False
             return field
         occupied = field._rasterise(scene)
-        if not occupied.any():
-            return field
-        if occupied.all():
+        if not occupied.any() or occupied.all():
+            # every obstacle lies outside the grid (or fills it): nothing for a transform to
+            # measure from, so sample the analytic distance instead
             return cls.from_scene(scene, h, exact=True)
         outside = distance_transform_edt(~occupied, sampling=h)
         inside = field._inside_distance(occupied)

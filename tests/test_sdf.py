@@ -148,6 +148,13 @@ def test_thin_obstacle_between_nodes_is_not_lost():
     assert d < H
 
 
+def test_obstacle_outside_the_grid_still_gives_its_distance():
+    far = Sphere([1.0, -0.3, 0.2], 0.1)
+    sdf = Scene([far], bounds=BOUNDS).sdf(H)
+    pts = np.random.default_rng(8).uniform(BOUNDS[0], BOUNDS[1], (200, 3))
+    assert np.abs(sdf.distance(pts) - far.distance(pts)).max() < 1e-3
+
+
 def test_several_obstacles_take_the_minimum():
     scene = Scene(list(OBSTACLES.values())[:2] + [Sphere([0.1, -0.1, 0.1], 0.05)], bounds=BOUNDS)
     sdf = scene.sdf(H)
