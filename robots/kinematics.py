@@ -60,6 +60,11 @@ class JointFrames:
     axes: np.ndarray
 
 
+_LEVI_CIVITA = np.zeros((3, 3, 3))
+_LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
+_LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
+
+
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product along the last axis with broadcasting (faster than np.cross for small arrays)."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
@@ -237,17 +242,19 @@ class SerialChain:
             return pos, None, None
         moves = np.arange(1, self.n + 1)[None, :] <= joints[:, None]           # (P, n)
         angular = np.where(self.is_prismatic[:, None], 0.0, frames.axes)       # (B, n, 3)
-        # w_k x (p - o_k) = w_k x p - w_k x o_k, the second term shared by all points
+        # column k = w_k x p - w_k x o_k (+ axis for a prismatic joint): one batched product
+        # [p, 1] (B, P, 4) @ cross-product matrices (B, 4, 3n), few temporaries
         shift = _cross(angular, frames.origins[:, 1:])
         if self.is_prismatic.any():
             shift -= np.where(self.is_prismatic[:, None], frames.axes, 0.0)
-        x0, x1, x2 = (pos[:, :, c, None] for c in range(3))                    # (B, P, 1)
-        w0, w1, w2 = (angular[:, None, :, c] for c in range(3))                # (B, 1, n)
-        jac = np.empty(pos.shape[:2] + (3, self.n))
-        jac[:, :, 0] = w1 * x2 - w2 * x1
-        jac[:, :, 1] = w2 * x0 - w0 * x2
-        jac[:, :, 2] = w0 * x1 - w1 * x0
-        jac -= shift.transpose(0, 2, 1)[:, None]
+        B, P = pos.shape[:2]
+        factors = np.empty((B, 4, 3, self.n))
+        factors[:, :3] = np.einsum("ijl,bkj->blik", _LEVI_CIVITA, angular)   # (w x p)_i = eps_ijl w_j p_l
+        factors[:, 3] = -shift.transpose(0, 2, 1)
+        homogeneous = np.empty((B, P, 4))
+        homogeneous[:, :, :3] = pos
+        homogeneous[:, :, 3] = 1.0
+        jac = (homogeneous @ factors.reshape(B, 4, 3 * self.n)).reshape(B, P, 3, self.n)
         jac *= moves[None, :, None, :]
         return pos, jac, angular
 
