@@ -50,8 +50,8 @@ def _position_jacobian(robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """End-effector positions (B, 3) and Jacobians (B, 3, n) for validated q (B, n)."""
     att = robot.attachment(robot.end_effector)
     frames = robot.chain.joint_frames(q)
-    pos, jac, _ = robot.chain.points(frames, np.array([att.joint]), att.translation[None], True)
-    return pos[:, 0], jac[:, 0]
+    pos, columns, _ = robot.chain.point(frames, att.joint, att.translation, True)
+    return pos, columns.transpose(0, 2, 1)
 
 
 def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float, max_iter: int,

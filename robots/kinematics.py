@@ -226,6 +226,22 @@ class SerialChain:
                 origins[:, k + 1] = origin
         return JointFrames(rotations, origins, rotations[:, 1:, :, 2])
 
+    def point(self, frames: JointFrames, joint: int, local: np.ndarray,
+              jacobians: bool) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """Position (B, 3) of one point fixed to chain joint `joint` (0 = base) at `local` (3,) in
+        that joint's axis-aligned frame, its Jacobian columns (B, n, 3) (transposed Jacobian) and
+        the angular joint axes (B, n, 3); both None without jacobians. Layout suited to
+        velocity_and_derivative; for many points use `points`."""
+        pos = frames.origins[:, joint] + frames.rotations[:, joint] @ local
+        if not jacobians:
+            return pos, None, None
+        angular = np.where(self.is_prismatic[:, None], 0.0, frames.axes)       # (B, n, 3)
+        columns = _cross(angular, pos[:, None] - frames.origins[:, 1:])
+        if self.is_prismatic.any():
+            columns += np.where(self.is_prismatic[:, None], frames.axes, 0.0)
+        columns[:, joint:] = 0.0                                               # joints after the point
+        return pos, columns, angular
+
     def points(self, frames: JointFrames, joints: np.ndarray, local: np.ndarray,
                jacobians: bool) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """Positions of P points fixed to chain joints, and their Jacobians.

@@ -179,8 +179,8 @@ class Robot:
         """End-effector position (..., 3) [m] in the base frame for q (..., n)."""
         flat, lead = self._batch(q, "q")
         frames = self.chain.joint_frames(flat)
-        pos, _, _ = self.chain.points(frames, np.array([self._ee.joint]), self._ee.translation[None], False)
-        return pos[:, 0].reshape(lead + (3,))
+        pos, _, _ = self.chain.point(frames, self._ee.joint, self._ee.translation, False)
+        return pos.reshape(lead + (3,))
 
     def ee_kinematics(self, q, qdot=None, jacobians: bool = True) -> EndEffectorKinematics:
         """End-effector position, linear velocity J(q) qdot and their Jacobians, for q (..., n).
@@ -196,16 +196,13 @@ class Robot:
             if lead_dot != lead:
                 raise RobotError(f"qdot: expected shape {lead + (self.n,)} like q, got {lead_dot + (self.n,)}")
         frames = self.chain.joint_frames(flat)
-        pos, jac, angular = self.chain.points(
-            frames, np.array([self._ee.joint]), self._ee.translation[None], True)
-        jacobian = jac[:, 0]                                                # (B, 3, n)
-        velocity, velocity_jacobian = self.chain.velocity_and_derivative(
-            jacobian.transpose(0, 2, 1), angular, qdot_flat)
+        pos, columns, angular = self.chain.point(frames, self._ee.joint, self._ee.translation, True)
+        velocity, velocity_jacobian = self.chain.velocity_and_derivative(columns, angular, qdot_flat)
         shape3, shape3n = lead + (3,), lead + (3, self.n)
         if not jacobians:
-            return EndEffectorKinematics(pos[:, 0].reshape(shape3), velocity.reshape(shape3), None, None)
-        return EndEffectorKinematics(pos[:, 0].reshape(shape3), velocity.reshape(shape3),
-                                     jacobian.reshape(shape3n),
+            return EndEffectorKinematics(pos.reshape(shape3), velocity.reshape(shape3), None, None)
+        return EndEffectorKinematics(pos.reshape(shape3), velocity.reshape(shape3),
+                                     columns.transpose(0, 2, 1).reshape(shape3n),
                                      velocity_jacobian.reshape(shape3n))
 
     def sphere_attachments(self) -> tuple[np.ndarray, np.ndarray]:
@@ -240,8 +237,8 @@ class Robot:
         """Points to draw the arm, (..., L, 3) [m]: base origin, each joint origin, end effector (L = n + 2)."""
         flat, lead = self._batch(q, "q")
         frames = self.chain.joint_frames(flat)
-        ee, _, _ = self.chain.points(frames, np.array([self._ee.joint]), self._ee.translation[None], False)
-        points = np.concatenate((frames.origins, ee), axis=1)
+        ee, _, _ = self.chain.point(frames, self._ee.joint, self._ee.translation, False)
+        points = np.concatenate((frames.origins, ee[:, None]), axis=1)
         return points.reshape(lead + (self.n + 2, 3))
 
     def frame_position(self, q, frame: str) -> np.ndarray:
@@ -249,8 +246,8 @@ class Robot:
         att = self.attachment(frame)
         flat, lead = self._batch(q, "q")
         frames = self.chain.joint_frames(flat)
-        pos, _, _ = self.chain.points(frames, np.array([att.joint]), att.translation[None], False)
-        return pos[:, 0].reshape(lead + (3,))
+        pos, _, _ = self.chain.point(frames, att.joint, att.translation, False)
+        return pos.reshape(lead + (3,))
 
     # ------------------------------------------------------ inverse kinematics
     def ik(self, target, seed=None, tol: float = 1e-4, max_iter: int = 200, restarts: int = 8,
