@@ -52,8 +52,7 @@ class SignedDistanceField:
 
     def grid_points(self) -> np.ndarray:
         """Coordinates (nx,ny,nz,3) of every grid node."""
-        axes = [self.origin[a] + np.arange(n) * self.cell_size for a, n in enumerate(self.shape)]
-        return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+        return self._node_coordinates((slice(None),) * 3)
 
     @classmethod
     def from_scene(cls, scene: "Scene", cell_size: float = DEFAULT_CELL_SIZE,
@@ -78,32 +77,27 @@ class SignedDistanceField:
             raise InvalidArgumentError(f"cell_size: expected at most {DEFAULT_CELL_SIZE} m, got {cell_size}")
         lo, hi = scene.bounds
         shape = tuple(int(n) for n in np.ceil((hi - lo) / h - 1e-9).astype(int) + 1)
-        field = cls(np.full(shape, np.inf), lo, h)
+        grid = cls(np.full(shape, np.inf), lo, h)
         if not scene.obstacles:
-            return field
-        if exact:
-            axes = [lo[a] + np.arange(n) * h for a, n in enumerate(shape)]
-            yz = np.stack(np.meshgrid(axes[1], axes[2], indexing="ij"), axis=-1)
+            return grid
+        occupied = None if exact else grid._rasterise(scene)
+        if occupied is None or not occupied.any() or occupied.all():
+            # exact mode, or every obstacle outside the grid (or filling it): nothing for a
+            # transform to measure from, so sample the analytic distance at every node
             values = np.empty(shape)
-            chunk = max(1, 200_000 // (shape[1] * shape[2]))
-            for start in range(0, shape[0], chunk):
-                xs = axes[0][start:start + chunk]
-                pts = np.concatenate([np.broadcast_to(xs[:, None, None, None], (len(xs), *yz.shape[:2], 1)),
-                                      np.broadcast_to(yz, (len(xs), *yz.shape))], axis=-1)
-                values[start:start + chunk] = scene.distance(pts)
-            field.values = values
-            field._empty = False
-            return field
-        occupied = field._rasterise(scene)
-        if not occupied.any() or occupied.all():
-            # every obstacle lies outside the grid (or fills it): nothing for a transform to
-            # measure from, so sample the analytic distance instead
-            return cls.from_scene(scene, h, exact=True)
+            rows = max(1, 200_000 // (shape[1] * shape[2]))
+            for start in range(0, shape[0], rows):
+                block = (slice(start, min(start + rows, shape[0])), slice(None), slice(None))
+                values[block] = scene.distance(grid._node_coordinates(block))
+            return cls(values, lo, h)
         outside = distance_transform_edt(~occupied, sampling=h)
-        inside = field._inside_distance(occupied)
-        field.values = np.where(occupied, -(inside - 0.5 * h), outside - 0.5 * h)
-        field._empty = False
-        return field
+        inside = grid._inside_distance(occupied)
+        return cls(np.where(occupied, -(inside - 0.5 * h), outside - 0.5 * h), lo, h)
+
+    def _node_coordinates(self, block: tuple[slice, slice, slice]) -> np.ndarray:
+        """Coordinates (bx,by,bz,3) of the nodes in a block of index slices."""
+        axes = [self.origin[a] + np.arange(n)[block[a]] * self.cell_size for a, n in enumerate(self.shape)]
+        return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
 
     def _rasterise(self, scene: "Scene") -> np.ndarray:
         """Boolean (nx,ny,nz) occupancy of the nodes, tested per obstacle on its bounding block."""
@@ -111,14 +105,12 @@ class SignedDistanceField:
         occupied = np.zeros(self.shape, dtype=bool)
         for ob in scene.obstacles:
             box = ob.aabb()
-            first = np.clip(np.floor((box[0] - self.origin) / h).astype(int), 0, shape - 1)
-            last = np.clip(np.ceil((box[1] - self.origin) / h).astype(int), 0, shape - 1)
             if np.any(box[1] < self.origin) or np.any(box[0] > self.bounds[1]):
                 continue
-            axes = [self.origin[a] + np.arange(first[a], last[a] + 1) * h for a in range(3)]
-            pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-            inside = ob.distance(pts) <= 0.0
+            first = np.clip(np.floor((box[0] - self.origin) / h).astype(int), 0, shape - 1)
+            last = np.clip(np.ceil((box[1] - self.origin) / h).astype(int), 0, shape - 1)
             block = tuple(slice(first[a], last[a] + 1) for a in range(3))
+            inside = ob.distance(self._node_coordinates(block)) <= 0.0
             centre = np.rint((0.5 * (box[0] + box[1]) - self.origin) / h).astype(int)
             if not inside.any() and np.all((centre >= 0) & (centre < shape)):
                 occupied[tuple(centre)] = True
