@@ -243,19 +243,18 @@ class SerialChain:
         return pos, columns, angular
 
     def points(self, frames: JointFrames, joints: np.ndarray, local: np.ndarray,
-               jacobians: bool) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+               jacobians: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """Positions of P points fixed to chain joints, and their Jacobians.
 
         joints (P,) chain joint index of each point (0 = base); local (P, 3) point in that joint's
-        axis-aligned frame. Returns positions (B, P, 3), Jacobians (B, P, 3, n) = d position / d q
-        (or None) and the angular joint axes (B, n, 3) (zero for prismatic joints; None without
-        jacobians). Column k is w_k x (p - o_k) for a revolute joint and the axis for a prismatic
+        axis-aligned frame. Returns positions (B, P, 3) and Jacobians (B, P, 3, n) = d position / d q
+        (or None). Column k is w_k x (p - o_k) for a revolute joint and the axis for a prismatic
         one, and zero unless the point moves with joint k.
         """
         rot = frames.rotations[:, joints]                                      # (B, P, 3, 3)
         pos = frames.origins[:, joints] + np.einsum("bpij,pj->bpi", rot, local)
         if not jacobians:
-            return pos, None, None
+            return pos, None
         moves = np.arange(1, self.n + 1)[None, :] <= joints[:, None]           # (P, n)
         angular = np.where(self.is_prismatic[:, None], 0.0, frames.axes)       # (B, n, 3)
         # column k = w_k x p - w_k x o_k (+ axis for a prismatic joint): one batched product
@@ -272,7 +271,7 @@ class SerialChain:
         homogeneous[:, :, 3] = 1.0
         jac = (homogeneous @ factors.reshape(B, 4, 3 * self.n)).reshape(B, P, 3, self.n)
         jac *= moves[None, :, None, :]
-        return pos, jac, angular
+        return pos, jac
 
     @staticmethod
     def velocity_and_derivative(columns: np.ndarray, angular: np.ndarray,

@@ -226,7 +226,7 @@ class Robot:
         flat, lead = self._batch(q, "q")
         joints, local = self.sphere_attachments()
         frames = self.chain.joint_frames(flat)
-        pos, jac, _ = self.chain.points(frames, joints, local, jacobians)
+        pos, jac = self.chain.points(frames, joints, local, jacobians)
         S = len(joints)
         centres = pos.reshape(lead + (S, 3))
         if not jacobians:
