@@ -45,6 +45,30 @@ class Shape:
         local = _SAMPLERS[self.kind](self, count, rng)
         return local @ self.rotation.T + self.translation
 
+    def extreme_points(self) -> np.ndarray:
+        """Sharp edges of a primitive (F, 3), link frame: box corners and edges, cylinder rims;
+        (0, 3) for smooth shapes and meshes (dense surface samples stand in for their vertices).
+        Enclosing them besides the surface samples makes covers exact at corners."""
+        if self.kind == "box":
+            t = np.linspace(-1.0, 1.0, 17)
+            signs = np.array([[a, b] for a in (-1.0, 1.0) for b in (-1.0, 1.0)])
+            edges = []
+            for axis in range(3):
+                others = [i for i in range(3) if i != axis]
+                edge = np.zeros((4, len(t), 3))
+                edge[:, :, axis] = t
+                edge[:, :, others] = signs[:, None, :]
+                edges.append(edge.reshape(-1, 3))
+            local = np.concatenate(edges) * np.array(self.size)
+        elif self.kind == "cylinder":
+            angle = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
+            radius, half_length = self.size
+            rim = np.column_stack([radius * np.cos(angle), radius * np.sin(angle), np.full(64, half_length)])
+            local = np.vstack([rim, rim * [1.0, 1.0, -1.0]])
+        else:
+            local = np.zeros((0, 3))
+        return local @ self.rotation.T + self.translation
+
 
 @dataclass(frozen=True)
 class LinkSurface:
@@ -65,6 +89,10 @@ class LinkSurface:
         counts = rng.multinomial(count, areas / areas.sum()) if areas.sum() > 0 else np.zeros(len(areas), int)
         parts = [shape.sample_surface(int(k), rng) for shape, k in zip(self.shapes, counts) if k > 0]
         return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+    def extreme_points(self) -> np.ndarray:
+        """Extreme points (F, 3) of all shapes (see Shape.extreme_points), link frame."""
+        return np.concatenate([shape.extreme_points() for shape in self.shapes])
 
 
 def link_frame_name(model: pin.Model, joint_id: int) -> str:

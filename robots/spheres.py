@@ -1,13 +1,15 @@
 """Fit collision spheres to a URDF arm's collision geometry, and measure how well they cover it.
 
 Fitting, per moving link (geometry grouped as in `robots.collision_geometry`): sample the surface
-area-weighted, then for k spheres run a k-centre Lloyd iteration (assign each point to the sphere
-whose surface it is deepest inside, replace each sphere by the smallest ball enclosing its points)
-from a principal-axis start and a few farthest-point starts, keeping the smallest total volume.
-Every sample point ends inside its sphere grown by `inflation`, so each radius is the enclosing
-radius minus `inflation`. Spheres are handed out one at a time to the link whose total sphere
-volume drops most, until `max_spheres` is reached or no link gains more than `min_gain` of the
-total volume.
+area-weighted and add its sharp edges (box edges, cylinder rims); for k spheres run a k-centre
+Lloyd iteration (assign each point to the sphere whose surface it is deepest inside, replace each
+sphere by the smallest ball enclosing its points) from a principal-axis start, a warm start (the
+k-1 fit plus the farthest point) and a few farthest-point starts; keep the smallest total volume.
+Each point then lies inside its sphere grown by `inflation`, so a radius is the enclosing radius
+minus `inflation`. Spheres are handed out one at a time to the link whose total sphere volume
+drops most, until `max_spheres` is reached or no link gains more than `min_gain` of the total
+volume. Finally a fresh surface sample grows each sphere over the points it misses (closing the
+gaps between fitting samples).
 
 Regenerate the built-in sphere files with ``python -m robots.spheres --robot jaco`` (and ``--robot sawyer``);
 any URDF: ``python -m robots.spheres --urdf PATH --out FILE.json [--package-dir D]``.
@@ -213,7 +215,8 @@ def fit_spheres(model: pin.Model, collision_model: pin.GeometryModel, links: Seq
         raise CollisionGeometryError(
             f"max_spheres: {max_spheres} is fewer than the {len(surfaces)} links with collision geometry "
             f"({', '.join(s.link_name for s in surfaces)}); each needs at least one sphere")
-    points = [surface.sample_surface(samples_per_link, generator) for surface in surfaces]
+    points = [np.vstack([surface.sample_surface(samples_per_link, generator), surface.extreme_points()])
+              for surface in surfaces]
     seeds = generator.integers(0, 2**32, size=len(surfaces))
 
     def fit(index: int, k: int, previous: _LinkFit | None) -> _LinkFit:

@@ -1,0 +1,154 @@
+"""Sphere fitting and coverage: analytic single shapes, the Jaco and Sawyer, the built-in sphere files."""
+from __future__ import annotations
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+from synthetic_arms import TIP_PLACEMENT, builtin_models, one_link_model
+
+from robots import registry
+from robots.errors import CollisionGeometryError, RobotError, UnknownFrameError
+from robots.sphere_model import SphereModel, load_sphere_file
+from robots.spheres import enclosing_ball, fit_spheres, main, sphere_coverage
+
+BOX_PLACEMENT = pin.SE3(pin.utils.rpyToMatrix(0.2, 0.5, -0.3), np.array([0.1, 0.0, 0.25]))
+
+
+def _box_model():
+    return one_link_model({"box": (coal.Box(0.08, 0.1, 0.5), BOX_PLACEMENT)})
+
+
+def test_enclosing_ball_matches_analytic_cases():
+    rng = np.random.default_rng(0)
+    directions = rng.standard_normal((500, 3))
+    on_sphere = 0.3 * directions / np.linalg.norm(directions, axis=1, keepdims=True) + [1.0, -2.0, 0.5]
+    centre, radius = enclosing_ball(on_sphere)
+    np.testing.assert_allclose(centre, [1.0, -2.0, 0.5], atol=1e-6)
+    assert radius == pytest.approx(0.3, abs=1e-9)
+    centre, radius = enclosing_ball(np.array([[0.0, 0.0, 0.0], [0.2, 0.0, 0.0]]))
+    np.testing.assert_allclose(centre, [0.1, 0.0, 0.0], atol=1e-9)
+    assert radius == pytest.approx(0.1)
+    corners = np.array([[x, y, z] for x in (0, 0.1) for y in (0, 0.2) for z in (0, 0.4)])  # box: half diagonal
+    cloud = np.vstack([corners, rng.uniform(0, 1, (300, 3)) * [0.1, 0.2, 0.4]])
+    centre, radius = enclosing_ball(cloud)
+    np.testing.assert_allclose(centre, [0.05, 0.1, 0.2], atol=1e-6)
+    assert radius == pytest.approx(0.5 * np.sqrt(0.01 + 0.04 + 0.16), abs=1e-7)
+
+
+def test_single_sphere_geometry_is_fitted_by_itself():
+    placement = pin.SE3(np.eye(3), np.array([0.02, -0.03, 0.2]))
+    model, geometry = one_link_model({"ball": (coal.Sphere(0.06), placement)})
+    spheres = fit_spheres(model, geometry, inflation=0.01, rng=1)
+    assert spheres.count == 1 and spheres.link_names == ("link1",)
+    np.testing.assert_allclose(spheres.centres[0], placement.translation, atol=1e-3)
+    assert spheres.radii[0] == pytest.approx(0.05, abs=1e-3)  # grown by 1 cm it is the ball again
+
+
+def test_box_on_one_link_is_covered_with_few_compact_spheres():
+    model, geometry = _box_model()
+    spheres = fit_spheres(model, geometry, max_spheres=40, inflation=0.01, rng=0)
+    report = sphere_coverage(model, geometry, spheres, inflation=0.01, samples=20000, rng=123)
+    assert 2 <= spheres.count <= 40
+    assert report.coverage >= 0.99 and report.link_names == ("link1",)
+    assert report.max_gap < 0.005
+    # compact: each sphere smaller than the box's half diagonal, and the union hugs the box
+    assert report.max_radius < 0.5 * np.linalg.norm([0.08, 0.1, 0.5])
+    assert report.mean_overshoot < 0.03
+    # centres lie inside the box
+    local = (spheres.centres - BOX_PLACEMENT.translation) @ BOX_PLACEMENT.rotation
+    assert np.all(np.abs(local) <= np.array([0.04, 0.05, 0.25]) + 1e-9)
+
+
+def test_fitting_is_deterministic_for_a_seed():
+    model, geometry = _box_model()
+    first = fit_spheres(model, geometry, rng=7)
+    second = fit_spheres(model, geometry, rng=np.random.default_rng(7))
+    np.testing.assert_array_equal(first.centres, second.centres)
+    np.testing.assert_array_equal(first.radii, second.radii)
+
+
+def test_sphere_budget_and_inflation_are_respected():
+    model, geometry = _box_model()
+    one = fit_spheres(model, geometry, max_spheres=1, inflation=0.0, rng=0)
+    assert one.count == 1
+    assert one.radii[0] == pytest.approx(0.5 * np.linalg.norm([0.08, 0.1, 0.5]), rel=0.01)
+    assert sphere_coverage(model, geometry, one, inflation=0.0).coverage == 1.0
+    strict = fit_spheres(model, geometry, max_spheres=3, inflation=0.0, rng=0)
+    assert strict.count <= 3
+    assert sphere_coverage(model, geometry, strict, inflation=0.0, rng=5).coverage >= 0.99
+
+
+def test_coverage_accepts_spheres_on_welded_frames():
+    model, geometry = _box_model()
+    spheres = fit_spheres(model, geometry, rng=0)
+    tip = model.frames[model.getFrameId("tip")].placement
+    on_tip = SphereModel(("tip",) * spheres.count, (spheres.centres - tip.translation) @ tip.rotation, spheres.radii)
+    direct = sphere_coverage(model, geometry, spheres, rng=4)
+    moved = sphere_coverage(model, geometry, on_tip, rng=4)
+    assert moved.coverage == pytest.approx(direct.coverage)
+    assert moved.max_gap == pytest.approx(direct.max_gap, abs=1e-12)
+    misplaced = SphereModel(spheres.link_names, spheres.centres + 1.0, spheres.radii)
+    assert sphere_coverage(model, geometry, misplaced).coverage == 0.0
+
+
+def test_tip_geometry_gets_spheres_on_the_link():
+    model, geometry = one_link_model({}, tip_shape=coal.Sphere(0.03))
+    spheres = fit_spheres(model, geometry, rng=0)
+    assert spheres.link_names == ("link1",)
+    np.testing.assert_allclose(spheres.centres[0], TIP_PLACEMENT.translation, atol=1e-3)
+
+
+def test_bad_arguments_raise_clear_errors():
+    model, geometry = _box_model()
+    for kwargs, message in [(dict(inflation=-0.01), "inflation: expected a finite number >= 0"),
+                            (dict(inflation=float("nan")), "inflation"),
+                            (dict(max_spheres=0), "max_spheres: expected an integer >= 1"),
+                            (dict(rng="seed"), "rng: expected a numpy Generator")]:
+        with pytest.raises(CollisionGeometryError, match=message):
+            fit_spheres(model, geometry, **kwargs)
+    two_links = one_link_model({"box": (coal.Box(0.1, 0.1, 0.1), pin.SE3.Identity())}, base_shape=coal.Sphere(0.1))
+    with pytest.raises(CollisionGeometryError, match="max_spheres: 1 is fewer than the 2 links"):
+        fit_spheres(*two_links, links=["base", "link1"], max_spheres=1)
+    with pytest.raises(UnknownFrameError, match="spheres.link_names: unknown frame 'elbow'"):
+        sphere_coverage(model, geometry, SphereModel(("elbow",), np.zeros((1, 3)), np.ones(1)))
+    with pytest.raises(RobotError, match="spheres: expected a SphereModel"):
+        sphere_coverage(model, geometry, {"radii": [1.0]})
+
+
+@pytest.mark.parametrize("name", ["jaco", "sawyer"])
+def test_builtin_robots_are_covered_by_at_most_40_spheres(name):
+    model, geometry = builtin_models(name)
+    spheres = fit_spheres(model, geometry, max_spheres=40, inflation=0.01, rng=0)
+    report = sphere_coverage(model, geometry, spheres, inflation=0.01, samples=20000, rng=99)
+    assert spheres.count <= 40
+    assert report.coverage >= 0.99
+    assert np.all(report.link_coverage >= 0.98)
+    assert report.max_radius < 0.09 and report.mean_overshoot < 0.015
+
+
+@pytest.mark.parametrize("name", ["jaco", "sawyer"])
+def test_builtin_sphere_files_cover_their_robot(name):
+    path = registry.sphere_override_path(name)
+    if not path.is_file():
+        pytest.skip(f"{path} not generated (python -m robots.spheres --robot {name})")
+    model, geometry = builtin_models(name)
+    spheres = load_sphere_file(path)
+    report = sphere_coverage(model, geometry, spheres, inflation=0.01, samples=20000, rng=2024)
+    assert spheres.count <= 40 and report.coverage >= 0.99
+
+
+def test_command_line_writes_a_loadable_sphere_file(tmp_path, capsys):
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text("""<robot name="arm">
+  <link name="base"/>
+  <link name="upper"><collision><origin xyz="0 0 0.2"/><geometry><cylinder radius="0.04" length="0.4"/>
+    </geometry></collision></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+</robot>""")
+    out = tmp_path / "arm.json"
+    assert main(["--urdf", str(urdf), "--out", str(out), "--max-spheres", "8"]) == 0
+    spheres = load_sphere_file(out)
+    assert set(spheres.link_names) == {"upper"} and 1 <= spheres.count <= 8
+    assert "coverage" in capsys.readouterr().out
