@@ -6,8 +6,10 @@ z = 0.02. A skill is a list of nominal waypoints with a spread (m) per waypoint:
 demonstration perturbs the waypoints with seeded Gaussian offsets of that spread (small where
 the skill is constrained), passes a cubic spline through them (knots at the nominal chord-length
 fractions) and traverses it with a minimum-jerk timing law, itself warped per demonstration
-by w = tau + a tau (1 - tau), a uniform in [-timing, timing] (none for needle_threading, whose
-narrow middle must stay narrow step by step). Velocities are the exact time derivative of the positions (chain rule).
+by w = tau + a tau (1 - tau), a uniform in [-timing, timing]. The skills of the TLGC
+experiments (needle_threading, pick_place, curved_reach) have no timing warp: like the TLGC
+reference's smoothData they come phase-aligned, so a narrow part stays narrow step by step and
+cross-sections taken at equal indices do not overlap near the resting ends. Velocities are the exact time derivative of the positions (chain rule).
 """
 from __future__ import annotations
 
@@ -59,11 +61,11 @@ _SPECS: dict[str, SkillSpec] = {
     # pick at one place, carry over, put down at another.
     "pick_place": _spec([(0.25, -0.52, 0.30, 0.030), (0.21, -0.46, 0.17, 0.010),
                          (0.20, -0.45, 0.07, 0.003), (0.25, -0.41, 0.26, 0.015),
-                         (0.42, -0.28, 0.22, 0.010), (0.42, -0.28, 0.08, 0.003)], timing=0.05),
+                         (0.42, -0.28, 0.22, 0.010), (0.42, -0.28, 0.08, 0.003)], timing=0.0),
     # go around the obstacle region on the side away from the base.
     "curved_reach": _spec([(0.17, -0.53, 0.20, 0.020), (0.30, -0.52, 0.21, 0.008),
                            (0.42, -0.45, 0.21, 0.008), (0.46, -0.30, 0.20, 0.015)],
-                          obstacles=(CURVED_REACH_OBSTACLE,)),
+                          timing=0.0, obstacles=(CURVED_REACH_OBSTACLE,)),
     # press one target, then a second one.
     "two_target_press": _spec([(0.20, -0.50, 0.30, 0.030), (0.25, -0.40, 0.22, 0.010),
                                (0.25, -0.40, 0.10, 0.002), (0.32, -0.35, 0.24, 0.010),
