@@ -160,3 +160,16 @@ def test_align_dtw_rejects_bad_reference():
     demos = make_demonstrations("pick_place", num_demos=3, num_points=30)
     with pytest.raises(InvalidDemonstrationsError, match="reference"):
         demos.align_dtw(reference=3)
+
+
+def test_dtw_reduces_timing_spread_of_warped_demonstrations():
+    demos = make_demonstrations("box_closing", num_demos=5, num_points=150)
+    aligned = demos.align_dtw(reference=2)
+
+    def mismatch(d):
+        return np.linalg.norm(d.positions - d.positions[2], axis=-1).mean()
+
+    assert mismatch(aligned) < 0.9 * mismatch(demos)
+    assert np.array_equal(aligned.positions[2], demos.positions[2])
+    # start and end stay where they were (the warp is monotone and covers the whole demo)
+    assert np.allclose(aligned.positions[:, [0, -1]], demos.positions[:, [0, -1]], atol=1e-3)
