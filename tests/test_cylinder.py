@@ -104,6 +104,30 @@ def test_containment_recovers_section_angle_and_ratio(synthetic, kind):
     np.testing.assert_allclose(c.distance, c.ratio * c.radius, rtol=1e-12)
 
 
+@pytest.mark.parametrize("dataset", ["needle_threading", "pick_place"])
+def test_containment_on_fat_real_cylinders_finds_points_inside(shared_dataset, dataset):
+    # Where several section planes pass through a point, one that holds it inside wins.
+    cyl = fit_cylinder(load_smooth_data(shared_dataset(dataset)), "spline")
+    rng = np.random.default_rng(8)
+    index = rng.integers(0, cyl.num_sections, 3000)
+    angle = rng.uniform(0, 2 * np.pi, 3000)
+    ratio = rng.uniform(0.0, 0.999, 3000)
+    c = cyl.containment(local_points(cyl, index, angle, ratio))
+    assert c.inside.all()
+    assert np.mean(c.index == index) > 0.95
+    np.testing.assert_allclose(c.ratio[c.index == index], ratio[c.index == index], atol=1e-9)
+
+
+def test_points_beyond_the_ends_belong_to_the_end_sections(synthetic):
+    cyl = fit_cylinder(synthetic, "circle")
+    before = cyl.directrix[0] - 0.05 * cyl.tangents[0]
+    after = cyl.directrix[-1] + 0.05 * cyl.tangents[-1]
+    c = cyl.containment(np.stack([before, after]))
+    np.testing.assert_array_equal(c.index, [0, cyl.num_sections - 1])
+    np.testing.assert_allclose(c.offset, [-0.05, 0.05], atol=1e-12)
+    np.testing.assert_allclose(c.distance, 0.0, atol=1e-12)
+
+
 def test_ratio_per_index_matches_the_effective_points(synthetic):
     cyl = fit_cylinder(synthetic, "ellipse")
     ratio = cyl.ratio(cyl.demonstrations, np.arange(300)[None, :])

@@ -14,7 +14,6 @@ from typing import Any, Sequence
 
 import numpy as np
 from scipy.interpolate import CubicSpline
-from scipy.spatial import cKDTree
 
 from .cross_sections import CROSS_SECTION_TYPES, CrossSections, cross_section_type, polar
 from .errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
@@ -23,7 +22,7 @@ from .frames import bishop_frames, unit_tangents
 from .validation import as_array, as_count, as_points
 
 MIN_DEMONSTRATIONS = 2
-CONTAINMENT_WINDOW = 6     # sections searched either side of the nearest directrix point
+CONTAINMENT_BLOCK = 512    # points per block in containment (block x N offsets at a time)
 
 
 def resample_demonstrations(trajectories: Sequence[np.ndarray] | np.ndarray,
@@ -163,10 +162,6 @@ class GeneralizedCylinder:
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self.directrix, axis=0), axis=1))])
         return s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(s))
 
-    @cached_property
-    def _tree(self) -> cKDTree:
-        return cKDTree(self.directrix)
-
     def radius(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
         """Boundary radius [m] of sections ``index`` (...) at ``angle`` (...) [rad], broadcast."""
         return self.cross_sections.radius(index, angle)
@@ -196,24 +191,68 @@ class GeneralizedCylinder:
     def containment(self, points: np.ndarray) -> Containment:
         """Section, angle and boundary ratio of many points (P, 3) at once (see Containment).
 
-        The section is the one among the few around the nearest directrix point whose plane
-        passes closest to the point.
+        The candidate sections of a point are those whose planes pass through it (sign changes
+        of the plane offsets t_k . (p - c_k) along the directrix, all sections at once by one
+        matrix product per block of points). Where several planes pass through it (fat or
+        strongly curved cylinders) a section that holds it inside wins, then the nearest one;
+        a point beyond the ends (no crossing) gets the section with the smallest |offset|.
         """
         p = as_points(points, "points")
         if p.ndim != 2:
             raise InvalidArgumentError(f"points: expected shape (P, 3), got {p.shape}")
-        nearest = self._tree.query(p)[1] if len(p) else np.zeros(0, dtype=np.intp)
-        window = np.arange(-CONTAINMENT_WINDOW, CONTAINMENT_WINDOW + 1)
-        candidates = np.clip(nearest[:, None] + window, 0, self.num_sections - 1)   # (P, W)
-        offsets = np.einsum("pwi,pwi->pw", p[:, None, :] - self.directrix[candidates],
-                            self.tangents[candidates])
-        best = np.argmin(np.abs(offsets), axis=1)
-        index = candidates[np.arange(len(p)), best]
-        offset = offsets[np.arange(len(p)), best]
+        index = np.empty(len(p), dtype=np.intp)
+        for block in range(0, len(p), CONTAINMENT_BLOCK):
+            rows = slice(block, block + CONTAINMENT_BLOCK)
+            index[rows] = self._containing_sections(p[rows])
+        offset = self._plane_offsets(p, index)
         distance, angle = polar(self.to_local(p, index))
         radius = self.radius(index, angle)
         return Containment(index=index, angle=angle, distance=distance, radius=radius,
                            ratio=distance / radius, offset=offset)
+
+    def _plane_offsets(self, points: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Signed distances (...) [m] of points (..., 3) from the planes of sections ``index``."""
+        return np.einsum("...i,...i->...", points - self.directrix[index], self.tangents[index])
+
+    def _containing_sections(self, p: np.ndarray) -> np.ndarray:
+        """Section index (B,) of points (B, 3); see :meth:`containment`."""
+        offsets = p @ self._tangent_matrix
+        offsets -= self._plane_constants                                               # (B, N)
+        absolute = np.abs(offsets)
+        # Candidates: planes crossed between consecutive sections (the nearer of the two), planes
+        # through the point (within round-off), and the end sections for points beyond the ends.
+        point, k = np.nonzero(np.signbit(offsets[:, :-1]) != np.signbit(offsets[:, 1:]))
+        k = k + (absolute[point, k + 1] < absolute[point, k])
+        on_plane = np.nonzero(absolute <= self._plane_tolerance)
+        before = np.flatnonzero(offsets[:, 0] < 0.0)
+        after = np.flatnonzero(offsets[:, -1] > 0.0)
+        point = np.concatenate([point, on_plane[0], before, after])
+        k = np.concatenate([k, on_plane[1], np.zeros(len(before), np.intp),
+                            np.full(len(after), self.num_sections - 1)])
+        index = np.argmin(absolute, axis=1)
+        if len(point):
+            distance, angle = polar(self.to_local(p[point], k))
+            outside = distance > self.radius(k, angle)
+            span = np.linalg.norm(p[point] - self.directrix[k], axis=1)
+            order = np.lexsort((span, outside, point))      # per point: inside first, then nearest
+            first = np.r_[True, np.diff(point[order]) != 0]
+            index[point[order][first]] = k[order][first]
+        return index
+
+    @cached_property
+    def _tangent_matrix(self) -> np.ndarray:
+        """Tangents as a contiguous (3, N) matrix (a strided one defeats BLAS)."""
+        return np.ascontiguousarray(self.tangents.T)
+
+    @cached_property
+    def _plane_constants(self) -> np.ndarray:
+        """t_k . c_k (N,) [m], so that t_k . (p - c_k) = t_k . p - constant_k."""
+        return np.einsum("ni,ni->n", self.directrix, self.tangents)
+
+    @cached_property
+    def _plane_tolerance(self) -> float:
+        """Round-off level [m] of plane offsets."""
+        return 1e-12 * max(1.0, float(np.abs(self.directrix).max()))
 
     # ------------------------------------------------------------------ surfaces
     def boundary_points(self, num_angles: int = 64, indices: np.ndarray | None = None) -> np.ndarray:
