@@ -126,3 +126,18 @@ def test_maker_restricts_states_and_checks_arguments():
         BoundaryFactorMaker(cyl, robot, sigma=0.0)
     with pytest.raises(InvalidArgumentError, match="q"):
         boundary_state_residuals(cyl, robot, np.zeros(2, dtype=int), np.zeros((2, 3)))
+
+
+def test_clamp_plan_stays_inside_cylinder_with_the_factor():
+    pytest.importorskip("clamp.planner", reason="needs the CLAMP planner")
+    from tlgc.demo_clamp_cylinder import run_clamp_cylinder_demo
+
+    demo = run_clamp_cylinder_demo("reach_from_above", "jaco", num_states=40, goal_offset=0.05)
+    print(f"inside the cylinder: without factor {demo.fraction_inside_without:.3f}, "
+          f"with factor {demo.fraction_inside_with:.3f}")
+    assert demo.without_factor.success and demo.with_factor.success
+    assert demo.fraction_inside_with >= 0.85
+    assert demo.fraction_inside_with > demo.fraction_inside_without + 0.3
+    # with the factor, only the states near the (outside) goal leave the cylinder
+    outside = np.flatnonzero(demo.outside_with > 1e-3)
+    assert outside.min() >= 0.85 * len(demo.outside_with)
