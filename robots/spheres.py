@@ -116,30 +116,55 @@ def enclosing_ball(points: np.ndarray) -> tuple[np.ndarray, float]:
     return centre + origin, float(np.max(np.linalg.norm(local - centre, axis=1)))
 
 
+def _cluster_balls(points: np.ndarray, labels: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Enclosing ball of each label's points: centres (k, 3), radii (k,); empty labels get radius -inf."""
+    centres, radii = np.zeros((k, 3)), np.full(k, -np.inf)
+    for j in range(k):
+        members = points[labels == j]
+        if len(members):
+            centres[j], radii[j] = enclosing_ball(members)
+    return centres, radii
+
+
+def _split_into_empty(points: np.ndarray, labels: np.ndarray, k: int) -> np.ndarray:
+    """Labels (P,) where each empty label takes the far half of the most spread-out cluster."""
+    labels = labels.copy()
+    for j in np.flatnonzero(np.bincount(labels, minlength=k) == 0):
+        best, best_spread = -1, 0.0
+        for c in range(k):
+            members = points[labels == c]
+            spread = np.max(np.linalg.norm(members - members.mean(axis=0), axis=1)) if len(members) > 1 else 0.0
+            if spread > best_spread:
+                best, best_spread = c, spread
+        if best < 0:
+            break
+        index = np.flatnonzero(labels == best)
+        mean = points[index].mean(axis=0)
+        far = points[index[np.argmax(np.linalg.norm(points[index] - mean, axis=1))]]
+        moved = np.linalg.norm(points[index] - far, axis=1) < np.linalg.norm(points[index] - mean, axis=1)
+        labels[index[moved]] = j
+    return labels
+
+
 def _fit_balls(points: np.ndarray, starts: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray]:
-    """k-centre Lloyd iteration from start centres (k, 3): enclosing balls (k, 3), (k,) covering all points."""
-    labels = np.argmin(np.linalg.norm(points[:, None] - starts[None], axis=2), axis=1)
+    """k-centre Lloyd iteration from start centres (k, 3): balls (m, 3), (m,), m <= k, enclosing all points.
+
+    Each round replaces every cluster by its enclosing ball, then moves each point to the ball it is
+    deepest inside (smallest distance minus radius); a cluster left empty takes over part of another.
+    """
     k = len(starts)
+    labels = _split_into_empty(points, np.argmin(np.linalg.norm(points[:, None] - starts[None], axis=2), axis=1), k)
     for _ in range(iterations):
-        centres, radii = np.zeros((k, 3)), np.zeros(k)
-        for j in range(k):
-            if np.any(labels == j):
-                centres[j], radii[j] = enclosing_ball(points[labels == j])
-        distance = np.linalg.norm(points - centres[labels], axis=1)
-        for j in np.flatnonzero(np.bincount(labels, minlength=k) == 0):
-            far = int(np.argmax(distance))  # re-seed an empty ball on the point farthest from its centre
-            centres[j], radii[j], distance[far] = points[far], 0.0, -1.0
+        centres, radii = _cluster_balls(points, labels, k)
         depth = np.linalg.norm(points[:, None] - centres[None], axis=2) - radii[None]
-        new_labels = np.argmin(depth, axis=1)
+        new_labels = _split_into_empty(points, np.argmin(depth, axis=1), k)
         if np.array_equal(new_labels, labels):
             break
         labels = new_labels
-    # final radii: each point inside the ball it is deepest in (keeps coverage exact)
-    depth = np.linalg.norm(points[:, None] - centres[None], axis=2) - radii[None]
-    labels = np.argmin(depth, axis=1)
-    distances = np.linalg.norm(points - centres[labels], axis=1)
-    radii = np.array([distances[labels == j].max() if np.any(labels == j) else 0.0 for j in range(k)])
-    return centres, radii
+    else:
+        centres, radii = _cluster_balls(points, labels, k)
+    keep = np.isfinite(radii)
+    return centres[keep], radii[keep]
 
 
 def _starts(points: np.ndarray, k: int, restarts: int, rng: np.random.Generator,
@@ -225,16 +250,17 @@ def fit_spheres(model: pin.Model, collision_model: pin.GeometryModel, links: Seq
         return _fit_link(points[index], k, inflation, link_rng, restarts, iterations, previous)
 
     current = [fit(i, 1, None) for i in range(len(surfaces))]
-    counts = [1] * len(surfaces)
     following = [fit(i, 2, current[i]) for i in range(len(surfaces))]
-    while sum(counts) < max_spheres:
-        gains = np.array([cur.volume - nxt.volume for cur, nxt in zip(current, following)])
+    while True:
+        total = sum(len(c.radii) for c in current)
+        gains = np.array([cur.volume - nxt.volume if total - len(cur.radii) + len(nxt.radii) <= max_spheres
+                          else -np.inf for cur, nxt in zip(current, following)])
         best = int(np.argmax(gains))
-        if gains[best] <= min_gain * sum(c.volume for c in current):
+        if not gains[best] > min_gain * sum(c.volume for c in current):
             break
-        counts[best] += 1
         current[best] = following[best]
-        following[best] = fit(best, counts[best] + 1, current[best])
+        following[best] = fit(best, len(current[best].radii) + 1, current[best])
+    counts = [len(c.radii) for c in current]
     radii = [_grow_to_cover(surface.sample_surface(samples_per_link, generator), fitted.centres, fitted.radii,
                             inflation) for surface, fitted in zip(surfaces, current)]
     names = [surfaces[i].link_name for i in range(len(surfaces)) for _ in range(counts[i])]

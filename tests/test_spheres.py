@@ -125,6 +125,9 @@ def test_builtin_robots_are_covered_by_at_most_40_spheres(name):
     assert report.coverage >= 0.99
     assert np.all(report.link_coverage >= 0.98)
     assert report.max_radius < 0.09 and report.mean_overshoot < 0.015
+    small = fit_spheres(model, geometry, max_spheres=len(report.link_names) + 2, rng=0)
+    assert len(report.link_names) <= small.count <= len(report.link_names) + 2
+    assert set(small.link_names) == set(report.link_names)
 
 
 @pytest.mark.parametrize("name", ["jaco", "sawyer"])
