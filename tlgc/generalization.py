@@ -201,15 +201,15 @@ def _check_constraints(constraints: Mapping[int, np.ndarray], num_points: int
 
 
 def lte_deform(path: np.ndarray, constraints: Mapping[int, np.ndarray], iterations: int = 100,
-               tolerance: float = 1e-10) -> tuple[np.ndarray, Similarity]:
+               tolerance: float = 1e-7) -> tuple[np.ndarray, Similarity]:
     """Laplacian trajectory editing of a path (N,3) under hard positional constraints.
 
     ``constraints`` maps point indices to new positions (3,). Returns the edited path (N,3),
     which passes exactly through the constraints, and the similarity (s, R) by which its
     Laplacian coordinates were rotated and scaled (eq. 15). The similarity is re-estimated
-    between the original and the edited path until it changes by less than ``tolerance``
-    (in s and in the entries of R), at most ``iterations`` times (0 keeps the original
-    coordinates: a purely local edit).
+    between the original and the edited path until no point moves by more than ``tolerance``
+    metres, at most ``iterations`` times (0 keeps the original coordinates: a purely local
+    edit).
     """
     p = as_points(path, "path")
     if p.ndim != 2 or len(p) < 3:
@@ -224,26 +224,23 @@ def lte_deform(path: np.ndarray, constraints: Mapping[int, np.ndarray], iteratio
     free[idx] = False
     if not free.any():
         return pos.copy(), fit_similarity(p, pos)
-    lap_free = lap[:, free].tocsc()
+    lap_free_t = lap[:, free].T.tocsr()
     fixed_part = lap[:, idx] @ pos
-    solve = spla.factorized((lap_free.T @ lap_free).tocsc())
+    solver = spla.splu((lap_free_t @ lap_free_t.T).tocsc())
 
     def edit(coords: np.ndarray) -> np.ndarray:
-        rhs = lap_free.T @ (coords - fixed_part)
         out = np.empty_like(p)
         out[idx] = pos
-        out[free] = np.column_stack([solve(rhs[:, j]) for j in range(3)])
+        out[free] = solver.solve(lap_free_t @ (coords - fixed_part))
         return out
 
     edited = edit(delta)
     transform = Similarity(1.0, np.eye(3), np.zeros(3))
     for _ in range(iterations):
-        previous = transform
+        previous = edited
         transform = fit_similarity(p, edited)
         edited = edit(transform.scale * delta @ transform.rotation.T)
-        change = max(abs(transform.scale - previous.scale),
-                     float(np.abs(transform.rotation - previous.rotation).max()))
-        if change <= tol:
+        if np.abs(edited - previous).max() <= tol:
             break
     return edited, transform
 
