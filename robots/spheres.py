@@ -33,6 +33,7 @@ from .errors import CollisionGeometryError, UnknownFrameError
 from .sphere_model import SphereModel, save_sphere_file
 
 MIN_RADIUS = 1e-3  # [m] smallest radius a fitted sphere gets (tiny geometry, large inflation)
+TOLERANCE = 1e-9  # [m] a point this close outside a grown sphere counts as covered (rounding)
 
 
 @dataclass(frozen=True)
@@ -275,7 +276,7 @@ def _grow_to_cover(points: np.ndarray, centres: np.ndarray, radii: np.ndarray, i
     """
     excess = np.linalg.norm(points[:, None] - centres[None], axis=2) - radii[None] - inflation
     nearest = np.argmin(excess, axis=1)
-    missed = excess[np.arange(len(points)), nearest] > 0.0
+    missed = excess[np.arange(len(points)), nearest] > TOLERANCE
     grown = radii.copy()
     np.maximum.at(grown, nearest[missed], radii[nearest[missed]] + excess[missed, nearest[missed]])
     return grown
@@ -309,7 +310,7 @@ def sphere_coverage(model: pin.Model, collision_model: pin.GeometryModel, sphere
             gaps.append(math.inf)
             continue
         outside = np.min(np.linalg.norm(points[:, None] - centres[None], axis=2) - radii[None], axis=1) - inflation
-        link_coverage.append(float(np.mean(outside <= 0.0)))
+        link_coverage.append(float(np.mean(outside <= TOLERANCE)))
         gaps.append(float(max(outside.max(), 0.0)))
         boundary_distances.append(_boundary_to_surface(centres, radii, points, generator))
     link_coverage = np.array(link_coverage)

@@ -155,3 +155,25 @@ def test_command_line_writes_a_loadable_sphere_file(tmp_path, capsys):
     spheres = load_sphere_file(out)
     assert set(spheres.link_names) == {"upper"} and 1 <= spheres.count <= 8
     assert "coverage" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("name", ["jaco", "sawyer"])
+def test_robot_sphere_centres_cover_the_posed_geometry(name):
+    """Spheres placed by Robot.sphere_centres at random poses cover the surface placed by Pinocchio."""
+    from robots import load_robot
+    from robots.collision_geometry import link_surfaces
+
+    robot = load_robot(name)
+    rng = np.random.default_rng(11)
+    data = robot.model.createData()
+    base = robot.model.getFrameId(robot.base_frame)
+    for _ in range(3):
+        q = robot.random_configuration(rng)
+        pin.framesForwardKinematics(robot.model, data, robot.to_pinocchio(q))
+        world_from_base = data.oMf[base]
+        centres = robot.sphere_centres(q)[0] @ world_from_base.rotation.T + world_from_base.translation
+        for surface in link_surfaces(robot.model, robot.collision_model):
+            placement = data.oMi[surface.joint_id]
+            points = surface.sample_surface(2000, rng) @ placement.rotation.T + placement.translation
+            gap = np.min(np.linalg.norm(points[:, None] - centres[None], axis=2) - robot.spheres.radii, axis=1)
+            assert np.mean(gap <= 0.01 + 1e-9) >= 0.98, surface.link_name
