@@ -128,6 +128,18 @@ def test_generalized_cylinders_keep_shape_and_start(synthetic_cylinder):
         assert np.all(ratio <= 1.0 + 1e-9)
 
 
+def test_tps_with_enough_landmarks_maps_the_directrix_affinely(synthetic_cylinder):
+    cyl = synthetic_cylinder
+    rng = np.random.default_rng(6)
+    src = cyl.directrix[[0, 50, 120, 199]] + rng.normal(scale=0.05, size=(4, 3))
+    affine = np.eye(3) + 0.1 * rng.normal(size=(3, 3))
+    shift = np.array([0.02, -0.03, 0.01])
+    new = tps_generalize(cyl, src, src @ affine.T + shift, keep_start=False)
+    np.testing.assert_allclose(new.directrix, cyl.directrix @ affine.T + shift, atol=1e-9)
+    if cyl.demonstrations is not None:
+        np.testing.assert_allclose(new.demonstrations, cyl.demonstrations @ affine.T + shift, atol=1e-9)
+
+
 def test_lte_scales_cross_sections_with_the_path(synthetic_cylinder):
     cyl = synthetic_cylinder
     start, end = cyl.directrix[0], cyl.directrix[-1]
