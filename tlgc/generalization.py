@@ -16,11 +16,12 @@ Two methods, both returning a new :class:`~tlgc.cylinder.GeneralizedCylinder`:
   cross-sections keep their shape in the new frames, scaled by s.
 
 Too few landmarks for the affine part: an affine map in 3-D needs at least 4 landmarks that
-are not coplanar. With fewer, :func:`tps_generalize` first adds the *anchors* (points that must
-not move; by default the start of the directrix, so a reproduction still starts where the
-robot is) and, if the landmarks and anchors still do not span 3-D, reduces the polynomial part
-to a translation (the kernel ||x - L|| only needs a constant for a unique solution). The
-result reports which was used (:attr:`TPSMap.degree`).
+are not coplanar. :func:`tps_generalize` adds explicit *anchors* to the landmarks, points that
+map to themselves (by default the start of the directrix, so a reproduction still starts where
+the robot is; the paper's pick-and-place keeps the object's landmark fixed the same way). If
+landmarks and anchors still do not span 3-D (e.g. one fixed and one moved landmark), the
+polynomial part is reduced to a translation: the kernel ||x - L|| only needs a constant for a
+unique solution. :attr:`TPSMap.degree` reports which was used.
 """
 from __future__ import annotations
 
