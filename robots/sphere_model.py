@@ -2,10 +2,12 @@
 
 A sphere file is a JSON object::
 
-    {"format": "skillplan-spheres", "version": 1,
+    {"format": "skillplan-spheres", "version": 1, "inflation": 0.01,
      "spheres": [{"link": "j2s6s200_link_2", "centre": [x, y, z], "radius": r}, ...]}
 
-Centres are in metres in the link's (Pinocchio frame's) coordinates; radii in metres.
+Centres are in metres in the link's (Pinocchio frame's) coordinates; radii in metres. The optional
+"inflation" [m] (default 0) says how much the spheres must grow to cover the geometry they were
+fitted to: a planner's collision margin should be at least that.
 """
 from __future__ import annotations
 
@@ -28,11 +30,13 @@ class SphereModel:
 
     link_names: (S,) frame names; centres: (S, 3) in each sphere's link frame [m];
     radii: (S,) [m], positive. The world centre of sphere s is oMf[link_names[s]] * centres[s].
+    inflation [m] >= 0: growth of every radius needed to cover the geometry the spheres stand for.
     """
 
     link_names: tuple[str, ...]
     centres: np.ndarray
     radii: np.ndarray
+    inflation: float = 0.0
 
     def __post_init__(self) -> None:
         if isinstance(self.link_names, str) or not all(isinstance(n, str) and n for n in self.link_names):
@@ -54,6 +58,9 @@ class SphereModel:
             raise InvalidArrayError("centres/radii: contain NaN or inf values")
         if np.any(radii <= 0.0):
             raise InvalidArrayError(f"radii: expected positive values in metres, got minimum {radii.min():.6g}")
+        if not _is_finite_number(self.inflation) or self.inflation < 0:
+            raise InvalidArrayError(f"inflation: expected a finite number >= 0 in metres, got {self.inflation!r}")
+        object.__setattr__(self, "inflation", float(self.inflation))
         centres.setflags(write=False)
         radii.setflags(write=False)
         object.__setattr__(self, "link_names", names)
@@ -82,6 +89,7 @@ class SphereModel:
         return {
             "format": FILE_FORMAT,
             "version": FILE_VERSION,
+            "inflation": self.inflation,
             "spheres": [
                 {"link": name, "centre": [float(x) for x in centre], "radius": float(radius)}
                 for name, centre, radius in zip(self.link_names, self.centres, self.radii)
@@ -97,6 +105,9 @@ class SphereModel:
             raise SphereFileError(f"{source}: 'format' must be {FILE_FORMAT!r}, got {data.get('format')!r}")
         if data.get("version", FILE_VERSION) != FILE_VERSION:
             raise SphereFileError(f"{source}: unsupported 'version' {data.get('version')!r}; expected {FILE_VERSION}")
+        inflation = data.get("inflation", 0.0)
+        if not _is_finite_number(inflation) or inflation < 0:
+            raise SphereFileError(f"{source}: 'inflation' must be a finite number >= 0 in metres, got {inflation!r}")
         entries = data.get("spheres")
         if not isinstance(entries, list):
             raise SphereFileError(f"{source}: expected key 'spheres' holding a list, got {type(entries).__name__}")
@@ -116,7 +127,8 @@ class SphereModel:
             names.append(link)
             centres.append([float(x) for x in centre])
             radii.append(float(radius))
-        return cls(tuple(names), np.array(centres, dtype=float).reshape(-1, 3), np.array(radii, dtype=float))
+        return cls(tuple(names), np.array(centres, dtype=float).reshape(-1, 3), np.array(radii, dtype=float),
+                   float(inflation))
 
 
 def _is_finite_number(value: object) -> bool:

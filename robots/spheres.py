@@ -265,7 +265,7 @@ def fit_spheres(model: pin.Model, collision_model: pin.GeometryModel, links: Seq
     radii = [_grow_to_cover(surface.sample_surface(samples_per_link, generator), fitted.centres, fitted.radii,
                             inflation) for surface, fitted in zip(surfaces, current)]
     names = [surfaces[i].link_name for i in range(len(surfaces)) for _ in range(counts[i])]
-    return SphereModel(tuple(names), np.concatenate([c.centres for c in current]), np.concatenate(radii))
+    return SphereModel(tuple(names), np.concatenate([c.centres for c in current]), np.concatenate(radii), inflation)
 
 
 def _grow_to_cover(points: np.ndarray, centres: np.ndarray, radii: np.ndarray, inflation: float) -> np.ndarray:

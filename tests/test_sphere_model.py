@@ -10,9 +10,12 @@ from robots.errors import InvalidArrayError, RobotError, SphereFileError
 from robots.sphere_model import SphereModel, load_sphere_file, save_sphere_file
 
 
+GOOD = {"link": "l", "centre": [0.0, 0.0, 0.1], "radius": 0.05}
+
+
 def _model() -> SphereModel:
     rng = np.random.default_rng(3)
-    return SphereModel(("a", "b", "a"), rng.normal(size=(3, 3)) * 0.1, rng.uniform(0.01, 0.1, 3))
+    return SphereModel(("a", "b", "a"), rng.normal(size=(3, 3)) * 0.1, rng.uniform(0.01, 0.1, 3), inflation=0.01)
 
 
 def test_round_trip_is_exact(tmp_path):
@@ -23,13 +26,16 @@ def test_round_trip_is_exact(tmp_path):
     assert loaded.link_names == model.link_names
     np.testing.assert_array_equal(loaded.centres, model.centres)
     np.testing.assert_array_equal(loaded.radii, model.radii)
+    assert loaded.inflation == 0.01
     assert json.loads(path.read_text())["format"] == "skillplan-spheres"
 
 
-def test_empty_model_round_trip(tmp_path):
+def test_empty_model_round_trip_and_default_inflation(tmp_path):
     empty = SphereModel((), np.zeros((0, 3)), np.zeros(0))
     save_sphere_file(empty, tmp_path / "e.json")
     assert load_sphere_file(tmp_path / "e.json").count == 0
+    (tmp_path / "old.json").write_text(json.dumps({"spheres": [GOOD]}))
+    assert load_sphere_file(tmp_path / "old.json").inflation == 0.0
 
 
 def test_per_link_access():
@@ -47,13 +53,11 @@ def test_per_link_access():
     (dict(link_names=("a",), centres=[[0, np.nan, 0]], radii=[1.0]), "NaN"),
     (dict(link_names=("a",), centres=[[0, 0, 0]], radii=[-1.0]), "radii: expected positive"),
     (dict(link_names="ab", centres=np.zeros((2, 3)), radii=np.ones(2)), "link_names"),
+    (dict(link_names=("a",), centres=[[0, 0, 0]], radii=[1.0], inflation=-0.1), "inflation: expected a finite"),
 ])
 def test_constructor_rejects_bad_arrays(kwargs, message):
     with pytest.raises(InvalidArrayError, match=message.replace("(", r"\(").replace(")", r"\)")):
         SphereModel(**kwargs)
-
-
-GOOD = {"link": "l", "centre": [0.0, 0.0, 0.1], "radius": 0.05}
 
 
 @pytest.mark.parametrize("content, message", [
@@ -62,6 +66,7 @@ GOOD = {"link": "l", "centre": [0.0, 0.0, 0.1], "radius": 0.05}
     (json.dumps({"spheres": 3}), "'spheres' holding a list"),
     (json.dumps({"format": "other", "spheres": []}), "'format' must be"),
     (json.dumps({"version": 7, "spheres": []}), "unsupported 'version'"),
+    (json.dumps({"inflation": "1cm", "spheres": []}), "'inflation' must be a finite number"),
     (json.dumps({"spheres": [GOOD, {"link": "l", "radius": 0.1}]}), r"spheres\[1\]: expected an object with keys"),
     (json.dumps({"spheres": [{**GOOD, "centre": [0, 1]}]}), r"spheres\[0\]\.centre: expected 3 finite numbers"),
     (json.dumps({"spheres": [{**GOOD, "centre": [0, "x", 1]}]}), r"spheres\[0\]\.centre"),

@@ -40,7 +40,7 @@ def test_single_sphere_geometry_is_fitted_by_itself():
     placement = pin.SE3(np.eye(3), np.array([0.02, -0.03, 0.2]))
     model, geometry = one_link_model({"ball": (coal.Sphere(0.06), placement)})
     spheres = fit_spheres(model, geometry, inflation=0.01, rng=1)
-    assert spheres.count == 1 and spheres.link_names == ("link1",)
+    assert spheres.count == 1 and spheres.link_names == ("link1",) and spheres.inflation == 0.01
     np.testing.assert_allclose(spheres.centres[0], placement.translation, atol=1e-3)
     assert spheres.radii[0] == pytest.approx(0.05, abs=1e-3)  # grown by 1 cm it is the ball again
 
