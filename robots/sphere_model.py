@@ -115,7 +115,8 @@ class SphereModel:
         for index, entry in enumerate(entries):
             where = f"{source}: spheres[{index}]"
             if not isinstance(entry, dict) or not {"link", "centre", "radius"} <= set(entry):
-                raise SphereFileError(f"{where}: expected an object with keys 'link', 'centre', 'radius', got {entry!r}")
+                raise SphereFileError(
+                    f"{where}: expected an object with keys 'link', 'centre', 'radius', got {entry!r}")
             link, centre, radius = entry["link"], entry["centre"], entry["radius"]
             if not isinstance(link, str) or not link:
                 raise SphereFileError(f"{where}.link: expected a non-empty string, got {link!r}")

@@ -226,8 +226,10 @@ def fit_spheres(model: pin.Model, collision_model: pin.GeometryModel, links: Seq
     (`robots.collision_geometry.link_frame_name`), so finger geometry on fixed joints lands on the
     last link. max_spheres >= number of moving links; inflation [m] >= 0: the covering is exact for
     the sampled points once every sphere is grown by it; rng: Generator or seed (None = seed 0).
-    samples_per_link: surface points per link (fitting, then as many again to close gaps); min_gain: stop adding spheres when the best addition
-    shrinks the total sphere volume by less than this fraction; restarts: extra random starts.
+    samples_per_link: surface points per link (for fitting, then as many again to close gaps);
+    min_gain: stop adding spheres when the best addition shrinks the total sphere volume by less
+    than this fraction; restarts: extra random starts; iterations: Lloyd rounds per start.
+    Raises CollisionGeometryError / UnknownFrameError (RobotError) on bad arguments or geometry.
     """
     inflation = _check_nonnegative(inflation, "inflation")
     max_spheres = _check_count(max_spheres, "max_spheres", 1)
