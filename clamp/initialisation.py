@@ -1,0 +1,81 @@
+"""Initial joint trajectories for the planner.
+
+``prior_mean`` (default): inverse kinematics, with continuity, of the prior's mean end-effector
+path shifted to start at the requested start position; the offset is blended out along the path
+(cosine ramp) so the end of the skill is kept (or, with a goal, blended onto the goal).
+``straight_line``: a straight line in joint space between two configurations.
+Velocities are finite differences of the joint positions.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+INITIALISATIONS = ("prior_mean", "straight_line")
+
+
+@dataclass(frozen=True)
+class Initialisation:
+    """Initial joint trajectory: q (T, n) [rad], qdot (T, n) [rad/s], target path (T, 3) [m].
+
+    ik_error (T,) IK position error [m] per state (zeros for straight lines).
+    """
+
+    q: np.ndarray
+    qdot: np.ndarray
+    path: np.ndarray
+    ik_error: np.ndarray
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Joint states [q, qdot] (T, 2n)."""
+        return np.concatenate([self.q, self.qdot], axis=1)
+
+
+def blend_weights(T: int) -> np.ndarray:
+    """Cosine ramp (T,) from 1 at the first state to 0 at the last."""
+    s = np.linspace(0.0, 1.0, T)
+    return 0.5 * (1.0 + np.cos(np.pi * s))
+
+
+def shifted_mean_path(mean_path: np.ndarray, start: np.ndarray, goal: np.ndarray | None = None,
+                      blend: bool = True) -> np.ndarray:
+    """The mean path (T, 3) moved so it starts at ``start`` (3,) and, with ``goal``, ends there.
+
+    With ``blend`` the start offset fades out along the path; without, the whole path is shifted.
+    """
+    T = len(mean_path)
+    w = blend_weights(T) if blend else np.ones(T)
+    path = mean_path + w[:, None] * (start - mean_path[0])
+    if goal is not None:
+        path = path + (1.0 - blend_weights(T))[:, None] * (goal - path[-1])
+    return path
+
+
+def joint_velocities(q: np.ndarray, dt: float) -> np.ndarray:
+    """Finite-difference velocities (T, n) of joint positions q (T, n) at step dt [s]."""
+    return np.gradient(q, dt, axis=0)
+
+
+def prior_mean_initialisation(robot, mean_path: np.ndarray, dt: float, q_start: np.ndarray,
+                              goal: np.ndarray | None = None, blend: bool = True,
+                              tolerance: float = 1e-4) -> Initialisation:
+    """IK of the shifted mean path, seeded at ``q_start`` (n,) whose end effector is the start."""
+    start = robot.fk(q_start)
+    path = shifted_mean_path(mean_path, start, goal, blend)
+    ik = robot.ik_trajectory(path, seed=q_start, tol=tolerance)
+    q = np.array(ik.q, dtype=float)
+    q[0] = q_start
+    errors = np.array(ik.errors, dtype=float)
+    errors[0] = 0.0
+    return Initialisation(q, joint_velocities(q, dt), path, errors)
+
+
+def straight_line_initialisation(robot, q_first: np.ndarray, q_last: np.ndarray, T: int,
+                                 dt: float) -> Initialisation:
+    """q_i on the straight line from q_first to q_last (n,), constant velocity."""
+    s = np.linspace(0.0, 1.0, T)[:, None]
+    q = (1.0 - s) * q_first + s * q_last
+    qdot = np.broadcast_to((q_last - q_first) / (dt * (T - 1)), q.shape).copy()
+    return Initialisation(q, qdot, robot.fk(q), np.zeros(T))
