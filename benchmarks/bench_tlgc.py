@@ -5,8 +5,10 @@ Run:  python benchmarks/bench_tlgc.py [--repeats 7]
 Uses ../shared/datasets/{needle_threading,pick_place}.mat (4 demonstrations x 1500 points) when
 present, otherwise synthetic stand-ins of the same size. Prints, per data set and
 cross-section type, the median fit time, the median time of 1 / 100 / 1000 reproductions from
-seeded random starts, and the fraction of reproduced points inside the cylinder (each point
-against its own cross-section). Targets: fit < 100 ms; 1000 spline reproductions < 50 ms.
+seeded random starts, the fraction of reproduced points inside the cylinder (each point
+against its own cross-section, and by the containment query, which finds the section whose
+plane holds the point) and the containment time of 100 reproductions (150k points) in ms.
+Targets: fit < 100 ms; 1000 spline reproductions < 50 ms.
 """
 from __future__ import annotations
 
@@ -72,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         demos = load(name)
         print(f"\n{name}: M={demos.shape[0]} N={demos.shape[1]}")
         print(f"  {'type':8s} {'fit [ms]':>9s} " + " ".join(f"{f'{c} rep [ms]':>13s}" for c in COUNTS)
-              + f" {'inside [%]':>11s}")
+              + f" {'inside [%]':>11s} {'contain [%]':>11s} {'150k pts':>10s}")
         for kind in KINDS:
             t_fit = median_ms(lambda: fit_cylinder(demos, kind), args.repeats)
             ours[name, "fit", kind] = t_fit
@@ -82,8 +84,10 @@ def main(argv: list[str] | None = None) -> int:
             ours[name, "10 reproductions", kind] = t_rep[COUNTS.index(10)]
             reps = reproduce(cyl, starts)
             inside = cyl.ratio(reps, np.arange(cyl.num_sections)[None, :]) <= 1.0 + 1e-9
+            t_cont = median_ms(lambda: cyl.containment(reps[:100].reshape(-1, 3)), 3)
+            found = cyl.containment(reps.reshape(-1, 3)).inside
             print(f"  {kind:8s} {t_fit:9.2f} " + " ".join(f"{t:13.2f}" for t in t_rep)
-                  + f" {100 * inside.mean():11.2f}")
+                  + f" {100 * inside.mean():11.2f} {100 * found.mean():11.2f} {t_cont:10.1f}")
     print("\nMATLAB reference (same data): " + "; ".join(f"{k}: {v}" for k, v in REFERENCE.items()))
     print("speed-up over the reference (reference time / our median):")
     for (task, kind), (low, high) in REFERENCE_SECONDS.items():

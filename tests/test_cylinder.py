@@ -193,6 +193,17 @@ def test_surface_and_boundary_shapes(synthetic):
     np.testing.assert_allclose(cyl.ratio(ring, np.array([[0], [5]])), 1.0, atol=1e-12)
 
 
+@pytest.mark.parametrize("kind", KINDS)
+def test_identical_demonstrations_give_a_thin_tube_around_them(kind):
+    t = np.linspace(0.0, 1.0, 100)
+    demo = np.stack([t, np.sin(t), t**2], axis=1)
+    cyl = fit_cylinder(np.stack([demo, demo, demo]), kind)
+    np.testing.assert_allclose(cyl.radius(np.arange(100), np.linspace(0, 6, 100)), 1e-6)
+    from tlgc import random_starts, reproduce
+    reps = reproduce(cyl, random_starts(cyl, 5, rng=0))
+    assert np.abs(reps - demo).max() <= 1e-6
+
+
 def test_error_catalogue(synthetic):
     with pytest.raises(TooFewDemonstrationsError, match="at least 2"):
         fit_cylinder(synthetic[:1])

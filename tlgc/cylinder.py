@@ -14,6 +14,7 @@ from typing import Any, Sequence
 
 import numpy as np
 from scipy.interpolate import CubicSpline
+from scipy.spatial import cKDTree
 
 from .cross_sections import CROSS_SECTION_TYPES, CrossSections, cross_section_type, polar
 from .errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
@@ -22,7 +23,8 @@ from .frames import bishop_frames, unit_tangents
 from .validation import as_array, as_count, as_points
 
 MIN_DEMONSTRATIONS = 2
-CONTAINMENT_BLOCK = 512    # points per block in containment (block x N offsets at a time)
+CONTAINMENT_WINDOW = 4     # sections either side of the nearest directrix point searched first
+CONTAINMENT_BLOCK = 512    # points per block in the full search (block x N offsets at a time)
 
 
 def resample_demonstrations(trajectories: Sequence[np.ndarray] | np.ndarray,
@@ -192,18 +194,28 @@ class GeneralizedCylinder:
         """Section, angle and boundary ratio of many points (P, 3) at once (see Containment).
 
         The candidate sections of a point are those whose planes pass through it (sign changes
-        of the plane offsets t_k . (p - c_k) along the directrix, all sections at once by one
-        matrix product per block of points). Where several planes pass through it (fat or
-        strongly curved cylinders) a section that holds it inside wins, then the nearest one;
-        a point beyond the ends (no crossing) gets the section with the smallest |offset|.
+        of the plane offsets t_k . (p - c_k) between consecutive sections; the nearer section of
+        each pair). Where several planes pass through it (fat or strongly curved cylinders) a
+        section that holds it inside wins, then the one nearest to it; a point beyond the ends
+        may also take the end section, and a point with no candidate the smallest |offset|.
+        The search first looks at a few sections around the nearest directrix point (KD-tree)
+        and scans all N sections (one matrix product per block) only for points not found
+        inside there.
         """
         p = as_points(points, "points")
         if p.ndim != 2:
             raise InvalidArgumentError(f"points: expected shape (P, 3), got {p.shape}")
-        index = np.empty(len(p), dtype=np.intp)
-        for block in range(0, len(p), CONTAINMENT_BLOCK):
-            rows = slice(block, block + CONTAINMENT_BLOCK)
-            index[rows] = self._containing_sections(p[rows])
+        n = self.num_sections
+        nearest = self._tree.query(p)[1] if len(p) else np.zeros(0, dtype=np.intp)
+        window = np.clip(nearest[:, None] + np.arange(-CONTAINMENT_WINDOW, CONTAINMENT_WINDOW + 1),
+                         0, n - 1)                                                   # (P, W)
+        index, inside = self._pick_section(p, window, self._plane_offsets(p[:, None, :], window))
+        rest = np.flatnonzero(~inside)
+        for block in range(0, len(rest), CONTAINMENT_BLOCK):
+            rows = rest[block:block + CONTAINMENT_BLOCK]
+            offsets = p[rows] @ self._tangent_matrix
+            offsets -= self._plane_constants                                          # (B, N)
+            index[rows] = self._pick_section(p[rows], np.arange(n), offsets)[0]
         offset = self._plane_offsets(p, index)
         distance, angle = polar(self.to_local(p, index))
         radius = self.radius(index, angle)
@@ -214,30 +226,36 @@ class GeneralizedCylinder:
         """Signed distances (...) [m] of points (..., 3) from the planes of sections ``index``."""
         return np.einsum("...i,...i->...", points - self.directrix[index], self.tangents[index])
 
-    def _containing_sections(self, p: np.ndarray) -> np.ndarray:
-        """Section index (B,) of points (B, 3); see :meth:`containment`."""
-        offsets = p @ self._tangent_matrix
-        offsets -= self._plane_constants                                               # (B, N)
+    def _pick_section(self, p: np.ndarray, sections: np.ndarray,
+                      offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Best section (B,) of points (B, 3) among consecutive ``sections`` (B, K) or (K,)
+        with plane offsets (B, K), and whether the point is inside it (B,)."""
+        sections = np.broadcast_to(sections, offsets.shape)
         absolute = np.abs(offsets)
-        # Candidates: planes crossed between consecutive sections (the nearer of the two), planes
-        # through the point (within round-off), and the end sections for points beyond the ends.
-        point, k = np.nonzero(np.signbit(offsets[:, :-1]) != np.signbit(offsets[:, 1:]))
-        k = k + (absolute[point, k + 1] < absolute[point, k])
+        point, j = np.nonzero(np.signbit(offsets[:, :-1]) != np.signbit(offsets[:, 1:]))
+        j = j + (absolute[point, j + 1] < absolute[point, j])
         on_plane = np.nonzero(absolute <= self._plane_tolerance)
-        before = np.flatnonzero(offsets[:, 0] < 0.0)
-        after = np.flatnonzero(offsets[:, -1] > 0.0)
+        first, last = sections[:, 0] == 0, sections[:, -1] == self.num_sections - 1
+        before = np.flatnonzero(first & (offsets[:, 0] < 0.0))
+        after = np.flatnonzero(last & (offsets[:, -1] > 0.0))
         point = np.concatenate([point, on_plane[0], before, after])
-        k = np.concatenate([k, on_plane[1], np.zeros(len(before), np.intp),
-                            np.full(len(after), self.num_sections - 1)])
-        index = np.argmin(absolute, axis=1)
+        k = np.concatenate([sections[point[:len(j)], j], sections[on_plane],
+                            np.zeros(len(before), np.intp), np.full(len(after), self.num_sections - 1)])
+        index = sections[np.arange(len(p)), np.argmin(absolute, axis=1)]
+        inside = np.zeros(len(p), dtype=bool)
         if len(point):
             distance, angle = polar(self.to_local(p[point], k))
             outside = distance > self.radius(k, angle)
             span = np.linalg.norm(p[point] - self.directrix[k], axis=1)
             order = np.lexsort((span, outside, point))      # per point: inside first, then nearest
-            first = np.r_[True, np.diff(point[order]) != 0]
-            index[point[order][first]] = k[order][first]
-        return index
+            best = order[np.r_[True, np.diff(point[order]) != 0]]
+            index[point[best]] = k[best]
+            inside[point[best]] = ~outside[best]
+        return index, inside
+
+    @cached_property
+    def _tree(self) -> cKDTree:
+        return cKDTree(self.directrix)
 
     @cached_property
     def _tangent_matrix(self) -> np.ndarray:
