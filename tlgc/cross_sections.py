@@ -366,9 +366,11 @@ class SplineSections(CrossSections):
         idx = self.check_index(index)
         ang = wrap_angle(angle)
         starts = self._sorted_starts[idx]                              # idx.shape + (K,)
-        piece = np.zeros(np.broadcast_shapes(idx.shape, ang.shape), dtype=np.uint8)
+        small = starts.shape[-1] < 255                                  # piece count fits uint8
+        piece = np.zeros(np.broadcast_shapes(idx.shape, ang.shape), dtype=np.uint8 if small else np.int32)
         for j in range(starts.shape[-1]):                              # K comparisons
-            piece += (ang >= starts[..., j]).view(np.uint8)
+            above = ang >= starts[..., j]
+            piece += above.view(np.uint8) if small else above
         flat = idx.astype(np.int32) * np.int32(starts.shape[-1] + 1) + piece
         t = ang - np.take(self._extended_starts, flat)
         c = self._columns

@@ -97,9 +97,10 @@ def plot_cross_sections(cyl: GeneralizedCylinder, indices: Sequence[int],
         ax.tick_params(labelsize=7)
     for ax in axes.ravel()[len(idx):]:
         ax.axis("off")
-    axes[0, 0].legend(fontsize=7, loc="best")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.suptitle(title or f"{cyl.cross_section} cross-sections (normal / binormal plane, m)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.06, 1.0, 1.0))
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8)
     return fig
 
 
