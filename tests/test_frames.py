@@ -62,15 +62,11 @@ def test_straight_line_with_stalls_gives_constant_frames():
 
 def test_initial_normal_is_respected_and_projected():
     points, _, _ = helix(200)
-    frames = bishop_frames(points, initial_normal=frames_first_normal_hint(points))
+    hint = np.array([0.3, -0.2, 1.0]) + unit_tangents(points)[0]        # not normal to t0
+    frames = bishop_frames(points, initial_normal=hint)
     t0 = frames[0, 0]
-    hint = frames_first_normal_hint(points)
     expected = hint - t0 * (hint @ t0)
     np.testing.assert_allclose(frames[0, 1], expected / np.linalg.norm(expected), atol=1e-12)
-
-
-def frames_first_normal_hint(points: np.ndarray) -> np.ndarray:
-    return np.array([0.3, -0.2, 1.0]) + unit_tangents(points)[0]
 
 
 def test_bad_input_raises_clear_errors():
