@@ -7,17 +7,11 @@ from clamp.errors import (ClampError, ClampWarning, InsufficientDemonstrationsEr
                           InvalidParameterError, NonFiniteError, PriorFileError, ShapeError)
 from clamp.learning import learn_joint_prior, learn_prior
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
+from clamp.planner import PlannerConfig, PlanResult, build, plan
 
 __all__ = [
     "learn_prior", "learn_joint_prior", "WorkspacePrior", "LinearGaussianPrior",
+    "PlannerConfig", "plan", "build", "PlanResult",
     "ClampError", "ClampWarning", "InsufficientDemonstrationsError", "InvalidParameterError",
     "NonFiniteError", "PriorFileError", "ShapeError",
 ]
-
-try:  # the planner is written concurrently; import it plainly once clamp/planner.py exists
-    from clamp.planner import PlanResult, PlannerConfig, build, plan
-except ModuleNotFoundError as _exc:  # pragma: no cover - only before clamp.planner lands
-    if _exc.name != "clamp.planner":
-        raise
-else:
-    __all__ += ["PlannerConfig", "plan", "build", "PlanResult"]
