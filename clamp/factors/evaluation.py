@@ -78,6 +78,7 @@ class TrajectoryEvaluator:
         self.num_states = int(num_states)
         self.keys = [state_key(i) for i in range(self.num_states)]
         self.theta = np.full((self.num_states, 2 * robot.n), np.nan)
+        self._state_bytes = [b""] * self.num_states  # bytes of each cached state, for fast compares
         self._version = 0
         self._memo: dict[object, tuple[int, bool, object]] = {}
         self.reloads = 0
@@ -86,12 +87,13 @@ class TrajectoryEvaluator:
     def load(self, theta: np.ndarray) -> None:
         """Set all joint states (T, 2n) directly (used outside GTSAM, e.g. in tests)."""
         self.theta = np.array(theta, dtype=float, copy=True)
+        self._state_bytes = [row.tobytes() for row in self.theta]
         self._version += 1
 
     def sync(self, values: gtsam.Values, indices: Sequence[int]) -> None:
         """Make the cache agree with ``values`` on the states ``indices``; reload all on mismatch."""
         for i in indices:
-            if not np.array_equal(values.atVector(self.keys[i]), self.theta[i]):
+            if values.atVector(self.keys[i]).tobytes() != self._state_bytes[i]:
                 self.load(np.stack([values.atVector(k) for k in self.keys]))
                 self.reloads += 1
                 return
