@@ -114,6 +114,15 @@ def main() -> None:
                           f"log-lik {r.log_likelihood:.4g}, p_success {r.success_probability:.3f}")
     r = plan(prior, jaco, scene, start, config=PlannerConfig(sigma_obs=0.005), sdf=sdf)
     print(row("obstacle prior_mean sigma_obs=0.005", r, r.timings, CPP["obstacle"]))
+    for init in ("prior_mean", "straight_line"):
+        for sc_name, sc in (("empty", None), ("obstacle", scene)):
+            config = PlannerConfig.fast(initialisation=init)
+            r, t = median_runs(lambda: plan(prior, jaco, sc, start, config=config,
+                                            sdf=sdf if sc is not None else None), args.repeats)
+            print(row(f"{sc_name} {init} FAST", r, t, CPP[sc_name]))
+            print(f"{'':<34} end vs demo mean {1e3 * np.linalg.norm(r.ee_path[-1] - final):.1f} mm,"
+                  f" log-lik {r.log_likelihood:.4g}, family errors "
+                  + ", ".join(f"{k} {v:.3g}" for k, v in r.family_errors.items()))
     r = plan(prior, jaco, scene, start, config=PlannerConfig(obstacle_factors=False))
     print(f"{'obstacle scene, no obstacle factors':<34} min clearance {1e3 * r.min_clearance:.1f} mm "
           f"({'collides' if r.min_clearance < 0 else 'free'})")
