@@ -21,8 +21,8 @@ from clamp.errors import InvalidParameterError, ShapeError
 from clamp.factors import (TrajectoryEvaluator, ee_position_factors, joint_gp_factors,
                            joint_limit_factors, joint_position_factor, obstacle_factors,
                            shifted_start_mean, workspace_gp_factors, workspace_start_factor)
-from clamp.initialisation import (INITIALISATIONS, Initialisation, prior_mean_initialisation,
-                                  straight_line_initialisation)
+from clamp.initialisation import (INITIALISATIONS, Initialisation, joint_velocities,
+                                  prior_mean_initialisation, straight_line_initialisation)
 from clamp.keys import state_key
 from clamp.levenberg_marquardt import levenberg_marquardt
 from clamp.validation import as_array, as_count, as_scalar
@@ -265,10 +265,22 @@ def _initialise(prior: Any, robot: Any, q_start: np.ndarray, goal: Target | None
     return straight_line_initialisation(robot, first, last, T, dt)
 
 
+def warm_start(robot: Any, initial: Any, T: int, dt: float) -> Initialisation:
+    """Initialisation from a given trajectory: q (T, n) or joint states [q, qdot] (T, 2n)."""
+    n = robot.n
+    if np.ndim(initial) == 2 and np.shape(initial)[1] == 2 * n:
+        theta = as_array(initial, "initial", (T, 2 * n))
+        q, qdot = theta[:, :n], theta[:, n:]
+    else:
+        q = as_array(initial, "initial", (T, n))
+        qdot = joint_velocities(q, dt)
+    return Initialisation(q, qdot, robot.fk(q), np.zeros(T))
+
+
 def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
           via_points: Sequence[tuple[int, Any]] = (), extra_factors: Sequence[ExtraFactor] = (),
           config: PlannerConfig | None = None, sdf: Any = None,
-          q_start: np.ndarray | None = None) -> PlanningProblem:
+          q_start: np.ndarray | None = None, initial: np.ndarray | None = None) -> PlanningProblem:
     """Factor graph and initial values for reproducing ``prior`` with ``robot`` from ``start``.
 
     prior: clamp.WorkspacePrior (T support states, step dt); robot: robots.Robot (n joints);
@@ -277,7 +289,9 @@ def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: An
     configuration (n,)); extra_factors: gtsam.NonlinearFactor or
     maker(index, num_states, key) -> factor | None called for every support state;
     sdf: a precomputed scenes.SignedDistanceField of ``scene`` (built otherwise);
-    q_start: start configuration to use for a position start (IK otherwise).
+    q_start: start configuration to use for a position start (IK otherwise);
+    initial: a warm start, joint positions (T, n) (velocities by finite differences) or joint
+    states (T, 2n), replacing ``config.initialisation`` (e.g. the previous plan).
     Raises ClampError subclasses on bad input.
     """
     t0 = time.perf_counter()
@@ -305,7 +319,8 @@ def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: An
 
     if sdf is None and config.obstacle_factors and _has_obstacles(scene):
         sdf = scene.sdf(config.sdf_cell_size)
-    init = _initialise(prior, robot, q_start, goal_target, config)
+    init = (_initialise(prior, robot, q_start, goal_target, config) if initial is None
+            else warm_start(robot, initial, T, dt))
 
     evaluator = TrajectoryEvaluator(robot, T)
     graph = gtsam.NonlinearFactorGraph()
@@ -436,7 +451,8 @@ def _failed(prior: Any, robot: Any, q: np.ndarray, reasons: list[str], t0: float
 
 def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
          via_points: Sequence[tuple[int, Any]] = (), extra_factors: Sequence[ExtraFactor] = (),
-         config: PlannerConfig | None = None, sdf: Any = None) -> PlanResult:
+         config: PlannerConfig | None = None, sdf: Any = None,
+         initial: np.ndarray | None = None) -> PlanResult:
     """Reproduce the skill of ``prior`` with ``robot`` from ``start`` in ``scene``.
 
     Arguments as for :func:`build`. A start that is out of reach or in collision gives
@@ -472,7 +488,7 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
         sdf = scene.sdf(config.sdf_cell_size)
     sdf_seconds = time.perf_counter() - t_sdf
     problem = build(prior, robot, scene, start, goal, via_points, extra_factors, config,
-                    sdf=sdf, q_start=q_start)
+                    sdf=sdf, q_start=q_start, initial=initial)
 
     t_opt = time.perf_counter()
     values, iterations, initial_error, final_error = optimize(problem, config)

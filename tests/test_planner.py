@@ -147,6 +147,19 @@ def test_straight_line_initialisation(jaco, synthetic):
     assert result.success, result.reasons
 
 
+def test_warm_start_from_previous_plan_converges_at_once(jaco, synthetic):
+    _, prior = synthetic
+    start = prior.mean[0, :3]
+    first = plan(prior, jaco, None, start)
+    again = plan(prior, jaco, None, start, initial=np.hstack([first.q, first.qdot]))
+    assert again.success
+    assert again.iterations <= 2
+    assert again.initial_error <= first.final_error * 1.01
+    np.testing.assert_allclose(again.ee_path, first.ee_path, atol=2e-3)
+    with pytest.raises(ClampError, match="initial"):
+        plan(prior, jaco, None, start, initial=first.q[:-1])
+
+
 def test_gtsam_optimizer_agrees_with_lean_loop(jaco, synthetic):
     _, prior = synthetic
     start = prior.mean[0, :3]

@@ -1,0 +1,37 @@
+"""Plan figures: PNG written, arm, path and every obstacle kind drawn."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from clamp.plan_plots import plot_plan_3d
+
+
+class FakeResult:
+    """The fields of a PlanResult the figure reads."""
+
+    def __init__(self, q, ee_path):
+        self.q, self.ee_path = q, ee_path
+        self.success, self.reasons = False, ["collision: minimum clearance -1.0 mm"]
+
+
+def test_plot_plan_writes_png_with_obstacles(tmp_path):
+    from robots import load_robot
+    from scenes import Box, Cylinder, Scene, Sphere
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = load_robot("jaco")
+    rng = np.random.default_rng(0)
+    q0 = robot.random_configuration(rng)
+    q = q0 + np.linspace(0, 0.5, 30)[:, None]
+    result = FakeResult(q, robot.fk(q))
+    scene = Scene([Box([0.3, -0.3, 0.1], [0.1, 0.1, 0.2]), Sphere([0.2, 0.2, 0.3], 0.05),
+                   Cylinder([0.0, 0.4, 0.2], 0.05, 0.2)])
+    path = tmp_path / "plan.png"
+    fig = plot_plan_3d(result, robot, scene, arm_states=4, path=path)
+    assert path.is_file() and path.stat().st_size > 10_000
+    ax = fig.axes[0]
+    assert len(ax.lines) >= 1 + 4  # end-effector path and the arm at 4 states
+    assert len(ax.collections) >= 3  # box faces, sphere and cylinder surfaces (+ markers)
+    assert "failed" in ax.get_title()
