@@ -83,7 +83,8 @@ class PlannerConfig:
         0.005, which also suits the stiff priors learned from few demonstrations, where the
         reference's 0.05 needs hundreds of iterations to clear obstacles) and a loose stopping
         rule (relative decrease 5 %), giving a collision-free but less polished plan in about
-        ten iterations. ``changes`` override fields."""
+        ten iterations: its workspace-prior cost is higher, so check ``success_probability``
+        (or warm-start a full run from it). ``changes`` override fields."""
         return cls(**{"sigma_obs": 0.005, "relative_error_tol": 0.05, **changes})
 
     def validate(self) -> "PlannerConfig":
