@@ -8,26 +8,14 @@ when present, otherwise they are fitted once (slow) before timing.
 from __future__ import annotations
 
 import argparse
-import os
 import time
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import scipy.io
 
 from robots import Robot, load_robot
+from harness import median_ms, print_environment, shared_demonstrations
 
-
-def median_ms(function, repeats: int) -> float:
-    """Median wall time of `function()` in milliseconds over `repeats` calls (after one warm-up)."""
-    function()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return 1e3 * float(np.median(times))
 
 
 def pinocchio_ee_loop(robot: Robot, q: np.ndarray, qdot: np.ndarray) -> None:
@@ -56,12 +44,8 @@ def pinocchio_sphere_loop(robot: Robot, q: np.ndarray, joints: np.ndarray, local
 
 def box_closing_mean_path() -> np.ndarray | None:
     """Mean end-effector path (250, 3) of ../shared/datasets/box_closing.mat, or None if absent."""
-    root = Path(os.environ.get("SKILLPLAN_DATASETS", Path(__file__).resolve().parents[2] / "shared" / "datasets"))
-    path = root / "box_closing.mat"
-    if not path.is_file():
-        return None
-    data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
-    return np.mean([demo.pos for demo in data["dataset"]], axis=0)
+    demos = shared_demonstrations("box_closing")
+    return None if demos is None else demos.mean_position()
 
 
 def sphere_report(robot: Robot) -> None:
@@ -82,6 +66,7 @@ def main() -> None:
     parser.add_argument("--T", type=int, default=250)
     parser.add_argument("--no-spheres", action="store_true", help="skip sphere timings and report")
     args = parser.parse_args()
+    print_environment()
     rng = np.random.default_rng(0)
     mean_path = box_closing_mean_path()
     for name in ("jaco", "sawyer"):

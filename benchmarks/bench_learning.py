@@ -9,59 +9,39 @@ Run: python benchmarks/bench_learning.py [--repeats 21]
 from __future__ import annotations
 
 import argparse
-import os
-import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
 from clamp import ClampWarning, learn_prior
-from scenes import load_demonstrations, make_demonstrations
+from scenes import make_demonstrations
+from harness import median_seconds, print_environment, shared_demonstrations
 
-
-def median_time(func, repeats: int) -> float:
-    """Median wall time of func() in seconds over ``repeats`` runs (after one warm-up)."""
-    func()
-    samples = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        samples.append(time.perf_counter() - start)
-    return float(np.median(samples))
-
-
-def box_closing_path() -> Path | None:
-    root = Path(os.environ.get("SKILLPLAN_DATASETS",
-                               Path(__file__).resolve().parents[2] / "shared" / "datasets"))
-    path = root / "box_closing.mat"
-    return path if path.is_file() else None
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=21)
     args = parser.parse_args()
+    print_environment()
     warnings.simplefilter("ignore", ClampWarning)   # coupled learning from 6 demos warns
 
     sets = []
-    path = box_closing_path()
-    if path is None:
-        print("box_closing.mat not found in ../shared/datasets (set SKILLPLAN_DATASETS): skipped")
-    else:
-        sets.append(("box_closing.mat (M=6, T=250)", load_demonstrations(path)))
+    box_closing = shared_demonstrations("box_closing")
+    if box_closing is not None:
+        sets.append(("box_closing.mat (M=6, T=250)", box_closing))
     sets.append(("synthetic box_closing (M=6, T=1000)",
                  make_demonstrations("box_closing", num_demos=6, num_points=1000, seed=0)))
 
     print(f"median of {args.repeats} runs")
     for name, demos in sets:
-        per_axis = median_time(lambda: learn_prior(demos), args.repeats)
-        coupled = median_time(lambda: learn_prior(demos, coupled=True), args.repeats)
+        per_axis = median_seconds(lambda: learn_prior(demos), args.repeats)
+        coupled = median_seconds(lambda: learn_prior(demos, coupled=True), args.repeats)
         prior = learn_prior(demos)
         states = demos.states
-        loglik = median_time(lambda: prior.log_likelihood(states), args.repeats)
+        loglik = median_seconds(lambda: prior.log_likelihood(states), args.repeats)
         rng = np.random.default_rng(0)
-        sample = median_time(lambda: prior.sample(1000, rng), max(3, args.repeats // 4))
+        sample = median_seconds(lambda: prior.sample(1000, rng), max(3, args.repeats // 4))
         print(f"{name}:")
         print(f"  learn_prior per axis     {1e3 * per_axis:8.2f} ms")
         print(f"  learn_prior coupled      {1e3 * coupled:8.2f} ms   (coupled / per axis = "

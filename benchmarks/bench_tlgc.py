@@ -15,14 +15,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
-import scipy.io
 
 from scenes import make_demonstrations
 from tlgc import fit_cylinder, random_starts, reproduce
+from harness import median_ms, print_environment, shared_demonstrations
 
 # Reference implementation (MATLAB, rezaahmadzadeh/TLGC) on the same data, as reported for it
 # (seconds, low-high), used for the speed-up ratios printed at the end.
@@ -43,30 +41,19 @@ COUNTS = (1, 10, 100, 1000)
 
 def load(name: str) -> np.ndarray:
     """Demonstrations (M, 1500, 3): the shared data set, or a synthetic stand-in."""
-    root = Path(os.environ.get("SKILLPLAN_DATASETS", Path(__file__).resolve().parents[2] / "shared" / "datasets"))
-    path = root / f"{name}.mat"
-    if path.is_file():
-        data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
-        return np.stack([np.asarray(d, dtype=float) for d in data["smoothData"]])
-    print(f"  ({path} not found: synthetic '{name}' stand-in)")
+    demos = shared_demonstrations(name)
+    if demos is not None:
+        return demos.positions
+    print(f"  (synthetic '{name}' stand-in)")
     return make_demonstrations(name, num_demos=4, num_points=1500, seed=0).positions
 
-
-def median_ms(fn, repeats: int) -> float:
-    """Median wall time of ``fn()`` in milliseconds (one warm-up call)."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * float(np.median(times))
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args(argv)
+    print_environment()
     print(f"TLGC benchmark, median of {args.repeats} runs (numpy {np.__version__}, "
           f"{os.cpu_count()} cpus)")
     ours: dict[tuple[str, str, str], float] = {}

@@ -11,43 +11,25 @@ Run: python benchmarks/bench_tlgc_generalization.py [--repeats 15]
 from __future__ import annotations
 
 import argparse
-import os
-import time
-from pathlib import Path
 
 import numpy as np
-import scipy.io
 
 from scenes import make_demonstrations
 from tlgc.cylinder import GeneralizedCylinder, fit_cylinder
 from tlgc.generalization import (landmark_constraints, lte_generalize, shape_distortion,
                                  tps_generalize)
+from harness import median_ms, print_environment, shared_demonstrations
 
-DATASETS = Path(os.environ.get("SKILLPLAN_DATASETS",
-                               Path(__file__).resolve().parents[1].parent / "shared" / "datasets"))
 OFFSETS = {"near": np.array([0.03, 0.04, 0.0]), "far": np.array([0.30, 0.35, 0.20])}
 
-
-def median_ms(function, repeats: int) -> float:
-    """Median wall time of ``function()`` in milliseconds over ``repeats`` calls (after a warm-up)."""
-    function()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return 1e3 * float(np.median(times))
 
 
 def cylinders() -> dict[str, GeneralizedCylinder]:
     out = {}
     for name in ("needle_threading", "pick_place"):
-        path = DATASETS / f"{name}.mat"
-        if not path.is_file():
-            print(f"note: {path} not found, skipping {name}")
-            continue
-        data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
-        out[name] = fit_cylinder(np.stack(list(data["smoothData"])), "spline")
+        demos = shared_demonstrations(name)
+        if demos is not None:
+            out[name] = fit_cylinder(demos, "spline")
     out["synthetic pick_place"] = fit_cylinder(make_demonstrations("pick_place", num_demos=5,
                                                                    num_points=250, seed=0), "spline")
     return out
@@ -57,6 +39,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=15)
     args = parser.parse_args()
+    print_environment()
     print(f"{'case':<22} {'goal':<5} {'N':>5} {'TPS ms':>8} {'LTE ms':>8} {'LTE/TPS':>8} "
           f"{'TPS dist':>9} {'LTE dist':>9}")
     for name, cyl in cylinders().items():

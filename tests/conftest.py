@@ -11,16 +11,21 @@ from pathlib import Path
 import matplotlib
 import pytest
 
+from scenes import shared_dataset as _find_dataset
+from scenes.datasets import DATASETS_ENV
+
 matplotlib.use("Agg")
 
-_REPO = Path(__file__).resolve().parents[1]
+_SHARED = Path(__file__).resolve().parents[2] / "shared" / "datasets"
 
 
 def dataset_path(name: str) -> Path | None:
-    """Path of ../shared/datasets/<name>.mat, or None when it is not on this machine."""
-    root = Path(os.environ.get("SKILLPLAN_DATASETS", _REPO.parent / "shared" / "datasets"))
-    path = root / f"{name}.mat"
-    return path if path.is_file() else None
+    """Path of <name>.mat in $SKILLPLAN_DATASETS, else in ../shared/datasets beside this
+    checkout (also when the package is installed elsewhere), or None when it is absent."""
+    if not os.environ.get(DATASETS_ENV) and _SHARED.is_dir():
+        path = _SHARED / f"{name}.mat"
+        return path if path.is_file() else None
+    return _find_dataset(name)
 
 
 @pytest.fixture

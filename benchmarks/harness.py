@@ -1,0 +1,57 @@
+"""Shared benchmark helpers: median wall times and the environment header every script prints.
+
+Benchmarks are scripts (``python benchmarks/bench_<topic>.py``); they print tables of medians
+and ratios and never assert on time.
+"""
+from __future__ import annotations
+
+import os
+import platform
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+
+def median_seconds(function: Callable[[], object], repeats: int, warmup: int = 1) -> float:
+    """Median wall time of ``function()`` in seconds over ``repeats`` calls after warm-up."""
+    for _ in range(warmup):
+        function()
+    times = np.empty(repeats)
+    for k in range(repeats):
+        start = time.perf_counter()
+        function()
+        times[k] = time.perf_counter() - start
+    return float(np.median(times))
+
+
+def median_ms(function: Callable[[], object], repeats: int, warmup: int = 1) -> float:
+    """Median wall time of ``function()`` in milliseconds (see ``median_seconds``)."""
+    return 1e3 * median_seconds(function, repeats, warmup)
+
+
+def print_environment() -> None:
+    """One line naming the machine and library versions, so figures can be compared later."""
+    from importlib.metadata import version
+
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {load:.1f}; "
+          f"python {platform.python_version()}, "
+          + ", ".join(f"{name} {version(name)}" for name in ("numpy", "scipy", "pin", "gtsam")))
+
+
+def shared_demonstrations(name: str):
+    """The real data set ``<name>.mat`` as ``scenes.Demonstrations`` (from $SKILLPLAN_DATASETS or
+    ../shared/datasets beside this checkout), or None with a printed note when it is absent."""
+    from scenes import load_demonstrations, shared_dataset
+    from scenes.datasets import DATASETS_ENV
+
+    beside = Path(__file__).resolve().parents[2] / "shared" / "datasets"
+    if not os.environ.get(DATASETS_ENV) and beside.is_dir():
+        os.environ[DATASETS_ENV] = str(beside)
+    path = shared_dataset(name)
+    if path is None:
+        print(f"# {name}.mat not found in ../shared/datasets (set {DATASETS_ENV}): skipped")
+        return None
+    return load_demonstrations(path)
