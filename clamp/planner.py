@@ -375,6 +375,15 @@ def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: An
             extras.append(extra)
         else:
             extras += [f for f in (extra(i, T, state_key(i)) for i in range(T)) if f is not None]
+    known = set(evaluator.keys)
+    for k, factor in enumerate(extras):
+        if not isinstance(factor, gtsam.NonlinearFactor):
+            raise InvalidParameterError(f"extra_factors: a maker returned {type(factor).__name__}, "
+                                        "expected a gtsam.NonlinearFactor or None")
+        unknown = [gtsam.DefaultKeyFormatter(key) for key in factor.keys() if key not in known]
+        if unknown:
+            raise InvalidParameterError(f"extra_factors: factor {k} uses keys {unknown} that are "
+                                        f"not planner states (state_key(0..{T - 1}))")
     if extras:
         add("extra", extras)
 

@@ -203,6 +203,9 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
     ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(initialisation="magic")}, "prior_mean"),
     ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(sigma_obs=-1.0)}, "sigma_obs"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [42]}, "extra_factors"),
+    ({"start": [0.3, -0.3, 0.2], "extra_factors": [gtsam.PriorFactorVector(
+        gtsam.symbol("y", 0), np.zeros(12), gtsam.noiseModel.Unit.Create(12))]}, "not planner states"),
+    ({"start": [0.3, -0.3, 0.2], "extra_factors": [lambda i, n, key: "factor"]}, "maker returned"),
 ])
 def test_bad_input_raises_clamp_error(jaco, synthetic, kwargs, match):
     _, prior = synthetic
