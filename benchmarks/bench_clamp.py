@@ -13,17 +13,14 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from clamp.learning import learn_prior  # noqa: E402
-from clamp.planner import PlannerConfig, plan  # noqa: E402
+from clamp.learning import learn_prior
+from clamp.planner import PlannerConfig, plan
+from harness import print_environment, shared_demonstrations
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
@@ -33,14 +30,13 @@ SAWYER_OFFSET = np.array([0.3, 0.0, 0.2])
 
 
 def load_skill():
-    from scenes import load_demonstrations, make_demonstrations
-    from tests.conftest import dataset_path
-    path = dataset_path("box_closing")
-    if path is None:
-        print("box_closing.mat not found: using the synthetic box_closing skill")
+    from scenes import make_demonstrations
+    demos = shared_demonstrations("box_closing")
+    if demos is None:
+        print("# using the synthetic box_closing skill instead")
         demos = make_demonstrations("box_closing")
         return demos, demos.positions[:, 0].mean(axis=0)
-    return load_demonstrations(path), REFERENCE_START
+    return demos, REFERENCE_START
 
 
 def median_runs(fn, repeats: int):
@@ -73,6 +69,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="fewer scaling points")
     args = parser.parse_args()
+    print_environment()
     warnings.simplefilter("ignore")
     from robots import load_robot
     from scenes import Box, Scene, Sphere
