@@ -115,6 +115,78 @@ def test_spline_handles_duplicates_centre_points_and_empty_sections():
     np.testing.assert_allclose(sections.radius(np.ones(7, int), np.linspace(0, 6, 7)), MIN_RADIUS)
 
 
+FD_STEP = 1e-6     # [rad] central-difference step for the slope checks
+
+
+def central_difference(sections, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """(r(angle + h) - r(angle - h)) / 2h [m/rad]."""
+    return (sections.radius(index, angle + FD_STEP) - sections.radius(index, angle - FD_STEP)) / (2 * FD_STEP)
+
+
+def check_slope_matches_finite_differences(sections, rng: np.random.Generator) -> None:
+    """Analytic slope vs central differences at random angles (N, 25), tolerance 1e-6 of r."""
+    n = sections.num_sections
+    index = np.arange(n)[:, None]
+    angle = rng.uniform(-1.0, 2 * np.pi + 1.0, size=(n, 25))       # also outside [0, 2 pi)
+    slope = sections.radius_derivative(index, angle)
+    assert slope.shape == (n, 25) and np.all(np.isfinite(slope))
+    scale = sections.radius(index, angle).max(axis=1, keepdims=True)
+    np.testing.assert_allclose(slope / scale, central_difference(sections, index, angle) / scale,
+                               rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_radius_derivative_matches_central_differences(kind):
+    rng = np.random.default_rng(6)
+    sections = fit_cross_sections(kind, centred_points(rng))
+    check_slope_matches_finite_differences(sections, rng)
+    assert sections.radius_derivative(3, 0.5).shape == ()
+    if kind != "circle":                                           # a real slope is tested
+        assert np.abs(sections.radius_derivative(np.arange(40), 0.5)).max() > 1e-3
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_radius_derivative_is_periodic(kind):
+    sections = fit_cross_sections(kind, centred_points(np.random.default_rng(7)))
+    index = np.arange(40)
+    np.testing.assert_allclose(sections.radius_derivative(index, 2 * np.pi),
+                               sections.radius_derivative(index, 0.0), rtol=1e-9, atol=1e-12)
+    # The one-sided slopes just below 2 pi and just above 0 agree (no kink at the wrap).
+    scale = sections.radius(index, 0.0).max()
+    np.testing.assert_allclose(sections.radius_derivative(index, 2 * np.pi - 1e-9),
+                               sections.radius_derivative(index, 1e-9), atol=1e-6 * scale)
+
+
+def test_ellipse_radius_derivative_matches_its_closed_form():
+    a, b, phi = 0.3, 0.1, 0.4
+    sections = EllipseSections(np.array([a]), np.array([b]), np.array([phi]))
+    theta = np.linspace(0.0, 2 * np.pi, 50)
+    u = theta - phi      # r = a b / sqrt(b^2 cos^2 u + a^2 sin^2 u)
+    expected = -a * b * (a * a - b * b) * np.sin(u) * np.cos(u) / (
+        (b * np.cos(u)) ** 2 + (a * np.sin(u)) ** 2) ** 1.5
+    np.testing.assert_allclose(sections.radius_derivative(np.zeros(50, int), theta), expected,
+                               rtol=1e-12, atol=1e-14)
+
+
+def test_spline_radius_derivative_of_shape_preserving_and_degenerate_sections():
+    # Section 0 falls back to the C1 shape-preserving spline (a point near the centre);
+    # section 1 is regular (C2); section 2 holds duplicate and centre points (zero-width pieces).
+    angles = np.array([0.1, 1.5, 1.7, 3.5, 5.0])
+    radii = np.array([0.2, 0.2, 1e-4, 0.2, 0.2])
+    c1 = radii[:, None] * np.stack([np.cos(angles), np.sin(angles)], 1)
+    c2 = np.roll(c1, 2, axis=0) * np.array([1.0, 0.5]) + 0.3 * np.ones(2)
+    c2 -= c2.mean(axis=0)
+    duplicate = np.array([[0.1, 0.0], [0.2, 0.0], [-0.15, 0.05], [0.0, -0.1], [0.0, 0.0]])
+    sections = SplineSections.fit(np.stack([c1, c2, duplicate], axis=1))
+    rng = np.random.default_rng(8)
+    check_slope_matches_finite_differences(sections, rng)
+    # The C1 section: its slope is continuous at the knots, although its curvature is not.
+    knots = np.sort(angles)
+    left = sections.radius_derivative(np.zeros(5, int), knots - 1e-9)
+    right = sections.radius_derivative(np.zeros(5, int), knots + 1e-9)
+    np.testing.assert_allclose(left, right, atol=1e-6)
+
+
 @pytest.mark.parametrize("kind", KINDS)
 def test_arrays_round_trip_and_select(kind):
     points = centred_points(np.random.default_rng(4))
@@ -136,6 +208,8 @@ def test_errors_name_the_argument():
         sections.radius(3, 0.0)
     with pytest.raises(InvalidArgumentError, match="index: expected integers"):
         sections.radius(0.5, 0.0)
+    with pytest.raises(InvalidArgumentError, match=r"index.*\[0, 3\)"):
+        sections.radius_derivative(np.array([0, 3]), 0.0)
     with pytest.raises(InvalidArgumentError, match="radii"):
         CircleSections(np.array([1.0, -1.0]))
     with pytest.raises(InvalidArgumentError, match="breaks"):

@@ -51,6 +51,33 @@ def test_synthetic_boundaries_enclose_and_touch_the_effective_points(synthetic, 
     np.testing.assert_allclose(ratio.max(axis=0), 1.0, atol=1e-9)
 
 
+def check_radius_derivative(cyl: GeneralizedCylinder, rng: np.random.Generator) -> None:
+    """cyl.radius_derivative vs central differences (step 1e-6 rad) of cyl.radius at random
+    sections and angles (200,), relative to the section's radius; periodic at 0 and 2 pi."""
+    step = 1e-6
+    index = rng.integers(0, cyl.num_sections, size=200)
+    angle = rng.uniform(0.0, 2 * np.pi, size=200)
+    slope = cyl.radius_derivative(index, angle)
+    assert slope.shape == (200,)
+    fd = (cyl.radius(index, angle + step) - cyl.radius(index, angle - step)) / (2 * step)
+    scale = cyl.radius(index, angle)
+    np.testing.assert_allclose(slope / scale, fd / scale, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(cyl.radius_derivative(index, 2 * np.pi),
+                               cyl.radius_derivative(index, 0.0), rtol=1e-9, atol=1e-12)
+    assert cyl.radius_derivative(index[:4, None], angle[None, :3]).shape == (4, 3)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_synthetic_radius_derivative_matches_central_differences(synthetic, kind):
+    check_radius_derivative(fit_cylinder(synthetic, kind), np.random.default_rng(11))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_needle_threading_radius_derivative_matches_central_differences(shared_dataset, kind):
+    cyl = fit_cylinder(load_smooth_data(shared_dataset("needle_threading")), kind)
+    check_radius_derivative(cyl, np.random.default_rng(12))
+
+
 def test_directrix_is_the_mean_and_the_centroid_of_the_effective_points(synthetic):
     cyl = fit_cylinder(synthetic, "spline")
     np.testing.assert_allclose(cyl.directrix, synthetic.mean(axis=0), atol=1e-15)

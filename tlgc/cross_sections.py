@@ -13,8 +13,9 @@ its section and touches the farthest one exactly (largest ratio = 1):
   below half the smallest point radius the section uses shape-preserving periodic cubic
   Hermite slopes instead (C1, stays between neighbouring point radii), which keeps it positive.
 
-Radii are evaluated exactly (analytic circle/ellipse, piecewise cubic coefficients (N, K, 4)
-for splines) and vectorized over any broadcastable (index, angle) arrays.
+Radii and their slopes d r / d angle are evaluated exactly (analytic circle/ellipse, piecewise
+cubic coefficients (N, K, 4) for splines) and vectorized over any broadcastable (index, angle)
+arrays.
 """
 from __future__ import annotations
 
@@ -64,6 +65,10 @@ class CrossSections(ABC):
     @abstractmethod
     def radius(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
         """Boundary radius [m] of sections ``index`` at ``angle`` [rad]; broadcast shapes."""
+
+    @abstractmethod
+    def radius_derivative(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+        """Slope d radius / d angle [m/rad] of sections ``index`` at ``angle`` [rad]; broadcast."""
 
     @abstractmethod
     def to_arrays(self) -> dict[str, np.ndarray]:
@@ -126,6 +131,10 @@ class CircleSections(CrossSections):
     def radius(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
         idx = self.check_index(index)
         return np.broadcast_to(self.radii[idx], np.broadcast_shapes(idx.shape, np.shape(angle))).copy()
+
+    def radius_derivative(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+        idx = self.check_index(index)
+        return np.zeros(np.broadcast_shapes(idx.shape, np.shape(angle)))
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         return {"radii": self.radii}
@@ -194,6 +203,16 @@ class EllipseSections(CrossSections):
         inverse_square += cc * (s * s)
         np.sqrt(inverse_square, out=inverse_square)
         return np.divide(1.0, inverse_square, out=inverse_square)
+
+    def radius_derivative(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+        """With q = 1 / r^2 = A c^2 + B c s + C s^2: r' = -r^3 q' / 2, where
+        q' = (C - A) sin(2 angle) + B cos(2 angle)."""
+        idx = self.check_index(index)
+        ang = np.asarray(angle, dtype=float)
+        a, b, cc = (q[idx] for q in self._quadratic)
+        r = self.radius(idx, ang)
+        slope = (cc - a) * np.sin(2.0 * ang) + b * np.cos(2.0 * ang)
+        return -0.5 * r**3 * slope
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         return {"major": self.major, "minor": self.minor, "orientation": self.orientation}
@@ -362,7 +381,9 @@ class SplineSections(CrossSections):
             coefficients[i, :k] = c[0]
         return cls(breaks, coefficients)
 
-    def radius(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    def _locate(self, index: np.ndarray, angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Flat entry (...) of the extended tables holding each (index, angle) and the offset
+        t = angle - piece start (...) [rad] into that piece."""
         idx = self.check_index(index)
         ang = wrap_angle(angle)
         starts = self._sorted_starts[idx]                              # idx.shape + (K,)
@@ -372,7 +393,10 @@ class SplineSections(CrossSections):
             above = ang >= starts[..., j]
             piece += above.view(np.uint8) if small else above
         flat = idx.astype(np.int32) * np.int32(starts.shape[-1] + 1) + piece
-        t = ang - np.take(self._extended_starts, flat)
+        return flat, ang - np.take(self._extended_starts, flat)
+
+    def radius(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+        flat, t = self._locate(index, angle)
         c = self._columns
         r = np.take(c[3], flat)
         r *= t
@@ -382,6 +406,17 @@ class SplineSections(CrossSections):
         r *= t
         r += np.take(c[0], flat)
         return r
+
+    def radius_derivative(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+        """r' = c1 + 2 c2 t + 3 c3 t^2 of the piece holding ``angle`` (C2 or C1 sections alike)."""
+        flat, t = self._locate(index, angle)
+        c = self._columns
+        slope = 3.0 * np.take(c[3], flat)
+        slope *= t
+        slope += 2.0 * np.take(c[2], flat)
+        slope *= t
+        slope += np.take(c[1], flat)
+        return slope
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         return {"breaks": self.breaks, "coefficients": self.coefficients}

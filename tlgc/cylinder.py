@@ -168,6 +168,10 @@ class GeneralizedCylinder:
         """Boundary radius [m] of sections ``index`` (...) at ``angle`` (...) [rad], broadcast."""
         return self.cross_sections.radius(index, angle)
 
+    def radius_derivative(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
+        """Slope d radius / d angle [m/rad] of sections ``index`` (...) at ``angle`` (...) [rad]."""
+        return self.cross_sections.radius_derivative(index, angle)
+
     # ------------------------------------------------------------------ coordinates
     def to_local(self, points: np.ndarray, index: np.ndarray) -> np.ndarray:
         """In-plane coordinates (..., 2) [m] of points (..., 3) in sections ``index`` (...)."""
