@@ -1,14 +1,18 @@
-"""Small shared input checks: convert to float arrays and raise clear errors."""
+"""Small shared input checks: convert to float arrays and raise clear errors.
+
+``error`` may be any ValueError subclass, so packages that build on scenes (tlgc) reuse these
+checks with their own error classes.
+"""
 from __future__ import annotations
 
 from typing import Any
 
 import numpy as np
 
-from .errors import InvalidArgumentError, ScenesError
+from .errors import InvalidArgumentError
 
 
-def as_array(x: Any, name: str, error: type[ScenesError] = InvalidArgumentError) -> np.ndarray:
+def as_array(x: Any, name: str, error: type[ValueError] = InvalidArgumentError) -> np.ndarray:
     """Float64 array of ``x``; raise ``error`` naming ``name`` if not numeric or not finite."""
     try:
         arr = np.asarray(x, dtype=float)
@@ -20,7 +24,7 @@ def as_array(x: Any, name: str, error: type[ScenesError] = InvalidArgumentError)
     return arr
 
 
-def as_points(x: Any, name: str, error: type[ScenesError] = InvalidArgumentError) -> np.ndarray:
+def as_points(x: Any, name: str, error: type[ValueError] = InvalidArgumentError) -> np.ndarray:
     """Points of shape (..., 3) in metres as a finite float64 array."""
     arr = as_array(x, name, error)
     if arr.ndim == 0 or arr.shape[-1] != 3:
@@ -29,7 +33,7 @@ def as_points(x: Any, name: str, error: type[ScenesError] = InvalidArgumentError
 
 
 def as_vector(x: Any, name: str, length: int,
-              error: type[ScenesError] = InvalidArgumentError) -> np.ndarray:
+              error: type[ValueError] = InvalidArgumentError) -> np.ndarray:
     """A finite float64 vector of shape (length,)."""
     arr = as_array(x, name, error)
     if arr.shape != (length,):
@@ -37,7 +41,7 @@ def as_vector(x: Any, name: str, length: int,
     return arr
 
 
-def as_positive(x: Any, name: str, error: type[ScenesError] = InvalidArgumentError) -> float:
+def as_positive(x: Any, name: str, error: type[ValueError] = InvalidArgumentError) -> float:
     """A finite, strictly positive scalar."""
     arr = as_array(x, name, error)
     if arr.shape != () or not arr > 0:
@@ -46,7 +50,7 @@ def as_positive(x: Any, name: str, error: type[ScenesError] = InvalidArgumentErr
 
 
 def as_count(x: Any, name: str, minimum: int = 1,
-             error: type[ScenesError] = InvalidArgumentError) -> int:
+             error: type[ValueError] = InvalidArgumentError) -> int:
     """An integer >= ``minimum`` (bools rejected)."""
     if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or x < minimum:
         raise error(f"{name}: expected an integer >= {minimum}, got {x!r}")
@@ -54,7 +58,7 @@ def as_count(x: Any, name: str, minimum: int = 1,
 
 
 def as_bounds(x: Any, name: str = "bounds",
-              error: type[ScenesError] = InvalidArgumentError) -> np.ndarray:
+              error: type[ValueError] = InvalidArgumentError) -> np.ndarray:
     """Axis-aligned box (2,3) [[xmin,ymin,zmin],[xmax,ymax,zmax]] with min < max."""
     arr = as_array(x, name, error)
     if arr.shape != (2, 3):

@@ -1,31 +1,23 @@
-"""Small input checks for tlgc: convert to float arrays and raise clear TLGC errors."""
+"""Small input checks for tlgc: the shared checks of scenes.validation, raising TLGC errors."""
 from __future__ import annotations
 
 from typing import Any
 
 import numpy as np
 
+from scenes import validation as _checks
+
 from .errors import InvalidArgumentError, TLGCError
 
 
 def as_array(x: Any, name: str, error: type[TLGCError] = InvalidArgumentError) -> np.ndarray:
     """Finite float64 array of ``x``; raise ``error`` naming ``name`` otherwise."""
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise error(f"{name}: expected a numeric array, got {type(x).__name__} ({exc})") from None
-    if not np.all(np.isfinite(arr)):
-        bad = int(arr.size - np.count_nonzero(np.isfinite(arr)))
-        raise error(f"{name}: contains {bad} NaN/inf value(s); expected finite numbers")
-    return arr
+    return _checks.as_array(x, name, error)
 
 
 def as_points(x: Any, name: str, error: type[TLGCError] = InvalidArgumentError) -> np.ndarray:
     """Finite points of shape (..., 3) in metres."""
-    arr = as_array(x, name, error)
-    if arr.ndim == 0 or arr.shape[-1] != 3:
-        raise error(f"{name}: expected shape (..., 3), got {arr.shape}")
-    return arr
+    return _checks.as_points(x, name, error)
 
 
 def as_scalar(x: Any, name: str, minimum: float | None = None, maximum: float | None = None,
@@ -45,9 +37,7 @@ def as_scalar(x: Any, name: str, minimum: float | None = None, maximum: float | 
 def as_count(x: Any, name: str, minimum: int = 1,
              error: type[TLGCError] = InvalidArgumentError) -> int:
     """An integer >= ``minimum`` (bools rejected)."""
-    if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or x < minimum:
-        raise error(f"{name}: expected an integer >= {minimum}, got {x!r}")
-    return int(x)
+    return _checks.as_count(x, name, minimum, error)
 
 
 def as_generator(rng: Any, name: str = "rng") -> np.random.Generator:
