@@ -16,6 +16,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+from scenes.plotting import set_equal_axes_3d  # noqa: E402
+
 from .cylinder import GeneralizedCylinder  # noqa: E402
 from .errors import InvalidArgumentError  # noqa: E402
 from .validation import as_count, as_points  # noqa: E402
@@ -56,14 +58,7 @@ def plot_cylinder(cyl: GeneralizedCylinder, reproductions: np.ndarray | None = N
             ax.plot(*rep.T, color="tab:purple", lw=0.8, alpha=0.8,
                     label="reproductions" if r == 0 else None)
         ax.scatter(*reps[:, 0].T, color="k", s=8, label="starts")
-    centre = np.array([x.mean(), y.mean(), z.mean()])
-    half = 0.5 * max(np.ptp(x), np.ptp(y), np.ptp(z), 1e-9)
-    ax.set_xlim(centre[0] - half, centre[0] + half)
-    ax.set_ylim(centre[1] - half, centre[1] + half)
-    ax.set_zlim(centre[2] - half, centre[2] + half)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_zlabel("z [m]")
+    set_equal_axes_3d(ax, np.stack([x, y, z], axis=-1))
     ax.set_title(title or f"generalized cylinder ({cyl.cross_section} cross-sections)")
     ax.legend(loc="upper left", fontsize=8)
     return fig
