@@ -6,10 +6,18 @@ x 10 after a rejected or unsolvable one; stop at lambda_upper_bound, max_iterati
 the absolute or relative error decrease falls below its tolerance) but reuses one chain
 ordering and one set of damping factors per lambda, which is several times cheaper per
 iteration than the generic optimizer for the planner's chain-structured graphs.
+
+Two optional extensions (off by default, so the plain loop reproduces GTSAM's rules):
+``correction(values, delta, candidate) -> Values`` maps every trial point values + delta to
+the point actually evaluated (a second-order correction that restores stiff, curved
+constraints the linear model keeps only to first order; see
+:mod:`clamp.workspace_correction`), and ``solver="qr"`` eliminates with Householder QR instead
+of Cholesky, which works on the square-root system and so stays solvable at the small damping
+that ill-conditioned graphs (weights ~1e12 next to ~1) need.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import gtsam
@@ -27,6 +35,10 @@ class LMOutcome:
     trials: int
 
 
+Correction = Callable[[gtsam.Values, gtsam.VectorValues, gtsam.Values], gtsam.Values]
+SOLVERS = ("cholesky", "qr")
+
+
 def chain_ordering(keys: Sequence[int]) -> gtsam.Ordering:
     """Elimination ordering that follows the keys (optimal fill-in for a chain)."""
     ordering = gtsam.Ordering()
@@ -39,8 +51,15 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
                         keys: Sequence[int], dims: Sequence[int], lambda_initial: float = 1e3,
                         lambda_upper_bound: float = 1e10, lambda_lower_bound: float = 0.0,
                         max_iterations: int = 500, relative_error_tol: float = 1e-5,
-                        absolute_error_tol: float = 1e-5) -> LMOutcome:
-    """Minimise ``graph`` from ``initial`` over the variables ``keys`` of sizes ``dims``."""
+                        absolute_error_tol: float = 1e-5, correction: Correction | None = None,
+                        solver: str = "cholesky") -> LMOutcome:
+    """Minimise ``graph`` from ``initial`` over the variables ``keys`` of sizes ``dims``.
+
+    correction: optional map of a trial point (see the module docstring); solver "cholesky"
+    (GTSAM's default) or "qr".
+    """
+    if solver not in SOLVERS:
+        raise ValueError(f"solver: unknown {solver!r}; valid: {', '.join(SOLVERS)}")
     ordering = chain_ordering(keys)
     damping_cache: dict[float, list[gtsam.JacobianFactor]] = {}
 
@@ -65,11 +84,14 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
                 damped.push_back(factor)
             trials += 1
             try:
-                delta = damped.optimize(ordering)
+                delta = (damped.optimize(ordering, gtsam.EliminateQR) if solver == "qr"
+                         else damped.optimize(ordering))
             except RuntimeError:  # indeterminate system: damp more
                 lam *= 10.0
                 continue
             candidate = values.retract(delta)
+            if correction is not None:
+                candidate = correction(values, delta, candidate)
             new_error = float(graph.error(candidate))
             if np.isfinite(new_error) and new_error < error:
                 accepted = True

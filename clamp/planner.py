@@ -24,8 +24,9 @@ from clamp.factors import (TrajectoryEvaluator, ee_position_factors, joint_gp_fa
 from clamp.initialisation import (INITIALISATIONS, Initialisation, joint_velocities,
                                   prior_mean_initialisation, straight_line_initialisation)
 from clamp.keys import state_key
-from clamp.levenberg_marquardt import levenberg_marquardt
+from clamp.levenberg_marquardt import SOLVERS, levenberg_marquardt
 from clamp.validation import as_array, as_count, as_scalar
+from clamp.workspace_correction import WorkspaceCorrection
 
 OPTIMIZERS = ("lean", "gtsam")
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
@@ -34,7 +35,9 @@ ExtraFactor = Union[gtsam.NonlinearFactor, PerStateFactorMaker]
 
 @dataclass
 class PlannerConfig:
-    """Planner settings; defaults are the reference implementation's (box_closing demo).
+    """Planner settings. The factor graph's defaults are the reference implementation's
+    (box_closing demo); the optimizer's defaults add the workspace correction and QR solver and
+    stop at a 0.1 % relative decrease (:meth:`reference` gives the reference's optimizer).
 
     epsilon [m] obstacle safety distance; sigma_obs obstacle noise; Qc joint GP power spectral
     density; start_sigma [m or rad] start fix; goal_sigma / via_sigma for goal and via-points;
@@ -45,7 +48,11 @@ class PlannerConfig:
     optimizer "lean" (:mod:`clamp.levenberg_marquardt`, the same rules on GTSAM's
     linearization and solver, cheaper per iteration) or "gtsam" (gtsam's optimizer);
     Levenberg-Marquardt: lambda_initial, lambda_upper_bound, max_iterations, relative and
-    absolute error tolerances. Success checks: start_tolerance [m], goal_tolerance [m or rad],
+    absolute error tolerances; lean optimizer only: workspace_correction, the number of
+    per-state Gauss-Newton updates that move every trial point back onto the workspace states
+    the linear model predicts (:mod:`clamp.workspace_correction`; 0 = the reference's plain
+    LM, which crawls against stiff learned priors) and linear_solver "qr" or "cholesky"
+    (the reference's; it fails at the small damping the corrected steps allow). Success checks: start_tolerance [m], goal_tolerance [m or rad],
     ik_tolerance [m] for reaching the start, velocity_tolerance [rad/s] on velocity limits.
     """
 
@@ -70,12 +77,21 @@ class PlannerConfig:
     lambda_initial: float = 1000.0
     lambda_upper_bound: float = 1e10
     max_iterations: int = 500
-    relative_error_tol: float = 1e-5
+    relative_error_tol: float = 1e-3
     absolute_error_tol: float = 1e-5
+    workspace_correction: int = 2
+    linear_solver: str = "qr"
     start_tolerance: float = 1e-3
     goal_tolerance: float = 0.02
     ik_tolerance: float = 1e-4
     velocity_tolerance: float = 1e-3
+
+    @classmethod
+    def reference(cls, **changes: Any) -> "PlannerConfig":
+        """The reference implementation's optimizer: plain LM (no workspace correction,
+        Cholesky) stopping at a 1e-5 relative decrease. ``changes`` override fields."""
+        return cls(**{"workspace_correction": 0, "linear_solver": "cholesky",
+                      "relative_error_tol": 1e-5, **changes})
 
     @classmethod
     def fast(cls, **changes: Any) -> "PlannerConfig":
@@ -97,6 +113,10 @@ class PlannerConfig:
                      "goal_tolerance", "ik_tolerance"):
             as_scalar(getattr(self, name), f"config.{name}", strictly_positive=True)
         as_count(self.max_iterations, "config.max_iterations", minimum=0)
+        as_count(self.workspace_correction, "config.workspace_correction", minimum=0)
+        if self.linear_solver not in SOLVERS:
+            raise InvalidParameterError(f"config.linear_solver: unknown {self.linear_solver!r}; "
+                                        f"valid: {', '.join(SOLVERS)}")
         if self.optimizer not in OPTIMIZERS:
             raise InvalidParameterError(f"config.optimizer: unknown {self.optimizer!r}; "
                                         f"valid: {', '.join(OPTIMIZERS)}")
@@ -420,7 +440,11 @@ def optimize(problem: PlanningProblem, config: PlannerConfig) -> tuple[gtsam.Val
                               config.lambda_initial, config.lambda_upper_bound,
                               max_iterations=config.max_iterations,
                               relative_error_tol=config.relative_error_tol,
-                              absolute_error_tol=config.absolute_error_tol)
+                              absolute_error_tol=config.absolute_error_tol,
+                              correction=WorkspaceCorrection(problem.evaluator.robot,
+                                                             problem.evaluator.keys,
+                                                             config.workspace_correction),
+                              solver=config.linear_solver)
     return out.values, out.iterations, out.initial_error, out.final_error
 
 

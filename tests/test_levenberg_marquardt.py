@@ -60,3 +60,26 @@ def test_max_iterations_is_respected():
     assert out.iterations == 1
     assert out.final_error < out.initial_error
 
+
+
+def test_qr_solver_and_identity_correction_match_the_plain_loop():
+    graph, initial, keys, _ = curve_fit_graph(np.random.default_rng(2))
+    plain = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3)
+    calls = []
+
+    def identity(values, delta, candidate):
+        calls.append(1)
+        return candidate
+
+    qr = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3,
+                             correction=identity, solver="qr")
+    assert len(calls) == qr.trials
+    assert qr.final_error == pytest.approx(plain.final_error, rel=1e-6, abs=1e-9)
+    for key in keys:
+        np.testing.assert_allclose(qr.values.atVector(key), plain.values.atVector(key), atol=1e-6)
+
+
+def test_unknown_solver_raises():
+    graph, initial, keys, _ = curve_fit_graph(np.random.default_rng(3))
+    with pytest.raises(ValueError, match="cholesky"):
+        levenberg_marquardt(graph, initial, keys, [3, 3, 3], solver="lu")

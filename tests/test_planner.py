@@ -14,10 +14,10 @@ from clamp.planner import PlannerConfig, build, plan, sphere_clearance
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
-# the reference settings (sigma_obs = 0.05) also give a collision-free plan, but only after
-# ~500 iterations against the stiff learned prior (see benchmarks/bench_clamp.py); the fast
-# preset (sigma_obs = 0.005, 5 % relative tolerance) clears the box in ~15 iterations
-OBSTACLE_CONFIG = PlannerConfig.fast()
+# the defaults (reference graph, sigma_obs = 0.05, with the workspace correction and QR solver)
+# clear the box in ~15 iterations; the reference's plain LM needs ~500 against the stiff
+# learned prior (see benchmarks/bench_clamp.py)
+OBSTACLE_CONFIG = PlannerConfig()
 
 
 @pytest.fixture(scope="module")
@@ -89,6 +89,10 @@ def test_box_closing_with_obstacle(jaco, box_closing, obstacle_scene, empty_plan
     clearance = sphere_clearance(jaco, scene, result.q)
     assert clearance.min() >= 0.0
     assert result.min_clearance == pytest.approx(clearance.min())
+    # the reference's plain LM gets less far in as many iterations (it crawls for ~500)
+    plain = plan(prior, jaco, scene, REFERENCE_START, sdf=sdf, config=PlannerConfig.reference(
+        max_iterations=result.iterations))
+    assert result.final_error < plain.final_error
     # without obstacle factors the same skill runs through the box
     assert sphere_clearance(jaco, scene, empty_plan.q).min() < 0.0
     unaware = plan(prior, jaco, scene, REFERENCE_START,
@@ -202,6 +206,9 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
     ({"start": [0.3, -0.3, 0.2], "via_points": [(10_000, [0.3, 0.2, 0.1])]}, "via_points"),
     ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(initialisation="magic")}, "prior_mean"),
     ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(sigma_obs=-1.0)}, "sigma_obs"),
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(workspace_correction=-1)},
+     "workspace_correction"),
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(linear_solver="lu")}, "cholesky"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [42]}, "extra_factors"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [gtsam.PriorFactorVector(
         gtsam.symbol("y", 0), np.zeros(12), gtsam.noiseModel.Unit.Create(12))]}, "not planner states"),
