@@ -7,13 +7,17 @@ the absolute or relative error decrease falls below its tolerance) but reuses on
 ordering and one set of damping factors per lambda, which is several times cheaper per
 iteration than the generic optimizer for the planner's chain-structured graphs.
 
-Two optional extensions (off by default, so the plain loop reproduces GTSAM's rules):
+Three optional extensions (off by default, so the plain loop reproduces GTSAM's rules):
 ``correction(values, delta, candidate) -> Values`` maps every trial point values + delta to
 the point actually evaluated (a second-order correction that restores stiff, curved
 constraints the linear model keeps only to first order; see
 :mod:`clamp.workspace_correction`), and ``solver="qr"`` eliminates with Householder QR instead
 of Cholesky, which works on the square-root system and so stays solvable at the small damping
-that ill-conditioned graphs (weights ~1e12 next to ~1) need.
+that ill-conditioned graphs (weights ~1e12 next to ~1) need, and
+``damping_update="gain_ratio"`` adapts lambda to the gain ratio rho = actual / predicted error
+decrease (Nielsen's rule: lambda *= max(1/3, 1 - (2 rho - 1)^3) after an accepted step,
+lambda *= nu, nu *= 2 after a rejected one) instead of the fixed factor 10, so an accurate
+linear model (rho ~ 1) lowers the damping quickly and a poor one raises it gently.
 """
 from __future__ import annotations
 
@@ -37,6 +41,7 @@ class LMOutcome:
 
 Correction = Callable[[gtsam.Values, gtsam.VectorValues, gtsam.Values], gtsam.Values]
 SOLVERS = ("cholesky", "qr")
+DAMPING_UPDATES = ("gtsam", "gain_ratio")
 
 
 def chain_ordering(keys: Sequence[int]) -> gtsam.Ordering:
@@ -52,14 +57,18 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
                         lambda_upper_bound: float = 1e10, lambda_lower_bound: float = 0.0,
                         max_iterations: int = 500, relative_error_tol: float = 1e-5,
                         absolute_error_tol: float = 1e-5, correction: Correction | None = None,
-                        solver: str = "cholesky") -> LMOutcome:
+                        solver: str = "cholesky", damping_update: str = "gtsam") -> LMOutcome:
     """Minimise ``graph`` from ``initial`` over the variables ``keys`` of sizes ``dims``.
 
     correction: optional map of a trial point (see the module docstring); solver "cholesky"
-    (GTSAM's default) or "qr".
+    (GTSAM's default) or "qr"; damping_update "gtsam" (x 10 / 10) or "gain_ratio".
     """
     if solver not in SOLVERS:
         raise ValueError(f"solver: unknown {solver!r}; valid: {', '.join(SOLVERS)}")
+    if damping_update not in DAMPING_UPDATES:
+        raise ValueError(f"damping_update: unknown {damping_update!r}; "
+                         f"valid: {', '.join(DAMPING_UPDATES)}")
+    gain_ratio = damping_update == "gain_ratio"
     ordering = chain_ordering(keys)
     damping_cache: dict[float, list[gtsam.JacobianFactor]] = {}
 
@@ -75,6 +84,7 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
     error = initial_error = float(graph.error(values))
     lam = float(lambda_initial)
     iterations = trials = 0
+    growth = 2.0 if gain_ratio else 10.0  # lambda factor after a rejected step
     while iterations < max_iterations and error > 0.0:
         linear = graph.linearize(values)
         accepted = False
@@ -96,14 +106,23 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
             if np.isfinite(new_error) and new_error < error:
                 accepted = True
                 break
-            lam *= 10.0
+            lam *= growth
+            if gain_ratio:
+                growth *= 2.0
         if not accepted:
             break
         iterations += 1
         decrease = error - new_error
         converged = decrease <= absolute_error_tol or decrease <= relative_error_tol * error
+        if gain_ratio:
+            predicted = error - float(linear.error(delta))
+            rho = decrease / predicted if predicted > 0.0 else 0.0
+            lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+            growth = 2.0
+        else:
+            lam /= 10.0
+        lam = max(lam, lambda_lower_bound)
         values, error = candidate, new_error
-        lam = max(lam / 10.0, lambda_lower_bound)
         if converged:
             break
     return LMOutcome(values, iterations, initial_error, error, trials)

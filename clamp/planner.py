@@ -24,7 +24,7 @@ from clamp.factors import (TrajectoryEvaluator, ee_position_factors, joint_gp_fa
 from clamp.initialisation import (INITIALISATIONS, Initialisation, joint_velocities,
                                   prior_mean_initialisation, straight_line_initialisation)
 from clamp.keys import state_key
-from clamp.levenberg_marquardt import SOLVERS, levenberg_marquardt
+from clamp.levenberg_marquardt import DAMPING_UPDATES, SOLVERS, levenberg_marquardt
 from clamp.validation import as_array, as_count, as_scalar
 from clamp.workspace_correction import WorkspaceCorrection
 
@@ -37,7 +37,7 @@ ExtraFactor = Union[gtsam.NonlinearFactor, PerStateFactorMaker]
 class PlannerConfig:
     """Planner settings. The factor graph's defaults are the reference implementation's
     (box_closing demo); the optimizer's defaults add the workspace correction and QR solver and
-    stop at a 0.1 % relative decrease (:meth:`reference` gives the reference's optimizer).
+    stop at a 0.01 % relative decrease (:meth:`reference` gives the reference's optimizer).
 
     epsilon [m] obstacle safety distance; sigma_obs obstacle noise; Qc joint GP power spectral
     density; start_sigma [m or rad] start fix; goal_sigma / via_sigma for goal and via-points;
@@ -51,9 +51,13 @@ class PlannerConfig:
     absolute error tolerances; lean optimizer only: workspace_correction, the number of
     per-state Gauss-Newton updates that move every trial point back onto the workspace states
     the linear model predicts (:mod:`clamp.workspace_correction`; 0 = the reference's plain
-    LM, which crawls against stiff learned priors) and linear_solver "qr" or "cholesky"
-    (the reference's; it fails at the small damping the corrected steps allow). Success checks: start_tolerance [m], goal_tolerance [m or rad],
-    ik_tolerance [m] for reaching the start, velocity_tolerance [rad/s] on velocity limits.
+    LM, which crawls against stiff learned priors), linear_solver "qr" or "cholesky"
+    (the reference's; it fails at the small damping the corrected steps allow) and
+    damping_update "gain_ratio" (lambda follows the ratio of actual to predicted decrease) or
+    "gtsam" (the reference's fixed factor 10). With the correction the linear model is accurate
+    from the first step, hence the small default lambda_initial (reference: 1e3). Success checks: start_tolerance [m], goal_tolerance [m or rad],
+    ik_tolerance [m] for reaching the start, limit_tolerance [rad] on position limits (the
+    limit factors are soft, sigma limit_sigma) and velocity_tolerance [rad/s] on velocity limits.
     """
 
     epsilon: float = 0.05
@@ -74,16 +78,18 @@ class PlannerConfig:
     blend_start_offset: bool = True
     straight_line_configurations: tuple[Any, Any] | None = None
     optimizer: str = "lean"
-    lambda_initial: float = 1000.0
+    lambda_initial: float = 0.1
     lambda_upper_bound: float = 1e10
     max_iterations: int = 500
-    relative_error_tol: float = 1e-3
+    relative_error_tol: float = 1e-4
     absolute_error_tol: float = 1e-5
     workspace_correction: int = 2
     linear_solver: str = "qr"
+    damping_update: str = "gain_ratio"
     start_tolerance: float = 1e-3
     goal_tolerance: float = 0.02
     ik_tolerance: float = 1e-4
+    limit_tolerance: float = 1e-4
     velocity_tolerance: float = 1e-3
 
     @classmethod
@@ -91,6 +97,7 @@ class PlannerConfig:
         """The reference implementation's optimizer: plain LM (no workspace correction,
         Cholesky) stopping at a 1e-5 relative decrease. ``changes`` override fields."""
         return cls(**{"workspace_correction": 0, "linear_solver": "cholesky",
+                      "damping_update": "gtsam", "lambda_initial": 1e3,
                       "relative_error_tol": 1e-5, **changes})
 
     @classmethod
@@ -106,7 +113,7 @@ class PlannerConfig:
     def validate(self) -> "PlannerConfig":
         """Check every field; raises InvalidParameterError naming the bad one."""
         for name in ("epsilon", "limit_margin", "velocity_margin", "relative_error_tol",
-                     "absolute_error_tol", "velocity_tolerance"):
+                     "absolute_error_tol", "limit_tolerance", "velocity_tolerance"):
             as_scalar(getattr(self, name), f"config.{name}", minimum=0.0)
         for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
                      "sdf_cell_size", "lambda_initial", "lambda_upper_bound", "start_tolerance",
@@ -114,6 +121,10 @@ class PlannerConfig:
             as_scalar(getattr(self, name), f"config.{name}", strictly_positive=True)
         as_count(self.max_iterations, "config.max_iterations", minimum=0)
         as_count(self.workspace_correction, "config.workspace_correction", minimum=0)
+        if self.damping_update not in DAMPING_UPDATES:
+            raise InvalidParameterError(f"config.damping_update: unknown "
+                                        f"{self.damping_update!r}; valid: "
+                                        f"{', '.join(DAMPING_UPDATES)}")
         if self.linear_solver not in SOLVERS:
             raise InvalidParameterError(f"config.linear_solver: unknown {self.linear_solver!r}; "
                                         f"valid: {', '.join(SOLVERS)}")
@@ -444,7 +455,8 @@ def optimize(problem: PlanningProblem, config: PlannerConfig) -> tuple[gtsam.Val
                               correction=WorkspaceCorrection(problem.evaluator.robot,
                                                              problem.evaluator.keys,
                                                              config.workspace_correction),
-                              solver=config.linear_solver)
+                              solver=config.linear_solver,
+                              damping_update=config.damping_update)
     return out.values, out.iterations, out.initial_error, out.final_error
 
 
@@ -553,7 +565,7 @@ def _evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, valu
     if problem.goal is not None:
         reached = kin.position[-1] if problem.goal.kind == "position" else q[-1]
         goal_error = float(np.linalg.norm(reached - problem.goal.value))
-    within = bool(np.all(robot.within_limits(q)) and np.all(
+    within = bool(np.all(robot.within_limits(q, config.limit_tolerance)) and np.all(
         np.abs(qdot) <= np.asarray(robot.velocity_limits) + config.velocity_tolerance))
     log_likelihood = float(prior.log_likelihood(x, initial=False))
     probability = float(prior.success_probability(x)) if hasattr(prior, "success_probability") \

@@ -83,3 +83,15 @@ def test_unknown_solver_raises():
     graph, initial, keys, _ = curve_fit_graph(np.random.default_rng(3))
     with pytest.raises(ValueError, match="cholesky"):
         levenberg_marquardt(graph, initial, keys, [3, 3, 3], solver="lu")
+
+
+def test_gain_ratio_damping_reaches_the_same_minimum():
+    graph, initial, keys, truth = curve_fit_graph(np.random.default_rng(4))
+    plain = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3)
+    adaptive = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e3,
+                                   damping_update="gain_ratio")
+    assert adaptive.final_error == pytest.approx(plain.final_error, rel=1e-6, abs=1e-9)
+    for key in keys:
+        np.testing.assert_allclose(adaptive.values.atVector(key), truth, atol=0.02)
+    with pytest.raises(ValueError, match="gain_ratio"):
+        levenberg_marquardt(graph, initial, keys, [3, 3, 3], damping_update="nielsen")
