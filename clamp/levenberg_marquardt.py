@@ -57,12 +57,17 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
                         lambda_upper_bound: float = 1e10, lambda_lower_bound: float = 0.0,
                         max_iterations: int = 500, relative_error_tol: float = 1e-5,
                         absolute_error_tol: float = 1e-5, correction: Correction | None = None,
-                        solver: str = "cholesky", damping_update: str = "gtsam") -> LMOutcome:
+                        solver: str = "cholesky", damping_update: str = "gtsam",
+                        patience: int = 1) -> LMOutcome:
     """Minimise ``graph`` from ``initial`` over the variables ``keys`` of sizes ``dims``.
 
     correction: optional map of a trial point (see the module docstring); solver "cholesky"
-    (GTSAM's default) or "qr"; damping_update "gtsam" (x 10 / 10) or "gain_ratio".
+    (GTSAM's default) or "qr"; damping_update "gtsam" (x 10 / 10) or "gain_ratio"; patience:
+    stop once that many consecutive accepted steps decreased the error by less than the
+    tolerances (GTSAM: 1; more tolerates a single small step on a non-monotone descent).
     """
+    if int(patience) < 1:
+        raise ValueError(f"patience: expected an integer >= 1, got {patience!r}")
     if solver not in SOLVERS:
         raise ValueError(f"solver: unknown {solver!r}; valid: {', '.join(SOLVERS)}")
     if damping_update not in DAMPING_UPDATES:
@@ -85,6 +90,7 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
     lam = float(lambda_initial)
     iterations = trials = 0
     growth = 2.0 if gain_ratio else 10.0  # lambda factor after a rejected step
+    small_steps = 0
     while iterations < max_iterations and error > 0.0:
         linear = graph.linearize(values)
         accepted = False
@@ -113,7 +119,9 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
             break
         iterations += 1
         decrease = error - new_error
-        converged = decrease <= absolute_error_tol or decrease <= relative_error_tol * error
+        small = decrease <= absolute_error_tol or decrease <= relative_error_tol * error
+        small_steps = small_steps + 1 if small else 0
+        converged = small_steps >= patience
         if gain_ratio:
             predicted = error - float(linear.error(delta))
             rho = decrease / predicted if predicted > 0.0 else 0.0

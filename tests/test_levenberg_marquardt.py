@@ -95,3 +95,14 @@ def test_gain_ratio_damping_reaches_the_same_minimum():
         np.testing.assert_allclose(adaptive.values.atVector(key), truth, atol=0.02)
     with pytest.raises(ValueError, match="gain_ratio"):
         levenberg_marquardt(graph, initial, keys, [3, 3, 3], damping_update="nielsen")
+
+
+def test_patience_needs_consecutive_small_steps():
+    graph, initial, keys, _ = curve_fit_graph(np.random.default_rng(5))
+    # every accepted step counts as small: patience k stops after exactly k iterations
+    for patience in (1, 3):
+        out = levenberg_marquardt(graph, initial, keys, [3, 3, 3], relative_error_tol=1.0,
+                                  patience=patience)
+        assert out.iterations == patience
+    with pytest.raises(ValueError, match="patience"):
+        levenberg_marquardt(graph, initial, keys, [3, 3, 3], patience=0)

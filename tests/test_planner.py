@@ -211,6 +211,8 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
      "workspace_correction"),
     ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(linear_solver="lu")}, "cholesky"),
     ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(damping_update="x")}, "gain_ratio"),
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(convergence_patience=0)},
+     "convergence_patience"),
     ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(limit_tolerance=-1.0)},
      "limit_tolerance"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [42]}, "extra_factors"),
