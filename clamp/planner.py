@@ -26,6 +26,7 @@ from clamp.initialisation import (INITIALISATIONS, Initialisation, joint_velocit
 from clamp.keys import state_key
 from clamp.levenberg_marquardt import DAMPING_UPDATES, SOLVERS, levenberg_marquardt
 from clamp.validation import as_array, as_count, as_scalar
+from clamp.vectorized_graph import VectorizedGraph
 from clamp.workspace_correction import WorkspaceCorrection
 
 OPTIMIZERS = ("lean", "gtsam")
@@ -464,7 +465,8 @@ def optimize(problem: PlanningProblem, config: PlannerConfig) -> tuple[gtsam.Val
                                                              config.workspace_correction),
                               solver=config.linear_solver,
                               damping_update=config.damping_update,
-                              patience=config.convergence_patience)
+                              patience=config.convergence_patience,
+                              system=VectorizedGraph(problem.graph, problem.evaluator))
     return out.values, out.iterations, out.initial_error, out.final_error
 
 

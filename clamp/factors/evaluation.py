@@ -57,6 +57,20 @@ def workspace_states(robot, theta: np.ndarray, jacobians: bool = True) -> Worksp
     return WorkspaceStates(x, jac)
 
 
+@dataclass(frozen=True)
+class FamilyBlock:
+    """The GTSAM adapters of one residual family made by :func:`custom_factors`.
+
+    states (F, k) support-state indices of every factor (its keys, in order);
+    sqrt_information (F, m, m) whitening of every factor's noise model; factors the F adapters.
+    """
+
+    family: "ResidualFamily"
+    states: np.ndarray
+    sqrt_information: np.ndarray
+    factors: tuple
+
+
 class ResidualFamily:
     """A family of factors whose residuals are computed for all factors at once.
 
@@ -82,6 +96,7 @@ class TrajectoryEvaluator:
         self._version = 0
         self._memo: dict[object, tuple[int, bool, object]] = {}
         self.reloads = 0
+        self.blocks: list[FamilyBlock] = []  # adapters made by custom_factors (see there)
 
     # -- states ------------------------------------------------------------------------------
     def load(self, theta: np.ndarray) -> None:
@@ -89,6 +104,11 @@ class TrajectoryEvaluator:
         self.theta = np.array(theta, dtype=float, copy=True)
         self._state_bytes = [row.tobytes() for row in self.theta]
         self._version += 1
+
+    def set_states(self, theta: np.ndarray) -> None:
+        """Load joint states (T, 2n) unless they equal the cached ones (memoised results kept)."""
+        if not np.array_equal(theta, self.theta):
+            self.load(theta)
 
     def sync(self, values: gtsam.Values, indices: Sequence[int]) -> None:
         """Make the cache agree with ``values`` on the states ``indices``; reload all on mismatch."""
@@ -139,13 +159,20 @@ def custom_factors(evaluator: TrajectoryEvaluator, family: ResidualFamily,
                    noise_models: Sequence[gtsam.noiseModel.Base]) -> list[gtsam.CustomFactor]:
     """Thin GTSAM adapters: factor ``row`` returns row ``row`` of ``family``'s residuals.
 
-    states[row] lists the support-state indices the factor connects (its keys, in order).
+    states[row] lists the support-state indices the factor connects (its keys, in order);
+    noise_models must be Gaussian (isotropic, diagonal or full). The adapters are also recorded
+    in ``evaluator.blocks`` so that :mod:`clamp.vectorized_graph` can evaluate and linearize
+    them all at once without calling them.
     """
     factors = []
     for row, (idx, noise) in enumerate(zip(states, noise_models)):
         keys = [evaluator.keys[i] for i in idx]
         fn = partial(_factor_error, evaluator, family, row, tuple(idx))
         factors.append(gtsam.CustomFactor(noise, keys, fn))
+    if factors:
+        indices = np.array(states, dtype=int).reshape(len(factors), -1)
+        whitening = np.stack([np.asarray(m.R(), dtype=float) for m in noise_models])
+        evaluator.blocks.append(FamilyBlock(family, indices, whitening, tuple(factors)))
     return factors
 
 

@@ -1,0 +1,153 @@
+"""Graph error and linearization of the planner's factor families without per-factor calls.
+
+GTSAM evaluates a NonlinearFactorGraph by calling every Python factor (~750 round trips per
+linearization and ~1000 per error for a 250-state plan). :class:`VectorizedGraph` splits a graph
+into the factors made by :func:`clamp.factors.evaluation.custom_factors` on one
+:class:`~clamp.factors.evaluation.TrajectoryEvaluator` (recorded in ``evaluator.blocks``) and
+the rest (pure C++ linear factors, callers' extra factors), which GTSAM keeps handling.
+
+For the families, everything comes from one vectorized residual call per family:
+error = 0.5 sum ||R_f e_f||^2 (R_f the factor's square-root information), exactly GTSAM's
+Gaussian-noise error. The linearization is the whitened system A_fk = R_f de_f/dtheta_k,
+b_f = -R_f e_f that GTSAM builds per factor, with the rows of all factors on the same pair of
+consecutive states (i, i+1) stacked into one JacobianFactor (unary factors of state i < T-1
+joined to the pair (i, i+1) with a zero block for i+1 when the graph has factors on that pair,
+else stacked into one unary factor; those of the last state into one unary factor). Stacking rows of a least-squares system leaves it unchanged (same A^T A and A^T b,
+same error for every delta), and ~T factors instead of ~750 make building and eliminating it
+cheaper. Factors of other shapes (non-consecutive pairs, more keys) are emitted one by one.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+
+import gtsam
+import numpy as np
+
+from clamp.factors.evaluation import FamilyBlock, TrajectoryEvaluator
+
+
+def _values_theta(values: gtsam.Values, keys: list[int]) -> np.ndarray:
+    return np.stack([values.atVector(k) for k in keys])
+
+
+class VectorizedGraph:
+    """Error and linearization of ``graph`` equal to GTSAM's, computed per family in numpy.
+
+    graph: a NonlinearFactorGraph whose factors are the evaluator's adapters (any subset, in any
+    order, repeats allowed) and any other factors (evaluated by GTSAM).
+    """
+
+    def __init__(self, graph: gtsam.NonlinearFactorGraph, evaluator: TrajectoryEvaluator):
+        self.graph = graph
+        self.evaluator = evaluator
+        lookup = {id(f): (b, row) for b, block in enumerate(evaluator.blocks)
+                  for row, f in enumerate(block.factors)}
+        rows: dict[int, list[int]] = defaultdict(list)
+        self.rest = gtsam.NonlinearFactorGraph()
+        for i in range(graph.size()):
+            factor = graph.at(i)
+            hit = lookup.get(id(factor))
+            if hit is None:
+                self.rest.add(factor)
+            else:
+                rows[hit[0]].append(hit[1])
+        self.parts: list[tuple[FamilyBlock, np.ndarray, np.ndarray]] = []
+        for b, r in sorted(rows.items()):
+            block, r = evaluator.blocks[b], np.array(r, dtype=int)
+            R = block.sqrt_information[r]
+            diagonal = np.einsum("fii->fi", R)
+            if np.array_equal(R, diagonal[:, :, None] * np.eye(R.shape[1])):
+                R = diagonal  # isotropic / diagonal noise: whiten by scaling rows
+            self.parts.append((block, r, R))
+        self.num_vectorized = sum(len(r) for _, r, _ in self.parts)
+        self._unit: dict[int, gtsam.noiseModel.Base] = {}
+
+    # ------------------------------------------------------------------------------ states
+    def _load(self, values: gtsam.Values) -> None:
+        self.evaluator.set_states(_values_theta(values, self.evaluator.keys))
+
+    def _whitened(self, block: FamilyBlock, rows: np.ndarray, R: np.ndarray, jacobians: bool):
+        """Whitened errors (F, m) and Jacobians [(F, m, 2n)] of ``rows``; R (F, m, m) or its
+        diagonal (F, m)."""
+        res = self.evaluator.residuals(block.family, jacobians)
+        if R.ndim == 2:
+            error = R * res.error[rows]
+            jacs = None if not jacobians else [R[:, :, None] * j[rows] for j in res.jacobians]
+        else:
+            error = (R @ res.error[rows][:, :, None])[:, :, 0]
+            jacs = None if not jacobians else [R @ j[rows] for j in res.jacobians]
+        return error, jacs
+
+    # ------------------------------------------------------------------------------ error
+    def family_error(self, values: gtsam.Values) -> float:
+        """0.5 sum of squared whitened residuals of the vectorized factors at ``values``."""
+        self._load(values)
+        total = 0.0
+        for block, rows, R in self.parts:
+            error, _ = self._whitened(block, rows, R, False)
+            total += 0.5 * float(np.sum(error * error))
+        return total
+
+    def error(self, values: gtsam.Values) -> float:
+        """The graph error at ``values`` (= graph.error(values))."""
+        return self.family_error(values) + float(self.rest.error(values))
+
+    # ------------------------------------------------------------------------------ linearize
+    def _unit_noise(self, m: int) -> gtsam.noiseModel.Base:
+        if m not in self._unit:
+            self._unit[m] = gtsam.noiseModel.Unit.Create(m)
+        return self._unit[m]
+
+    def linearize(self, values: gtsam.Values) -> gtsam.GaussianFactorGraph:
+        """Whitened linear system at ``values``, equal to graph.linearize(values) up to row
+        stacking (see the module docstring)."""
+        self._load(values)
+        keys = self.evaluator.keys
+        T, d = self.evaluator.num_states, self.evaluator.theta.shape[1]
+        linear = self.rest.linearize(values) if self.rest.size() else gtsam.GaussianFactorGraph()
+        pair_A, pair_b, last_A, last_b = [], [], [], []
+        has_pair, has_unary = np.zeros(T - 1, bool), np.zeros(T - 1, bool)
+        for block, rows, R in self.parts:
+            error, jacs = self._whitened(block, rows, R, True)
+            states = block.states[rows]
+            m = error.shape[1]
+            k = states.shape[1]
+            pair = (k == 2) and bool(np.all(states[:, 1] == states[:, 0] + 1))
+            first = states[:, 0]
+            inner = first < T - 1 if k == 1 else np.ones(len(first), bool)
+            if k > 2 or (k == 2 and not pair) or \
+                    len(np.unique(first[inner])) != int(np.count_nonzero(inner)):
+                for f in range(len(rows)):  # general shape: one factor each
+                    args: list = []
+                    for slot in range(k):
+                        args += [keys[states[f, slot]], jacs[slot][f]]
+                    linear.push_back(gtsam.JacobianFactor(*args, -error[f], self._unit_noise(m)))
+                continue
+            A = np.zeros((T - 1, m, 2 * d))
+            b = np.zeros((T - 1, m))
+            idx = first[inner]
+            A[idx, :, :d] = jacs[0][inner]
+            if k == 2:
+                A[idx, :, d:] = jacs[1][inner]
+            b[idx] = -error[inner]
+            (has_pair if k == 2 else has_unary)[idx] = True
+            pair_A.append(A)
+            pair_b.append(b)
+            if k == 1 and not np.all(inner):
+                last_A.append(jacs[0][~inner].reshape(-1, d))
+                last_b.append(-error[~inner].reshape(-1))
+        if pair_A:
+            A = np.ascontiguousarray(np.concatenate(pair_A, axis=1))
+            b = np.concatenate(pair_b, axis=1)
+            unit = self._unit_noise(A.shape[1])
+            left, right = A[:, :, :d].copy(), A[:, :, d:].copy()
+            for i in np.flatnonzero(has_pair):  # building GTSAM factors needs one call each
+                linear.push_back(gtsam.JacobianFactor(keys[i], left[i], keys[i + 1], right[i],
+                                                      b[i], unit))
+            for i in np.flatnonzero(has_unary & ~has_pair):  # no pair on (i, i+1): unary
+                linear.push_back(gtsam.JacobianFactor(keys[i], left[i], b[i], unit))
+        if last_A:
+            A = np.concatenate(last_A, axis=0)
+            linear.push_back(gtsam.JacobianFactor(keys[T - 1], A, np.concatenate(last_b),
+                                                  self._unit_noise(A.shape[0])))
+        return linear
