@@ -61,13 +61,32 @@ def chain_ordering(keys: Sequence[int]) -> gtsam.Ordering:
     return ordering
 
 
+def jacobian_diagonal(linear: gtsam.GaussianFactorGraph, keys: Sequence[int],
+                      dims: Sequence[int], position: dict[int, int],
+                      offsets: np.ndarray) -> np.ndarray:
+    """diag(J^T J) (sum(dims),) of a whitened linear graph, in the order of ``keys``."""
+    rows, cols, entries = linear.sparseJacobian_()
+    present = sorted(linear.keys())  # GTSAM's column order: sorted keys
+    starts = np.concatenate([[0], np.cumsum([dims[position[k]] for k in present])])
+    cols = cols.astype(int) - 1
+    inside = cols < starts[-1]  # the last column is b
+    column_sums = np.bincount(cols[inside], weights=entries[inside] ** 2, minlength=starts[-1])
+    if present == list(keys):
+        return column_sums
+    out = np.zeros(offsets[-1])
+    for k, a, b in zip(present, starts[:-1], starts[1:]):
+        out[offsets[position[k]]:offsets[position[k]] + (b - a)] = column_sums[a:b]
+    return out
+
+
 def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values,
                         keys: Sequence[int], dims: Sequence[int], lambda_initial: float = 1e3,
                         lambda_upper_bound: float = 1e10, lambda_lower_bound: float = 0.0,
                         max_iterations: int = 500, relative_error_tol: float = 1e-5,
                         absolute_error_tol: float = 1e-5, correction: Correction | None = None,
                         solver: str = "cholesky", damping_update: str = "gtsam",
-                        patience: int = 1, system: GraphSystem | None = None) -> LMOutcome:
+                        patience: int = 1, system: GraphSystem | None = None,
+                        diagonal_damping: bool = False) -> LMOutcome:
     """Minimise ``graph`` from ``initial`` over the variables ``keys`` of sizes ``dims``.
 
     correction: optional map of a trial point (see the module docstring); solver "cholesky"
@@ -75,7 +94,9 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
     stop once that many consecutive accepted steps decreased the error by less than the
     tolerances (GTSAM: 1; more tolerates a single small step on a non-monotone descent);
     system: an object evaluating and linearizing ``graph`` faster with the same results
-    (e.g. :class:`clamp.vectorized_graph.VectorizedGraph`); default the graph itself.
+    (e.g. :class:`clamp.vectorized_graph.VectorizedGraph`); default the graph itself;
+    diagonal_damping: damp with lambda diag(J^T J) (GTSAM's diagonalDamping, entries clamped to
+    [1e-6, 1e32]) instead of lambda I (see the module docstring).
     """
     if int(patience) < 1:
         raise ValueError(f"patience: expected an integer >= 1, got {patience!r}")
@@ -101,6 +122,14 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
         return damping_cache[lam]
 
     system = graph if system is None else system
+    offsets = np.concatenate([[0], np.cumsum(dims)])
+    position = {k: i for i, k in enumerate(keys)}
+
+    def scaled_damping(linear: gtsam.GaussianFactorGraph, lam: float,
+                       diagonal: np.ndarray) -> list[gtsam.JacobianFactor]:
+        return [gtsam.JacobianFactor(k, np.diag(np.sqrt(lam * diagonal[a:b])), units[d][1],
+                                     units[d][2])
+                for k, d, a, b in zip(keys, dims, offsets[:-1], offsets[1:])]
 
     values = initial
     error = initial_error = float(system.error(values))
@@ -110,10 +139,14 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
     small_steps = 0
     while iterations < max_iterations and error > 0.0:
         linear = system.linearize(values)
+        if diagonal_damping:
+            diagonal = np.clip(jacobian_diagonal(linear, keys, dims, position, offsets),
+                               1e-6, 1e32)
         accepted = False
         while lam <= lambda_upper_bound:
             damped = linear.clone()
-            for factor in damping(lam):
+            for factor in (scaled_damping(linear, lam, diagonal) if diagonal_damping
+                           else damping(lam)):
                 damped.push_back(factor)
             trials += 1
             try:

@@ -14,7 +14,8 @@ consecutive states (i, i+1) stacked into one JacobianFactor (unary factors of st
 joined to the pair (i, i+1) with a zero block for i+1 when the graph has factors on that pair,
 else stacked into one unary factor; those of the last state into one unary factor). Stacking rows of a least-squares system leaves it unchanged (same A^T A and A^T b,
 same error for every delta), and ~T factors instead of ~750 make building and eliminating it
-cheaper. Factors of other shapes (non-consecutive pairs, more keys) are emitted one by one.
+cheaper; rows that are entirely zero (inactive obstacle and joint-limit hinges: most of them)
+are left out, which shortens the QR elimination several-fold. Factors of other shapes (non-consecutive pairs, more keys) are emitted one by one.
 """
 from __future__ import annotations
 
@@ -24,10 +25,21 @@ import gtsam
 import numpy as np
 
 from clamp.factors.evaluation import FamilyBlock, TrajectoryEvaluator
+from clamp.workspace_correction import values_to_states
 
 
-def _values_theta(values: gtsam.Values, keys: list[int]) -> np.ndarray:
-    return np.stack([values.atVector(k) for k in keys])
+def _nonzero_rows(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows of all groups (A (G, M, c), b (G, M)) that are not entirely zero, concatenated
+    group after group (A (K, c), b (K,)), and each group's row offsets (G + 1,) into them.
+
+    Zero rows (inactive hinges, absent factors of a stacked family) add nothing to the
+    least-squares system but cost the QR elimination time. A group without nonzero rows keeps
+    its first row, so that every group keeps its keys.
+    """
+    keep = np.any(A != 0.0, axis=2) | (b != 0.0)
+    keep[:, 0] |= ~np.any(keep, axis=1)
+    offsets = np.concatenate([[0], np.cumsum(np.count_nonzero(keep, axis=1))])
+    return A[keep], b[keep], offsets
 
 
 class VectorizedGraph:
@@ -64,7 +76,7 @@ class VectorizedGraph:
 
     # ------------------------------------------------------------------------------ states
     def _load(self, values: gtsam.Values) -> None:
-        self.evaluator.set_states(_values_theta(values, self.evaluator.keys))
+        self.evaluator.set_states(values_to_states(values, self.evaluator.keys))
 
     def _whitened(self, block: FamilyBlock, rows: np.ndarray, R: np.ndarray, jacobians: bool):
         """Whitened errors (F, m) and Jacobians [(F, m, 2n)] of ``rows``; R (F, m, m) or its
@@ -137,17 +149,20 @@ class VectorizedGraph:
                 last_A.append(jacs[0][~inner].reshape(-1, d))
                 last_b.append(-error[~inner].reshape(-1))
         if pair_A:
-            A = np.ascontiguousarray(np.concatenate(pair_A, axis=1))
-            b = np.concatenate(pair_b, axis=1)
-            unit = self._unit_noise(A.shape[1])
-            left, right = A[:, :, :d].copy(), A[:, :, d:].copy()
-            for i in np.flatnonzero(has_pair):  # building GTSAM factors needs one call each
-                linear.push_back(gtsam.JacobianFactor(keys[i], left[i], keys[i + 1], right[i],
-                                                      b[i], unit))
-            for i in np.flatnonzero(has_unary & ~has_pair):  # no pair on (i, i+1): unary
-                linear.push_back(gtsam.JacobianFactor(keys[i], left[i], b[i], unit))
+            A, b, offsets = _nonzero_rows(np.concatenate(pair_A, axis=1),
+                                          np.concatenate(pair_b, axis=1))
+            left, right = A[:, :d].copy(), A[:, d:].copy()
+            pair = has_pair
+            for i in np.flatnonzero(has_pair | has_unary):  # GTSAM factors: one call each
+                r0, r1 = offsets[i], offsets[i + 1]
+                if pair[i]:
+                    factor = gtsam.JacobianFactor(keys[i], left[r0:r1], keys[i + 1],
+                                                  right[r0:r1], b[r0:r1], self._unit_noise(r1 - r0))
+                else:  # no factor on (i, i+1): unary
+                    factor = gtsam.JacobianFactor(keys[i], left[r0:r1], b[r0:r1],
+                                                  self._unit_noise(r1 - r0))
+                linear.push_back(factor)
         if last_A:
-            A = np.concatenate(last_A, axis=0)
-            linear.push_back(gtsam.JacobianFactor(keys[T - 1], A, np.concatenate(last_b),
-                                                  self._unit_noise(A.shape[0])))
+            A, b, _ = _nonzero_rows(np.concatenate(last_A)[None], np.concatenate(last_b)[None])
+            linear.push_back(gtsam.JacobianFactor(keys[T - 1], A, b, self._unit_noise(len(b))))
         return linear
