@@ -94,7 +94,9 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
     stop once that many consecutive accepted steps decreased the error by less than the
     tolerances (GTSAM: 1; more tolerates a single small step on a non-monotone descent);
     system: an object evaluating and linearizing ``graph`` faster with the same results
-    (e.g. :class:`clamp.vectorized_graph.VectorizedGraph`); default the graph itself;
+    (e.g. :class:`clamp.vectorized_graph.VectorizedGraph`; if it has ``error_below(values,
+    bound)``, trial points are evaluated with it: only whether the error is below the current
+    one matters for a rejected trial); default the graph itself;
     diagonal_damping: damp with lambda diag(J^T J) (GTSAM's diagonalDamping, entries clamped to
     [1e-6, 1e32]) instead of lambda I (see the module docstring).
     """
@@ -122,6 +124,7 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
         return damping_cache[lam]
 
     system = graph if system is None else system
+    error_below = getattr(system, "error_below", None)  # optional early-exit evaluation
     offsets = np.concatenate([[0], np.cumsum(dims)])
     position = {k: i for i, k in enumerate(keys)}
 
@@ -158,7 +161,8 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
             candidate = values.retract(delta)
             if correction is not None:
                 candidate = correction(values, delta, candidate)
-            new_error = float(system.error(candidate))
+            new_error = float(error_below(candidate, error) if error_below is not None
+                              else system.error(candidate))
             if np.isfinite(new_error) and new_error < error:
                 accepted = True
                 break

@@ -64,7 +64,9 @@ class VectorizedGraph:
             else:
                 rows[hit[0]].append(hit[1])
         self.parts: list[tuple[FamilyBlock, np.ndarray, np.ndarray]] = []
-        for b, r in sorted(rows.items()):
+        by_cost = sorted(rows, key=lambda b: (getattr(evaluator.blocks[b].family, "cost", 1), b))
+        for b in by_cost:
+            r = rows[b]
             block, r = evaluator.blocks[b], np.array(r, dtype=int)
             R = block.sqrt_information[r]
             diagonal = np.einsum("fii->fi", R)
@@ -91,11 +93,18 @@ class VectorizedGraph:
         return error, jacs
 
     # ------------------------------------------------------------------------------ error
-    def family_error(self, values: gtsam.Values) -> float:
-        """0.5 sum of squared whitened residuals of the vectorized factors at ``values``."""
+    def family_error(self, values: gtsam.Values, bound: float = np.inf) -> float:
+        """0.5 sum of squared whitened residuals of the vectorized factors at ``values``.
+
+        Families are summed from the cheapest (``ResidualFamily.cost``) and the sum is
+        returned as soon as it reaches ``bound``: every term is >= 0, so the result is then a
+        lower bound of the error that is itself >= bound (exact when below bound).
+        """
         self._load(values)
         total = 0.0
         for block, rows, R in self.parts:
+            if total >= bound:
+                break
             error, _ = self._whitened(block, rows, R, False)
             total += 0.5 * float(np.sum(error * error))
         return total
@@ -103,6 +112,12 @@ class VectorizedGraph:
     def error(self, values: gtsam.Values) -> float:
         """The graph error at ``values`` (= graph.error(values))."""
         return self.family_error(values) + float(self.rest.error(values))
+
+    def error_below(self, values: gtsam.Values, bound: float) -> float:
+        """The graph error at ``values`` if it is below ``bound``, else a value >= bound
+        (evaluation stops early: a trial point that cannot be accepted costs less)."""
+        rest = float(self.rest.error(values))
+        return rest + self.family_error(values, bound - rest)
 
     # ------------------------------------------------------------------------------ linearize
     def _unit_noise(self, m: int) -> gtsam.noiseModel.Base:

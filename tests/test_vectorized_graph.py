@@ -97,3 +97,14 @@ def test_repeated_and_partial_factors_fall_back_correctly(problem):
     expected = graph.linearize(values).augmentedHessian(ordering)
     np.testing.assert_allclose(system.linearize(values).augmentedHessian(ordering), expected,
                                rtol=0.0, atol=1e-12 * np.max(np.abs(expected)))
+
+
+def test_error_below_is_exact_below_the_bound_and_at_least_the_bound_above(problem):
+    system = VectorizedGraph(problem.graph, problem.evaluator)
+    values = perturbed(problem, 6, 0.2)
+    exact = problem.graph.error(values)
+    assert system.error_below(values, 2.0 * exact) == pytest.approx(exact, rel=1e-12)
+    for bound in (1e-3 * exact, 0.5 * exact):
+        assert bound <= system.error_below(values, bound) <= exact * (1 + 1e-12)
+    costs = [getattr(block.family, "cost", 1) for block, _, _ in system.parts]
+    assert costs == sorted(costs)  # joint limits (no kinematics) first, obstacles last

@@ -74,11 +74,13 @@ class FamilyBlock:
 class ResidualFamily:
     """A family of factors whose residuals are computed for all factors at once.
 
-    Subclasses set ``name`` and implement :meth:`compute`, returning the residuals of every
-    factor of the family at the evaluator's current joint states.
+    Subclasses set ``name`` (and optionally ``cost``, used to evaluate cheap families first)
+    and implement :meth:`compute`, returning the residuals of every factor of the family at the
+    evaluator's current joint states.
     """
 
     name: str = "family"
+    cost: int = 1  # relative evaluation cost (0: no kinematics; 2: collision spheres + SDF)
 
     def compute(self, evaluator: "TrajectoryEvaluator", jacobians: bool) -> Residuals:
         raise NotImplementedError

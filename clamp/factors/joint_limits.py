@@ -36,6 +36,7 @@ class JointLimitFamily(ResidualFamily):
     """Joint position and velocity limit hinges at the given support states."""
 
     name = "joint_limits"
+    cost = 0
 
     def __init__(self, indices: Sequence[int], lower: np.ndarray, upper: np.ndarray,
                  velocity_limits: np.ndarray, margin: float, velocity_margin: float):

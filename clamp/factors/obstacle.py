@@ -38,6 +38,7 @@ class ObstacleFamily(ResidualFamily):
     """Obstacle hinge of every collision sphere at the given support states."""
 
     name = "obstacle"
+    cost = 2
 
     def __init__(self, indices: Sequence[int], radii: np.ndarray, query: DistanceQuery,
                  epsilon: float):
