@@ -22,7 +22,8 @@ linear model (rho ~ 1) lowers the damping quickly and a poor one raises it gentl
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import gtsam
@@ -31,13 +32,16 @@ import numpy as np
 
 @dataclass
 class LMOutcome:
-    """Optimised values, number of accepted iterations, initial and final graph error."""
+    """Optimised values, number of accepted iterations, initial and final graph error, number
+    of solved (accepted or rejected) trial steps and the seconds spent in each phase
+    ("linearize", "solve" (incl. damping), "correction", "error")."""
 
     values: gtsam.Values
     iterations: int
     initial_error: float
     final_error: float
     trials: int
+    timings: dict[str, float] = field(default_factory=dict)
 
 
 Correction = Callable[[gtsam.Values, gtsam.VectorValues, gtsam.Values], gtsam.Values]
@@ -128,14 +132,23 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
     offsets = np.concatenate([[0], np.cumsum(dims)])
     position = {k: i for i, k in enumerate(keys)}
 
-    def scaled_damping(linear: gtsam.GaussianFactorGraph, lam: float,
-                       diagonal: np.ndarray) -> list[gtsam.JacobianFactor]:
+    def scaled_damping(lam: float, diagonal: np.ndarray) -> list[gtsam.JacobianFactor]:
         return [gtsam.JacobianFactor(k, np.diag(np.sqrt(lam * diagonal[a:b])), units[d][1],
                                      units[d][2])
                 for k, d, a, b in zip(keys, dims, offsets[:-1], offsets[1:])]
 
+    timings = dict.fromkeys(("linearize", "solve", "correction", "error"), 0.0)
+    clock = time.perf_counter()
+
+    def lap(phase: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[phase] += now - clock
+        clock = now
+
     values = initial
     error = initial_error = float(system.error(values))
+    lap("error")
     lam = float(lambda_initial)
     iterations = trials = 0
     growth = 2.0 if gain_ratio else 10.0  # lambda factor after a rejected step
@@ -145,10 +158,11 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
         if diagonal_damping:
             diagonal = np.clip(jacobian_diagonal(linear, keys, dims, position, offsets),
                                1e-6, 1e32)
+        lap("linearize")
         accepted = False
         while lam <= lambda_upper_bound:
             damped = linear.clone()
-            for factor in (scaled_damping(linear, lam, diagonal) if diagonal_damping
+            for factor in (scaled_damping(lam, diagonal) if diagonal_damping
                            else damping(lam)):
                 damped.push_back(factor)
             trials += 1
@@ -157,12 +171,16 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
                          else damped.optimize(ordering))
             except RuntimeError:  # indeterminate system: damp more
                 lam *= 10.0
+                lap("solve")
                 continue
             candidate = values.retract(delta)
+            lap("solve")
             if correction is not None:
                 candidate = correction(values, delta, candidate)
+                lap("correction")
             new_error = float(error_below(candidate, error) if error_below is not None
                               else system.error(candidate))
+            lap("error")
             if np.isfinite(new_error) and new_error < error:
                 accepted = True
                 break
@@ -187,4 +205,4 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
         values, error = candidate, new_error
         if converged:
             break
-    return LMOutcome(values, iterations, initial_error, error, trials)
+    return LMOutcome(values, iterations, initial_error, error, trials, timings)

@@ -184,7 +184,9 @@ class PlanResult:
     """Outcome of :func:`plan` (plain data).
 
     q, qdot (T, n) [rad, rad/s]; ee_path, ee_velocity (T, 3) [m, m/s]; time (T,) [s];
-    timings [s] ("sdf", "build" (incl. initialisation), "optimize", "total");
+    timings [s] ("sdf", "build" (incl. initialisation), "optimize", "total"; the lean
+    optimizer adds its phases "linearize", "solve", "correction", "error"); trials = solved
+    trial steps (accepted or rejected; 0 for the gtsam optimizer);
     errors are GTSAM graph errors (0.5 sum of squared whitened residuals); family_errors per
     factor family; collision_cost = error of the obstacle factors; min_clearance [m] = smallest
     exact distance (scene's analytic geometry) between any collision sphere and any obstacle
@@ -216,6 +218,7 @@ class PlanResult:
     reasons: list[str] = field(default_factory=list)
     initialisation: str = "prior_mean"
     initial_q: np.ndarray | None = None
+    trials: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as nested lists, +inf as None)."""
@@ -451,8 +454,13 @@ def optimizer_parameters(config: PlannerConfig) -> gtsam.LevenbergMarquardtParam
     return params
 
 
-def optimize(problem: PlanningProblem, config: PlannerConfig) -> tuple[gtsam.Values, int, float, float]:
-    """Run Levenberg-Marquardt on ``problem``: (values, iterations, initial error, final error)."""
+def optimize(problem: PlanningProblem, config: PlannerConfig,
+             details: dict[str, float] | None = None) -> tuple[gtsam.Values, int, float, float]:
+    """Run Levenberg-Marquardt on ``problem``: (values, iterations, initial error, final error).
+
+    details: optional dict that receives the lean optimizer's seconds per phase ("linearize",
+    "solve", "correction", "error") and its number of trial steps ("trials").
+    """
     if config.optimizer == "gtsam":
         optimizer = gtsam.LevenbergMarquardtOptimizer(problem.graph, problem.initial,
                                                       optimizer_parameters(config))
@@ -472,6 +480,8 @@ def optimize(problem: PlanningProblem, config: PlannerConfig) -> tuple[gtsam.Val
                               damping_update=config.damping_update,
                               patience=config.convergence_patience,
                               system=VectorizedGraph(problem.graph, problem.evaluator))
+    if details is not None:
+        details.update(out.timings, trials=out.trials)
     return out.values, out.iterations, out.initial_error, out.final_error
 
 
@@ -552,13 +562,17 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
                     sdf=sdf, q_start=q_start, initial=initial)
 
     t_opt = time.perf_counter()
-    values, iterations, initial_error, final_error = optimize(problem, config)
+    details: dict[str, float] = {}
+    values, iterations, initial_error, final_error = optimize(problem, config, details)
     optimize_seconds = time.perf_counter() - t_opt
     total = time.perf_counter() - t0
-    return _evaluate(prior, robot, scene, problem, values, config, start_target,
-                     {"sdf": sdf_seconds, "build": problem.build_seconds,
-                      "optimize": optimize_seconds, "total": total},
-                     iterations, initial_error, final_error)
+    trials = int(details.pop("trials", iterations))
+    result = _evaluate(prior, robot, scene, problem, values, config, start_target,
+                       {"sdf": sdf_seconds, "build": problem.build_seconds,
+                        "optimize": optimize_seconds, "total": total, **details},
+                       iterations, initial_error, final_error)
+    result.trials = trials
+    return result
 
 
 def _evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, values: gtsam.Values,

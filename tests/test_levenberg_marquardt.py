@@ -5,7 +5,7 @@ import gtsam
 import numpy as np
 import pytest
 
-from clamp.levenberg_marquardt import levenberg_marquardt
+from clamp.levenberg_marquardt import chain_ordering, jacobian_diagonal, levenberg_marquardt
 
 
 def curve_fit_graph(rng):
@@ -106,3 +106,52 @@ def test_patience_needs_consecutive_small_steps():
         assert out.iterations == patience
     with pytest.raises(ValueError, match="patience"):
         levenberg_marquardt(graph, initial, keys, [3, 3, 3], patience=0)
+
+
+def test_jacobian_diagonal_equals_the_hessian_diagonal():
+    graph, initial, keys, _ = curve_fit_graph(np.random.default_rng(6))
+    linear = graph.linearize(initial)
+    reversed_keys = keys[::-1]  # any key order: GTSAM's columns follow sorted keys
+    diagonal = jacobian_diagonal(linear, reversed_keys, [3, 3, 3],
+                                 {k: i for i, k in enumerate(reversed_keys)}, np.arange(4) * 3)
+    hessian, _ = linear.hessian(chain_ordering(reversed_keys))
+    np.testing.assert_allclose(diagonal, np.diag(hessian), rtol=1e-12)
+
+
+def test_diagonal_damping_reaches_the_same_minimum_and_reports_phase_timings():
+    graph, initial, keys, truth = curve_fit_graph(np.random.default_rng(7))
+    plain = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3)
+    scaled = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3,
+                                 diagonal_damping=True)
+    assert scaled.final_error == pytest.approx(plain.final_error, rel=1e-6, abs=1e-9)
+    for key in keys:
+        np.testing.assert_allclose(scaled.values.atVector(key), truth, atol=0.02)
+    assert set(scaled.timings) == {"linearize", "solve", "correction", "error"}
+    assert all(t >= 0.0 for t in scaled.timings.values()) and scaled.timings["solve"] > 0.0
+
+
+def test_system_replaces_graph_evaluation():
+    """A system object is used for every error and linearization (the graph is not)."""
+    graph, initial, keys, _ = curve_fit_graph(np.random.default_rng(8))
+    calls = {"error": 0, "linearize": 0, "error_below": 0}
+
+    class Counting:
+        def error(self, values):
+            calls["error"] += 1
+            return graph.error(values)
+
+        def error_below(self, values, bound):
+            calls["error_below"] += 1
+            return graph.error(values)
+
+        def linearize(self, values):
+            calls["linearize"] += 1
+            return graph.linearize(values)
+
+    plain = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3)
+    out = levenberg_marquardt(gtsam.NonlinearFactorGraph(), initial, keys, [3, 3, 3],
+                              lambda_initial=1e-3, system=Counting())
+    assert out.final_error == pytest.approx(plain.final_error, rel=1e-12)
+    assert calls["error"] == 1 and calls["error_below"] == out.trials
+    # one linearization per accepted step (+ one when the last point admits no decrease)
+    assert calls["linearize"] in (out.iterations, out.iterations + 1)

@@ -59,3 +59,21 @@ def test_correction_restores_the_linearised_workspace_prediction(jaco):
                    - predicted).max()
     assert before > 1e-4  # the step is large enough for the curvature to show
     assert after < 1e-3 * before
+
+
+def test_values_to_states_fast_path_matches_per_key_reads():
+    import gtsam
+    from clamp.keys import state_key
+    rng = np.random.default_rng(0)
+    theta = rng.normal(size=(7, 4))
+    keys = [state_key(i) for i in range(7)]
+    values = states_to_values(theta, keys)
+    np.testing.assert_array_equal(values_to_states(values, keys), theta)       # one C++ call
+    np.testing.assert_array_equal(values_to_states(values, keys[2:5]), theta[2:5])  # subset
+    values.insert(gtsam.symbol("y", 0), np.zeros(4))                           # foreign key
+    np.testing.assert_array_equal(values_to_states(values, keys), theta)
+    delta = gtsam.VectorValues()
+    for key, row in zip(keys, theta):
+        delta.insert(key, row)
+    np.testing.assert_array_equal(values_to_states(delta, keys), theta)
+    np.testing.assert_array_equal(values_to_states(delta, keys[::-1]), theta[::-1])
