@@ -7,6 +7,10 @@ states T (resampled demonstrations) and with the number of obstacles. Ratios are
 reference C++ (GTSAM + GPMP2) figures on box_closing: empty 1.68 s / 127 iterations, with the
 obstacle 1.06 s / 79 iterations, about 13 ms per iteration for 250 support states.
 
+Columns trials .. err (lean optimizer): solved trial steps (accepted + rejected) and the
+milliseconds spent linearizing, solving (QR + damping), correcting trial points and
+evaluating the error (see clamp.levenberg_marquardt.LMOutcome.timings).
+
 Rows "reference" use PlannerConfig.reference() (the reference's optimizer: plain LM, Cholesky,
 lambda0 1e3, relative tolerance 1e-5; sigma_obs 0.05), "defaults" PlannerConfig() (workspace
 correction, QR, gain-ratio damping); "straight_line" is the reference's initialisation.
@@ -47,7 +51,7 @@ def median_runs(fn, repeats: int):
     """Run fn() repeats times; return the last result and the median of its timings."""
     results = [fn() for _ in range(repeats)]
     keys = results[-1].timings.keys()
-    med = {k: statistics.median(r.timings[k] for r in results) for k in keys}
+    med = {k: statistics.median(r.timings.get(k, 0.0) for r in results) for k in keys}
     return results[-1], med
 
 
@@ -62,14 +66,18 @@ def row(label: str, r, t: dict, cpp: tuple[float, int] | None = None,
             f"{1e3 * t['optimize']:>9.1f} {1e3 * planning:>9.1f} {r.iterations:>6d} "
             f"{per_iteration:>8.1f} {per_iteration / CPP_MS_PER_ITERATION:>6.2f} "
             f"{r.final_error:>10.4g} {clearance:>8} {1e3 * r.start_error:>8.3f} {end:>7}")
-    if cpp is not None:
-        text += f" {planning / cpp[0]:>8.2f} {r.iterations / cpp[1]:>7.2f}"
+    text += f" {planning / cpp[0]:>8.2f} {r.iterations / cpp[1]:>7.2f}" if cpp is not None \
+        else f" {'':>8} {'':>7}"
+    if "linearize" in t:  # lean optimizer: trials and ms per phase
+        text += (f" {r.trials:>6d} {1e3 * t['linearize']:>5.0f} {1e3 * t['solve']:>5.0f} "
+                 f"{1e3 * t['correction']:>5.0f} {1e3 * t['error']:>5.0f}")
     return text
 
 
 HEADER = (f"{'case':<34} {'ok':<4} {'build ms':>8} {'optim ms':>9} {'total ms':>9} {'iters':>6} "
           f"{'ms/iter':>8} {'x13ms':>6} {'final err':>10} {'clear mm':>8} {'start mm':>8} "
-          f"{'end mm':>7} {'t/C++':>8} {'it/C++':>7}")
+          f"{'end mm':>7} {'t/C++':>8} {'it/C++':>7} {'trials':>6} {'lin':>5} {'solve':>5} "
+          f"{'corr':>5} {'err':>5}")
 
 
 def main() -> None:
