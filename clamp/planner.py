@@ -53,8 +53,9 @@ class PlannerConfig:
     absolute error tolerances; lean optimizer only: workspace_correction, the number of
     per-state Gauss-Newton updates that move every trial point back onto the workspace states
     the linear model predicts (:mod:`clamp.workspace_correction`; 0 = the reference's plain
-    LM, which crawls against stiff learned priors), linear_solver "qr" or "cholesky"
-    (the reference's; it fails at the small damping the corrected steps allow) and
+    LM, which crawls against stiff learned priors), linear_solver "banded" (banded
+    Cholesky of the scaled normal equations, QR where that fails; cheapest), "qr" or
+    "cholesky" (the reference's; it fails at the small damping the corrected steps allow) and
     damping_update "gain_ratio" (lambda follows the ratio of actual to predicted decrease) or
     "gtsam" (the reference's fixed factor 10); convergence_patience, the number of consecutive
     accepted steps below the tolerances that stop the loop (the reference's: 1; 2 tolerates
@@ -94,7 +95,7 @@ class PlannerConfig:
     absolute_error_tol: float = 1e-2
     workspace_correction: int = 2
     convergence_patience: int = 2
-    linear_solver: str = "qr"
+    linear_solver: str = "banded"
     damping_update: str = "gain_ratio"
     start_tolerance: float = 1e-3
     goal_tolerance: float = 0.02

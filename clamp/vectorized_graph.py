@@ -16,6 +16,11 @@ else stacked into one unary factor; those of the last state into one unary facto
 same error for every delta), and ~T factors instead of ~750 make building and eliminating it
 cheaper; rows that are entirely zero (inactive obstacle and joint-limit hinges: most of them)
 are left out, which shortens the QR elimination several-fold. Factors of other shapes (non-consecutive pairs, more keys) are emitted one by one.
+
+:meth:`VectorizedGraph.normal_equations` returns the same system as banded normal equations
+(H = A^T A block-tridiagonal, g = A^T b), formed from the stacked rows with batched products
+and from the other factors' constant Hessian when they are all linear (the joint GP prior),
+for :func:`clamp.levenberg_marquardt.levenberg_marquardt`'s ``solver="banded"``.
 """
 from __future__ import annotations
 
@@ -75,6 +80,13 @@ class VectorizedGraph:
             self.parts.append((block, r, R))
         self.num_vectorized = sum(len(r) for _, r, _ in self.parts)
         self._unit: dict[int, gtsam.noiseModel.Base] = {}
+        self._rest_blocks: tuple | None = None  # see _rest_hessian; () = not banded
+        self._band: tuple | None = None
+
+    @property
+    def keys(self) -> list[int]:
+        """The state keys, in the order of :meth:`normal_equations`."""
+        return self.evaluator.keys
 
     # ------------------------------------------------------------------------------ states
     def _load(self, values: gtsam.Values) -> None:
@@ -125,14 +137,15 @@ class VectorizedGraph:
             self._unit[m] = gtsam.noiseModel.Unit.Create(m)
         return self._unit[m]
 
-    def linearize(self, values: gtsam.Values) -> gtsam.GaussianFactorGraph:
-        """Whitened linear system at ``values``, equal to graph.linearize(values) up to row
-        stacking (see the module docstring)."""
+    def _stacked(self, values: gtsam.Values):
+        """Whitened rows of the vectorized families at ``values``: pair rows A (T-1, M, 2d),
+        b (T-1, M) (row i acts on states (i, i+1); unary factors of i < T-1 with a zero right
+        block), has_pair / has_unary (T-1,) bool, rows of the last state (K, d), (K,), and the
+        factors of other shapes as GTSAM JacobianFactors."""
         self._load(values)
         keys = self.evaluator.keys
         T, d = self.evaluator.num_states, self.evaluator.theta.shape[1]
-        linear = self.rest.linearize(values) if self.rest.size() else gtsam.GaussianFactorGraph()
-        pair_A, pair_b, last_A, last_b = [], [], [], []
+        pair_A, pair_b, last_A, last_b, general = [], [], [], [], []
         has_pair, has_unary = np.zeros(T - 1, bool), np.zeros(T - 1, bool)
         for block, rows, R in self.parts:
             error, jacs = self._whitened(block, rows, R, True)
@@ -148,7 +161,7 @@ class VectorizedGraph:
                     args: list = []
                     for slot in range(k):
                         args += [keys[states[f, slot]], jacs[slot][f]]
-                    linear.push_back(gtsam.JacobianFactor(*args, -error[f], self._unit_noise(m)))
+                    general.append(gtsam.JacobianFactor(*args, -error[f], self._unit_noise(m)))
                 continue
             A = np.zeros((T - 1, m, 2 * d))
             b = np.zeros((T - 1, m))
@@ -163,21 +176,131 @@ class VectorizedGraph:
             if k == 1 and not np.all(inner):
                 last_A.append(jacs[0][~inner].reshape(-1, d))
                 last_b.append(-error[~inner].reshape(-1))
-        if pair_A:
-            A, b, offsets = _nonzero_rows(np.concatenate(pair_A, axis=1),
-                                          np.concatenate(pair_b, axis=1))
+        A = np.concatenate(pair_A, axis=1) if pair_A else np.zeros((T - 1, 0, 2 * d))
+        b = np.concatenate(pair_b, axis=1) if pair_b else np.zeros((T - 1, 0))
+        LA = np.concatenate(last_A) if last_A else np.zeros((0, d))
+        Lb = np.concatenate(last_b) if last_b else np.zeros(0)
+        return A, b, has_pair, has_unary, LA, Lb, general
+
+    def linearize(self, values: gtsam.Values) -> gtsam.GaussianFactorGraph:
+        """Whitened linear system at ``values``, equal to graph.linearize(values) up to row
+        stacking (see the module docstring)."""
+        pair_A, pair_b, has_pair, has_unary, last_A, last_b, general = self._stacked(values)
+        keys = self.evaluator.keys
+        T, d = self.evaluator.num_states, self.evaluator.theta.shape[1]
+        linear = self.rest.linearize(values) if self.rest.size() else gtsam.GaussianFactorGraph()
+        for factor in general:
+            linear.push_back(factor)
+        if pair_A.shape[1]:
+            A, b, offsets = _nonzero_rows(pair_A, pair_b)
             left, right = A[:, :d].copy(), A[:, d:].copy()
-            pair = has_pair
             for i in np.flatnonzero(has_pair | has_unary):  # GTSAM factors: one call each
                 r0, r1 = offsets[i], offsets[i + 1]
-                if pair[i]:
+                if has_pair[i]:
                     factor = gtsam.JacobianFactor(keys[i], left[r0:r1], keys[i + 1],
                                                   right[r0:r1], b[r0:r1], self._unit_noise(r1 - r0))
                 else:  # no factor on (i, i+1): unary
                     factor = gtsam.JacobianFactor(keys[i], left[r0:r1], b[r0:r1],
                                                   self._unit_noise(r1 - r0))
                 linear.push_back(factor)
-        if last_A:
-            A, b, _ = _nonzero_rows(np.concatenate(last_A)[None], np.concatenate(last_b)[None])
+        if len(last_b):
+            A, b, _ = _nonzero_rows(last_A[None], last_b[None])
             linear.push_back(gtsam.JacobianFactor(keys[T - 1], A, b, self._unit_noise(len(b))))
         return linear
+
+    # ------------------------------------------------------------------------------ normal equations
+    def _rest_hessian(self, rest_linear: gtsam.GaussianFactorGraph):
+        """Constant block-tridiagonal A^T A (D (T, d, d), E (T-1, d, d)) of the other factors
+        when all are linear (LinearContainerFactor) on one state or two consecutive states;
+        None otherwise. Computed once."""
+        if self._rest_blocks is not None:
+            return self._rest_blocks or None
+        self._rest_blocks = ()
+        keys = self.evaluator.keys
+        T, d = self.evaluator.num_states, self.evaluator.theta.shape[1]
+        position = {k: i for i, k in enumerate(keys)}
+        D, E = np.zeros((T, d, d)), np.zeros((T - 1, d, d))
+        for j in range(self.rest.size()):
+            if not isinstance(self.rest.at(j), gtsam.LinearContainerFactor):
+                return None
+        for j in range(rest_linear.size()):
+            factor = rest_linear.at(j)
+            fkeys = [position.get(k, -1) for k in factor.keys()]
+            A = np.asarray(factor.augmentedJacobian())[:, :-1]
+            if A.shape[1] != d * len(fkeys) or min(fkeys) < 0:
+                return None
+            if len(fkeys) == 1:
+                D[fkeys[0]] += A.T @ A
+            elif len(fkeys) == 2 and abs(fkeys[0] - fkeys[1]) == 1:
+                order = np.argsort(fkeys)
+                A = np.concatenate([A[:, d * o:d * (o + 1)] for o in order], axis=1)
+                i = min(fkeys)
+                H = A.T @ A
+                D[i] += H[:d, :d]
+                D[i + 1] += H[d:, d:]
+                E[i] += H[:d, d:]
+            else:
+                return None
+        self._rest_blocks = (D, E)
+        return self._rest_blocks
+
+    def normal_equations(self, values: gtsam.Values) -> tuple[np.ndarray, np.ndarray] | None:
+        """Banded normal equations of the whitened linear system at ``values``.
+
+        Returns H = A^T A in LAPACK upper band storage (2d, T d) (H[r, c] at [2d - 1 + r - c, c],
+        c >= r; the chain makes H block-tridiagonal with d x d blocks) and g = A^T b (T d,), the
+        same system as :meth:`linearize` (0.5 ||A delta - b||^2 = error - g.delta + 0.5 delta.H.delta);
+        None when the graph has factors that are not on one or two consecutive states, or other
+        factors that are not linear (the caller then uses :meth:`linearize`).
+        """
+        keys = self.evaluator.keys
+        T, d = self.evaluator.num_states, self.evaluator.theta.shape[1]
+        if self._rest_blocks == ():
+            return None
+        rest_linear = self.rest.linearize(values) if self.rest.size() else None
+        D, E = np.zeros((T, d, d)), np.zeros((T - 1, d, d))
+        g = np.zeros((T, d))
+        if rest_linear is not None:
+            blocks = self._rest_hessian(rest_linear)
+            if blocks is None:
+                return None
+            gradient = rest_linear.gradientAtZero()  # -A^T b
+            if gradient.size() != T or not all(gradient.exists(k) for k in keys):
+                return None
+            D += blocks[0]
+            E += blocks[1]
+            g -= values_to_states(gradient, keys)
+        pair_A, pair_b, _, _, last_A, last_b, general = self._stacked(values)
+        if general:
+            return None
+        At = np.swapaxes(pair_A, 1, 2)
+        H = At @ pair_A                                                    # (T-1, 2d, 2d)
+        gp = (At @ pair_b[:, :, None])[:, :, 0]
+        D[:-1] += H[:, :d, :d]
+        D[1:] += H[:, d:, d:]
+        E += H[:, :d, d:]
+        g[:-1] += gp[:, :d]
+        g[1:] += gp[:, d:]
+        D[-1] += last_A.T @ last_A
+        g[-1] += last_A.T @ last_b
+        band = np.zeros((2 * d, T * d))
+        rows, cols, diag_flat, off_flat = self._band_index(T, d)
+        band.flat[diag_flat] = D[:, rows, cols].reshape(-1)  # upper triangles of diagonal blocks
+        band.flat[off_flat] = E.reshape(-1)
+        return band, g.reshape(-1)
+
+    def _band_index(self, T: int, d: int):
+        """Flat positions in the (2d, T d) band storage of the upper triangles of the diagonal
+        blocks (with their (row, col) in the block) and of the off-diagonal blocks (row-major)."""
+        if self._band is None or self._band[0] != (T, d):
+            N, top = T * d, 2 * d - 1
+            rows, cols = np.triu_indices(d)
+            start = (np.arange(T) * d)[:, None]
+            r, c = start + rows, start + cols
+            diag_flat = ((top + r - c) * N + c).reshape(-1)
+            a, bb = np.meshgrid(np.arange(d), np.arange(d), indexing="ij")
+            start = (np.arange(T - 1) * d)[:, None, None]
+            r, c = start + a, start + d + bb
+            off_flat = ((top + r - c) * N + c).reshape(-1)
+            self._band = ((T, d), (rows, cols, diag_flat, off_flat))
+        return self._band[1]

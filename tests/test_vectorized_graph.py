@@ -108,3 +108,37 @@ def test_error_below_is_exact_below_the_bound_and_at_least_the_bound_above(probl
         assert bound <= system.error_below(values, bound) <= exact * (1 + 1e-12)
     costs = [getattr(block.family, "cost", 1) for block, _, _ in system.parts]
     assert costs == sorted(costs)  # joint limits (no kinematics) first, obstacles last
+
+
+def dense_from_band(band: np.ndarray) -> np.ndarray:
+    """Symmetric matrix (N, N) of LAPACK upper band storage (w + 1, N)."""
+    top, N = band.shape[0] - 1, band.shape[1]
+    H = np.zeros((N, N))
+    for u in range(top + 1):
+        H += np.diag(band[top - u, u:], u)
+    return H + np.triu(H, 1).T
+
+
+@pytest.mark.parametrize("seed, scale", [(5, 0.05), (6, 0.5)])
+def test_normal_equations_equal_the_linearization(problem, seed, scale):
+    evaluator = problem.evaluator
+    graph = gtsam.NonlinearFactorGraph()  # the problem without its nonlinear extra factor
+    extra = set(problem.families["extra"])
+    for i in range(problem.graph.size()):
+        if i not in extra:
+            graph.add(problem.graph.at(i))
+    system = VectorizedGraph(graph, evaluator)
+    values = perturbed(problem, seed, scale)
+    band, gradient = system.normal_equations(values)
+    d = 2 * evaluator.robot.n
+    assert band.shape == (2 * d, evaluator.num_states * d)
+    augmented = graph.linearize(values).augmentedHessian(chain_ordering(evaluator.keys))
+    H, g = augmented[:-1, :-1], augmented[:-1, -1]
+    np.testing.assert_allclose(dense_from_band(band), H, rtol=0.0, atol=1e-12 * np.abs(H).max())
+    np.testing.assert_allclose(gradient, g, rtol=0.0, atol=1e-12 * np.abs(g).max())
+
+
+def test_normal_equations_refuse_nonlinear_other_factors(problem):
+    system = VectorizedGraph(problem.graph, problem.evaluator)  # has a PriorFactorVector
+    assert system.normal_equations(perturbed(problem, 7, 0.05)) is None
+    assert system.keys == problem.evaluator.keys
