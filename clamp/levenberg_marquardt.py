@@ -66,29 +66,30 @@ class GraphSystem(Protocol):
 
 def solve_banded_damped(band: np.ndarray, gradient: np.ndarray,
                         damping: np.ndarray) -> np.ndarray | None:
-    """delta (N,) solving (H + diag(damping)) delta = gradient, H symmetric in LAPACK upper
-    band storage (w + 1, N) (H[r, c] at [w + r - c, c]); None when the damped matrix is not
+    """delta (N,) solving (H + diag(damping)) delta = gradient, H symmetric in LAPACK lower
+    band storage (w + 1, N) (H[r, c] at [r - c, c], r >= c); None when the damped matrix is not
     numerically positive definite.
 
     The matrix is scaled to unit diagonal first (Jacobi: S (H + D) S y = S g, delta = S y),
     so entries of very different magnitude (stiff and soft states) do not decide the pivots.
+    (Lower storage: LAPACK's unblocked banded Cholesky then updates contiguous columns, ~3x
+    faster than upper storage with a multithreaded BLAS.)
     """
-    top = band.shape[0] - 1
     damped = band.copy()
-    damped[top] += damping
-    diagonal = damped[top]
+    damped[0] += damping
+    diagonal = damped[0]
     if not np.all(np.isfinite(damped)) or np.any(diagonal <= 0.0):
         return None
     scale = 1.0 / np.sqrt(diagonal)
-    columns = np.arange(band.shape[1])
-    rows = np.clip(columns[None, :] - top + np.arange(top + 1)[:, None], 0, None)
+    N = band.shape[1]
+    rows = np.minimum(np.arange(N)[None, :] + np.arange(band.shape[0])[:, None], N - 1)
     damped *= scale[rows]
     damped *= scale[None, :]
     try:
-        factor = scipy.linalg.cholesky_banded(damped, lower=False, check_finite=False)
+        factor = scipy.linalg.cholesky_banded(damped, lower=True, check_finite=False)
     except np.linalg.LinAlgError:
         return None
-    delta = scale * scipy.linalg.cho_solve_banded((factor, False), scale * gradient,
+    delta = scale * scipy.linalg.cho_solve_banded((factor, True), scale * gradient,
                                                   check_finite=False)
     return delta if np.all(np.isfinite(delta)) else None
 
@@ -206,7 +207,7 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
         banded = normal_equations(values) if normal_equations is not None else None
         linear = None if banded is not None else system.linearize(values)
         if diagonal_damping:
-            diagonal = np.clip(banded[0][-1] if banded is not None else
+            diagonal = np.clip(banded[0][0] if banded is not None else
                                jacobian_diagonal(linear, keys, dims, position, offsets),
                                1e-6, 1e32)
         lap("linearize")

@@ -247,8 +247,8 @@ class VectorizedGraph:
     def normal_equations(self, values: gtsam.Values) -> tuple[np.ndarray, np.ndarray] | None:
         """Banded normal equations of the whitened linear system at ``values``.
 
-        Returns H = A^T A in LAPACK upper band storage (2d, T d) (H[r, c] at [2d - 1 + r - c, c],
-        c >= r; the chain makes H block-tridiagonal with d x d blocks) and g = A^T b (T d,), the
+        Returns H = A^T A in LAPACK lower band storage (2d, T d) (H[r, c] at [r - c, c],
+        r >= c; the chain makes H block-tridiagonal with d x d blocks) and g = A^T b (T d,), the
         same system as :meth:`linearize` (0.5 ||A delta - b||^2 = error - g.delta + 0.5 delta.H.delta);
         None when the graph has factors that are not on one or two consecutive states, or other
         factors that are not linear (the caller then uses :meth:`linearize`).
@@ -285,22 +285,23 @@ class VectorizedGraph:
         g[-1] += last_A.T @ last_b
         band = np.zeros((2 * d, T * d))
         rows, cols, diag_flat, off_flat = self._band_index(T, d)
-        band.flat[diag_flat] = D[:, rows, cols].reshape(-1)  # upper triangles of diagonal blocks
-        band.flat[off_flat] = E.reshape(-1)
+        band.flat[diag_flat] = D[:, rows, cols].reshape(-1)  # lower triangles of diagonal blocks
+        band.flat[off_flat] = E.reshape(-1)  # E_i = H[block i, block i+1] = H[block i+1, block i]^T
         return band, g.reshape(-1)
 
     def _band_index(self, T: int, d: int):
-        """Flat positions in the (2d, T d) band storage of the upper triangles of the diagonal
-        blocks (with their (row, col) in the block) and of the off-diagonal blocks (row-major)."""
+        """Flat positions in the (2d, T d) lower band storage of the lower triangles of the
+        diagonal blocks (with their (row, col) in the block) and of the transposed
+        off-diagonal blocks E_i^T (in E_i's row-major order)."""
         if self._band is None or self._band[0] != (T, d):
-            N, top = T * d, 2 * d - 1
-            rows, cols = np.triu_indices(d)
+            N = T * d
+            rows, cols = np.tril_indices(d)
             start = (np.arange(T) * d)[:, None]
             r, c = start + rows, start + cols
-            diag_flat = ((top + r - c) * N + c).reshape(-1)
-            a, bb = np.meshgrid(np.arange(d), np.arange(d), indexing="ij")
+            diag_flat = ((r - c) * N + c).reshape(-1)
+            a, bb = np.meshgrid(np.arange(d), np.arange(d), indexing="ij")  # E_i[a, b]
             start = (np.arange(T - 1) * d)[:, None, None]
-            r, c = start + a, start + d + bb
-            off_flat = ((top + r - c) * N + c).reshape(-1)
+            r, c = start + d + bb, start + a  # = H[(i+1) d + b, i d + a]
+            off_flat = ((r - c) * N + c).reshape(-1)
             self._band = ((T, d), (rows, cols, diag_flat, off_flat))
         return self._band[1]

@@ -159,10 +159,11 @@ def test_system_replaces_graph_evaluation():
 
 
 def band_of(H: np.ndarray, width: int) -> np.ndarray:
-    """LAPACK upper band storage (width + 1, N) of a symmetric matrix H (N, N)."""
-    band = np.zeros((width + 1, H.shape[0]))
+    """LAPACK lower band storage (width + 1, N) of a symmetric matrix H (N, N)."""
+    N = H.shape[0]
+    band = np.zeros((width + 1, N))
     for u in range(width + 1):
-        band[width - u, u:] = np.diagonal(H, u)
+        band[u, :N - u] = np.diagonal(H, -u)
     return band
 
 

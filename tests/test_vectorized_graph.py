@@ -111,12 +111,12 @@ def test_error_below_is_exact_below_the_bound_and_at_least_the_bound_above(probl
 
 
 def dense_from_band(band: np.ndarray) -> np.ndarray:
-    """Symmetric matrix (N, N) of LAPACK upper band storage (w + 1, N)."""
-    top, N = band.shape[0] - 1, band.shape[1]
+    """Symmetric matrix (N, N) of LAPACK lower band storage (w + 1, N)."""
+    N = band.shape[1]
     H = np.zeros((N, N))
-    for u in range(top + 1):
-        H += np.diag(band[top - u, u:], u)
-    return H + np.triu(H, 1).T
+    for u in range(band.shape[0]):
+        H += np.diag(band[u, :N - u], -u)
+    return H + np.tril(H, -1).T
 
 
 @pytest.mark.parametrize("seed, scale", [(5, 0.05), (6, 0.5)])
