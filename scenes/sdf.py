@@ -39,6 +39,9 @@ class SignedDistanceField:
         self.origin = as_points(origin, "origin").reshape(3)
         self.cell_size = as_positive(cell_size, "cell_size")
         self._empty = bool(np.all(np.isposinf(values)))
+        _, ny, nz = values.shape  # flat offsets of a cell's 8 corners, (x, y, z) bits
+        self._corner_offsets = np.array([(a * ny + b) * nz + c
+                                         for a in (0, 1) for b in (0, 1) for c in (0, 1)])
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -142,28 +145,30 @@ class SignedDistanceField:
         flat = points.reshape(-1, 3)
         h = self.cell_size
         hi = self.bounds[1]
-        clamped = np.clip(flat, self.origin, hi)
-        u = (clamped - self.origin) / h
+        # coordinate-major (3, P) and corner-major (8, P) layouts keep every operand contiguous
+        clamped = np.clip(flat.T, self.origin[:, None], hi[:, None])
+        u = (clamped - self.origin[:, None]) / h
         n = np.array(self.shape)
-        i0 = np.clip(np.floor(u).astype(int), 0, n - 2)
-        f = u - i0
-        g = 1.0 - f
+        i0 = np.clip(np.floor(u).astype(np.intp), 0, (n - 2)[:, None])
+        fx, fy, fz = u - i0
         nx, ny, nz = self.shape
-        base = (i0[:, 0] * ny + i0[:, 1]) * nz + i0[:, 2]
-        corner = np.array([(a * ny + b) * nz + c for a in (0, 1) for b in (0, 1) for c in (0, 1)])
-        c = self.values.reshape(-1)[base[:, None] + corner].reshape(-1, 2, 2, 2)  # (P, x, y, z)
+        base = (i0[0] * ny + i0[1]) * nz + i0[2]
+        c000, c001, c010, c011, c100, c101, c110, c111 = \
+            self.values.reshape(-1)[self._corner_offsets[:, None] + base[None, :]]
         # interpolate along z, then y, then x, keeping the differences for the gradient
-        cz = c[..., 0] * g[:, 2, None, None] + c[..., 1] * f[:, 2, None, None]      # (P,2,2)
-        dcz = c[..., 1] - c[..., 0]
-        cy = cz[:, :, 0] * g[:, 1, None] + cz[:, :, 1] * f[:, 1, None]              # (P,2)
-        value = cy[:, 0] * g[:, 0] + cy[:, 1] * f[:, 0]
-        dx = cy[:, 1] - cy[:, 0]
-        dcy = cz[:, :, 1] - cz[:, :, 0]
-        dy = dcy[:, 0] * g[:, 0] + dcy[:, 1] * f[:, 0]
-        dzy = dcz[:, :, 0] * g[:, 1, None] + dcz[:, :, 1] * f[:, 1, None]
-        dz = dzy[:, 0] * g[:, 0] + dzy[:, 1] * f[:, 0]
-        grad = np.stack([dx, dy, dz], axis=-1) / h
-        offset = flat - clamped
+        dz00, dz01, dz10, dz11 = c001 - c000, c011 - c010, c101 - c100, c111 - c110
+        cz00, cz01 = c000 + fz * dz00, c010 + fz * dz01
+        cz10, cz11 = c100 + fz * dz10, c110 + fz * dz11
+        dy0, dy1 = cz01 - cz00, cz11 - cz10
+        cy0, cy1 = cz00 + fy * dy0, cz10 + fy * dy1
+        dx = cy1 - cy0
+        value = cy0 + fx * dx
+        dzy0, dzy1 = dz00 + fy * (dz01 - dz00), dz10 + fy * (dz11 - dz10)
+        grad = np.empty((len(value), 3))
+        grad[:, 0] = dx / h
+        grad[:, 1] = (dy0 + fx * (dy1 - dy0)) / h
+        grad[:, 2] = (dzy0 + fx * (dzy1 - dzy0)) / h
+        offset = flat - clamped.T
         outside = np.any(offset != 0.0, axis=-1)
         if outside.any():
             grad[offset != 0.0] = 0.0
