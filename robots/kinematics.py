@@ -146,6 +146,7 @@ class SerialChain:
         self._aligned = aligned                                               # (n+1, 3, 3)
         self._steps = np.einsum("kji,kjl,klm->kim", aligned[:-1], self.placement_rotations, aligned[1:])
         self._offsets = np.einsum("kji,kj->ki", aligned[:-1], self.placement_translations)
+        self._step_offsets = np.concatenate((self._steps, self._offsets[:, :, None]), axis=2)  # (n, 3, 4)
         self.base_frame = base_frame
         if base_frame is None:
             self.base_rotation, self.base_translation = np.eye(3), np.zeros(3)
@@ -211,9 +212,10 @@ class SerialChain:
         origins[:, 0] = self.base_translation
         cos, sin = np.cos(q), np.sin(q)
         for k in range(self.n):
-            parent = rotations[:, k]
-            placed = (parent.reshape(3 * B, 3) @ self._steps[k]).reshape(B, 3, 3)  # z column = joint axis
-            origin = origins[:, k] + parent @ self._offsets[k]
+            # one 2-D product for the placed rotation (z column = joint axis) and the offset
+            placed_offset = (rotations[:, k].reshape(3 * B, 3) @ self._step_offsets[k]).reshape(B, 3, 4)
+            placed = placed_offset[:, :, :3]
+            origin = origins[:, k] + placed_offset[:, :, 3]
             if self.is_prismatic[k]:
                 rotations[:, k + 1] = placed
                 origins[:, k + 1] = origin + placed[:, :, 2] * q[:, k, None]
