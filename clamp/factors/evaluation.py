@@ -130,9 +130,15 @@ class TrajectoryEvaluator:
         return value
 
     def workspace(self, jacobians: bool) -> WorkspaceStates:
-        """Workspace states of all support states (see :func:`workspace_states`)."""
-        return self._cached("workspace", jacobians,
-                            lambda jac: workspace_states(self.robot, self.theta, jac))
+        """Workspace states of all support states (see :func:`workspace_states`).
+
+        Always computed with the Jacobian: the end-effector velocity already needs the
+        position Jacobian, so it costs ~3 % more, and a linearization at a point whose error
+        was just evaluated (every accepted trial point) then reuses it.
+        """
+        states = self._cached("workspace", True,
+                              lambda jac: workspace_states(self.robot, self.theta, True))
+        return states if jacobians else WorkspaceStates(states.x, None)
 
     def spheres(self, jacobians: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """Collision sphere centres (T, S, 3) and their Jacobians d c / d q (T, S, 3, n) or None."""

@@ -9,7 +9,7 @@ import gtsam
 import numpy as np
 
 from .evaluation import (ResidualFamily, Residuals, TrajectoryEvaluator, WorkspaceStates,
-                         custom_factors, gaussian_noise)
+                         custom_factors, square_root_information)
 
 
 def workspace_gp_residuals(states: WorkspaceStates, Phi: np.ndarray, u: np.ndarray) -> Residuals:
@@ -44,4 +44,6 @@ def workspace_gp_factors(evaluator: TrajectoryEvaluator, Phi: np.ndarray, u: np.
     """One factor per step i -> i+1 (T-1 of them), noise Q_i (6, 6)."""
     family = WorkspaceGPFamily(Phi, u)
     steps = [(i, i + 1) for i in range(len(Phi))]
-    return custom_factors(evaluator, family, steps, [gaussian_noise(q) for q in Q])
+    R = square_root_information(np.asarray(Q, dtype=float))  # all steps in one batched call
+    noise = [gtsam.noiseModel.Gaussian.SqrtInformation(r) for r in R]
+    return custom_factors(evaluator, family, steps, noise)
