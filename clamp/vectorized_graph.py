@@ -270,19 +270,35 @@ class VectorizedGraph:
             D += blocks[0]
             E += blocks[1]
             g -= values_to_states(gradient, keys)
-        pair_A, pair_b, _, _, last_A, last_b, general = self._stacked(values)
-        if general:
-            return None
-        At = np.swapaxes(pair_A, 1, 2)
-        H = At @ pair_A                                                    # (T-1, 2d, 2d)
-        gp = (At @ pair_b[:, :, None])[:, :, 0]
-        D[:-1] += H[:, :d, :d]
-        D[1:] += H[:, d:, d:]
-        E += H[:, :d, d:]
-        g[:-1] += gp[:, :d]
-        g[1:] += gp[:, d:]
-        D[-1] += last_A.T @ last_A
-        g[-1] += last_A.T @ last_b
+        self._load(values)
+        for block, rows, R in self.parts:  # each family's own J^T J: no zero blocks multiplied
+            states = block.states[rows]
+            k = states.shape[1]
+            first = states[:, 0]
+            if k > 2 or (k == 2 and not np.all(states[:, 1] == first + 1)):
+                return None
+            error, jacs = self._whitened(block, rows, R, True)
+            J = jacs[0] if k == 1 else np.concatenate(jacs, axis=2)          # (F, m, k d)
+            Jt = np.swapaxes(J, 1, 2)
+            H = Jt @ J
+            gf = -(Jt @ error[:, :, None])[:, :, 0]                          # J^T b, b = -error
+            F = len(first)
+            if np.array_equal(first, np.arange(first[0], first[0] + F)):   # consecutive states
+                at = slice(int(first[0]), int(first[0]) + F)
+                following = slice(at.start + 1, at.stop + 1)
+                D[at] += H[:, :d, :d]
+                g[at] += gf[:, :d]
+                if k == 2:
+                    D[following] += H[:, d:, d:]
+                    E[at] += H[:, :d, d:]
+                    g[following] += gf[:, d:]
+            else:
+                np.add.at(D, first, H[:, :d, :d])
+                np.add.at(g, first, gf[:, :d])
+                if k == 2:
+                    np.add.at(D, first + 1, H[:, d:, d:])
+                    np.add.at(E, first, H[:, :d, d:])
+                    np.add.at(g, first + 1, gf[:, d:])
         band = np.zeros((2 * d, T * d))
         rows, cols, diag_flat, off_flat = self._band_index(T, d)
         band.flat[diag_flat] = D[:, rows, cols].reshape(-1)  # lower triangles of diagonal blocks
