@@ -210,3 +210,26 @@ def test_banded_solver_reaches_the_qr_minimum():
     assert banded.final_error == pytest.approx(qr.final_error, rel=1e-6, abs=1e-9)
     for key in keys:
         np.testing.assert_allclose(banded.values.atVector(key), truth, atol=0.02)
+
+
+def test_banded_solver_falls_back_to_qr_when_the_band_is_not_positive_definite():
+    graph, initial, keys, _ = curve_fit_graph(np.random.default_rng(11))
+
+    class Indefinite:
+        def __init__(self):
+            self.keys = keys
+
+        def error(self, values):
+            return graph.error(values)
+
+        def linearize(self, values):
+            return graph.linearize(values)
+
+        def normal_equations(self, values):
+            return np.full((6, 9), -1e12), np.ones(9)  # negative definite at any damping
+
+    qr = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3, solver="qr")
+    out = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3,
+                              solver="banded", system=Indefinite())
+    assert out.iterations == qr.iterations
+    assert out.final_error == pytest.approx(qr.final_error, rel=1e-12)
