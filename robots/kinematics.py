@@ -148,6 +148,7 @@ class SerialChain:
         self._offsets = np.einsum("kji,kj->ki", aligned[:-1], self.placement_translations)
         self._step_offsets = np.concatenate((self._steps, self._offsets[:, :, None]), axis=2)  # (n, 3, 4)
         self.base_frame = base_frame
+        self._last_frames: tuple[np.ndarray, JointFrames] | None = None  # see joint_frames
         if base_frame is None:
             self.base_rotation, self.base_translation = np.eye(3), np.zeros(3)
         else:
@@ -204,7 +205,22 @@ class SerialChain:
 
     # ------------------------------------------------------------ kinematics
     def joint_frames(self, q: np.ndarray) -> JointFrames:
-        """Frames of all chain joints for q (B, n), in the base frame."""
+        """Frames of all chain joints for q (B, n), in the base frame.
+
+        The frames of the most recent batch are kept (read-only arrays): a repeated call
+        with equal q, e.g. end-effector kinematics then collision spheres of the same
+        trajectory, returns them without recomputation.
+        """
+        last = self._last_frames
+        if last is not None and last[0].shape == q.shape and np.array_equal(last[0], q):
+            return last[1]
+        frames = self._joint_frames(q)
+        for array in (frames.rotations, frames.origins, frames.axes):  # shared between callers
+            array.flags.writeable = False
+        self._last_frames = (np.array(q, dtype=float, copy=True), frames)
+        return frames
+
+    def _joint_frames(self, q: np.ndarray) -> JointFrames:
         B = q.shape[0]
         rotations = np.empty((B, self.n + 1, 3, 3))
         origins = np.empty((B, self.n + 1, 3))
