@@ -158,3 +158,22 @@ def test_continuous_prismatic_and_revolute_joints(tmp_path):
         pin.framesForwardKinematics(robot.model, data, robot.to_pinocchio(q))
         np.testing.assert_allclose(kin.position, data.oMf[robot.chain.frame_id("tool")].translation, atol=1e-12)
     np.testing.assert_allclose(robot.from_pinocchio(robot.to_pinocchio([3.0, 0.1, -1.0])), [3.0, 0.1, -1.0])
+
+
+def test_joint_frames_of_a_repeated_batch_are_reused_read_only_and_renewed_for_a_new_one(robot):
+    q, _ = _random_states(robot, 5, seed=21)
+    first = robot.chain.joint_frames(q)
+    again = robot.chain.joint_frames(q.copy())
+    assert again is first
+    assert not first.rotations.flags.writeable and not first.axes.flags.writeable
+    moved = q.copy()
+    moved[2, 0] += 0.1
+    other = robot.chain.joint_frames(moved)
+    assert other is not first
+    assert not np.allclose(other.origins[2, -1], first.origins[2, -1])
+    np.testing.assert_array_equal(other.origins[[0, 1, 3, 4]], first.origins[[0, 1, 3, 4]])
+    # kinematics from kept frames equal those recomputed after another batch (no stale frames)
+    pos_kept = robot.ee_kinematics(moved, np.zeros_like(moved), jacobians=False).position
+    robot.chain.joint_frames(q)
+    pos_recomputed = robot.ee_kinematics(moved, np.zeros_like(moved), jacobians=False).position
+    np.testing.assert_array_equal(pos_kept, pos_recomputed)
