@@ -8,12 +8,13 @@ reference C++ (GTSAM + GPMP2) figures on box_closing: empty 1.68 s / 127 iterati
 obstacle 1.06 s / 79 iterations, about 13 ms per iteration for 250 support states.
 
 Columns trials .. err (lean optimizer): solved trial steps (accepted + rejected) and the
-milliseconds spent linearizing, solving (QR + damping), correcting trial points and
+milliseconds spent linearizing, solving (banded Cholesky of the damped normal equations, QR
+fallback), correcting trial points and
 evaluating the error (see clamp.levenberg_marquardt.LMOutcome.timings).
 
 Rows "reference" use PlannerConfig.reference() (the reference's optimizer: plain LM, Cholesky,
 lambda0 1e3, relative tolerance 1e-5; sigma_obs 0.05), "defaults" PlannerConfig() (workspace
-correction, QR, gain-ratio damping); "straight_line" is the reference's initialisation.
+correction, banded solver, gain-ratio damping); "straight_line" is the reference's initialisation.
 
     python benchmarks/bench_clamp.py [--repeats 3] [--quick]
 """
