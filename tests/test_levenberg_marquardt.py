@@ -181,22 +181,27 @@ def test_solve_banded_damped_matches_a_dense_solve_and_refuses_indefinite_system
     assert solve_banded_damped(band_of(-H, width), g, damping) is None
 
 
+class GraphSystem:
+    """The lean loop's `system` protocol served by a plain GTSAM graph (tests add
+    normal_equations)."""
+
+    def __init__(self, graph, keys):
+        self.graph, self.keys = graph, keys
+
+    def error(self, values):
+        return self.graph.error(values)
+
+    def linearize(self, values):
+        return self.graph.linearize(values)
+
+
 def test_banded_solver_reaches_the_qr_minimum():
     """solver="banded" uses the system's normal equations and ends where QR ends."""
     graph, initial, keys, truth = curve_fit_graph(np.random.default_rng(10))
     ordering = chain_ordering(keys)
     calls = {"normal_equations": 0}
 
-    class Banded:
-        def __init__(self):
-            self.keys = keys
-
-        def error(self, values):
-            return graph.error(values)
-
-        def linearize(self, values):
-            return graph.linearize(values)
-
+    class Banded(GraphSystem):
         def normal_equations(self, values):
             calls["normal_equations"] += 1
             augmented = graph.linearize(values).augmentedHessian(ordering)
@@ -205,7 +210,7 @@ def test_banded_solver_reaches_the_qr_minimum():
     qr = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3, solver="qr",
                              damping_update="gain_ratio")
     banded = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3,
-                                 solver="banded", damping_update="gain_ratio", system=Banded())
+                                 solver="banded", damping_update="gain_ratio", system=Banded(graph, keys))
     assert calls["normal_equations"] >= banded.iterations > 0
     assert banded.final_error == pytest.approx(qr.final_error, rel=1e-6, abs=1e-9)
     for key in keys:
@@ -215,21 +220,12 @@ def test_banded_solver_reaches_the_qr_minimum():
 def test_banded_solver_falls_back_to_qr_when_the_band_is_not_positive_definite():
     graph, initial, keys, _ = curve_fit_graph(np.random.default_rng(11))
 
-    class Indefinite:
-        def __init__(self):
-            self.keys = keys
-
-        def error(self, values):
-            return graph.error(values)
-
-        def linearize(self, values):
-            return graph.linearize(values)
-
+    class Indefinite(GraphSystem):
         def normal_equations(self, values):
             return np.full((6, 9), -1e12), np.ones(9)  # negative definite at any damping
 
     qr = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3, solver="qr")
     out = levenberg_marquardt(graph, initial, keys, [3, 3, 3], lambda_initial=1e-3,
-                              solver="banded", system=Indefinite())
+                              solver="banded", system=Indefinite(graph, keys))
     assert out.iterations == qr.iterations
     assert out.final_error == pytest.approx(qr.final_error, rel=1e-12)
