@@ -281,9 +281,7 @@ def _section_points(cyl: GeneralizedCylinder) -> np.ndarray:
     boundary samples (one per angle) for a cylinder built without them."""
     if cyl.effective_points is not None:
         return cyl.effective_points
-    ring = cyl.boundary_points(SECTION_SAMPLES)                       # (N, A, 3)
-    local = cyl.to_local(ring, np.arange(cyl.num_sections)[:, None])  # (N, A, 2)
-    return np.moveaxis(local, 1, 0)
+    return np.moveaxis(cyl.cross_sections.boundary(SECTION_SAMPLES), 1, 0)
 
 
 def _rebuilt(frame_source: GeneralizedCylinder, sections: str, points: np.ndarray,
