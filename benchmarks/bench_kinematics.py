@@ -8,6 +8,7 @@ when present, otherwise they are fitted once (slow) before timing.
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 
 import numpy as np
@@ -42,6 +43,14 @@ def pinocchio_sphere_loop(robot: Robot, q: np.ndarray, joints: np.ndarray, local
             pin.getFrameJacobian(model, data, int(joint), placement, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
 
 
+def alternating(call, *batches):
+    """A call without arguments that cycles through the argument tuples `batches`, so that
+    consecutive calls never pass equal q and SerialChain.joint_frames' cache of the most recent
+    batch cannot answer (a planner evaluates new configurations every iteration)."""
+    arguments = itertools.cycle(batches)
+    return lambda: call(*next(arguments))
+
+
 def box_closing_mean_path() -> np.ndarray | None:
     """Mean end-effector path (250, 3) of ../shared/datasets/box_closing.mat, or None if absent."""
     demos = shared_demonstrations("box_closing")
@@ -73,8 +82,10 @@ def main() -> None:
         robot = load_robot(name)
         q = np.array([robot.random_configuration(rng) for _ in range(args.T)])
         qdot = rng.normal(0.0, 0.5, q.shape)
+        q_other = np.array([robot.random_configuration(rng) for _ in range(args.T)])
         print(f"{name} (n={robot.n}, T={args.T}):")
-        ours = median_ms(lambda: robot.ee_kinematics(q, qdot, jacobians=True), args.repeats)
+        ours = median_ms(alternating(lambda q, qdot: robot.ee_kinematics(q, qdot, jacobians=True),
+                                     (q, qdot), (q_other, qdot)), args.repeats)
         loop = median_ms(lambda: pinocchio_ee_loop(robot, q, qdot), max(3, args.repeats // 5))
         print(f"  ee_kinematics + Jacobians: {ours:7.3f} ms   Pinocchio loop {loop:7.3f} ms   ratio {loop / ours:5.1f}x")
         if not args.no_spheres:
@@ -83,7 +94,8 @@ def main() -> None:
             setup = time.perf_counter() - start
             if setup > 0.5:
                 print(f"  (sphere model fitted in {setup:.1f} s: no robots/spheres/{name}.json override)")
-            ours = median_ms(lambda: robot.sphere_centres(q, jacobians=True), args.repeats)
+            ours = median_ms(alternating(lambda q: robot.sphere_centres(q, jacobians=True), (q,), (q_other,)),
+                             args.repeats)
             joints, local = robot.sphere_attachments()
             loop = median_ms(lambda: pinocchio_sphere_loop(robot, q, joints, local), max(3, args.repeats // 10))
             print(f"  sphere_centres + Jacobians (S={spheres.count}): {ours:7.3f} ms   Pinocchio loop {loop:7.3f} ms"
