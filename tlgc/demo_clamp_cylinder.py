@@ -102,9 +102,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     demo = run_clamp_cylinder_demo(args.skill, args.robot, args.states, args.goal_offset,
                                    shared_evaluation=not args.per_state)
-    for label, result, outside in (("without boundary factor", demo.without_factor, demo.outside_without),
-                                   ("with boundary factor", demo.with_factor, demo.outside_with)):
-        inside = float(np.mean(outside <= INSIDE_TOLERANCE))
+    for label, result, outside, inside in (
+            ("without boundary factor", demo.without_factor, demo.outside_without,
+             demo.fraction_inside_without),
+            ("with boundary factor", demo.with_factor, demo.outside_with, demo.fraction_inside_with)):
         print(f"{label:>24}: {inside * 100:5.1f} % of {len(outside)} support states inside the "
               f"cylinder, farthest outside {outside.max() * 1000:6.1f} mm, goal error "
               f"{(result.goal_error or 0.0) * 1000:5.1f} mm, success {result.success}, "
