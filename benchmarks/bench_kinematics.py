@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from robots import Robot, load_robot
+from robots.spheres import sphere_coverage
 from harness import median_ms, print_environment, shared_demonstrations
 
 
@@ -58,11 +59,6 @@ def box_closing_mean_path() -> np.ndarray | None:
 
 
 def sphere_report(robot: Robot) -> None:
-    try:
-        from robots.spheres import sphere_coverage
-    except ImportError:
-        print(f"  spheres: {robot.spheres.count} (robots.spheres.sphere_coverage not available)")
-        return
     report = sphere_coverage(robot.model, robot.collision_model, robot.spheres)
     print(f"  spheres: {report.num_spheres}, surface coverage {100 * report.coverage:.1f} % "
           f"(inflation {report.inflation * 1e3:.0f} mm), max gap {report.max_gap * 1e3:.1f} mm, "
