@@ -100,6 +100,8 @@ def _vector_values(delta: np.ndarray, keys: Sequence[int], offsets: np.ndarray) 
     for key, a, b in zip(keys, offsets[:-1], offsets[1:]):
         out.insert(key, delta[a:b])
     return out
+
+
 SOLVERS = ("cholesky", "qr", "banded")
 DAMPING_UPDATES = ("gtsam", "gain_ratio")
 
@@ -132,11 +134,11 @@ def jacobian_diagonal(linear: gtsam.GaussianFactorGraph, keys: Sequence[int],
 
 def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values,
                         keys: Sequence[int], dims: Sequence[int], lambda_initial: float = 1e3,
-                        lambda_upper_bound: float = 1e10, lambda_lower_bound: float = 0.0,
-                        max_iterations: int = 500, relative_error_tol: float = 1e-5,
-                        absolute_error_tol: float = 1e-5, correction: Correction | None = None,
-                        solver: str = "cholesky", damping_update: str = "gtsam",
-                        patience: int = 1, system: GraphSystem | None = None,
+                        lambda_upper_bound: float = 1e10, max_iterations: int = 500,
+                        relative_error_tol: float = 1e-5, absolute_error_tol: float = 1e-5,
+                        correction: Correction | None = None, solver: str = "cholesky",
+                        damping_update: str = "gtsam", patience: int = 1,
+                        system: GraphSystem | None = None,
                         diagonal_damping: bool = False) -> LMOutcome:
     """Minimise ``graph`` from ``initial`` over the variables ``keys`` of sizes ``dims``.
 
@@ -266,7 +268,6 @@ def levenberg_marquardt(graph: gtsam.NonlinearFactorGraph, initial: gtsam.Values
             growth = 2.0
         else:
             lam /= 10.0
-        lam = max(lam, lambda_lower_bound)
         values, error = candidate, new_error
         if converged:
             break
