@@ -132,11 +132,8 @@ def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], 
     same_time = all(len(t) == len(times[0]) and np.array_equal(t, times[0]) for t in times)
     if same_time and all(len(p) == len(times[0]) for p in positions):
         pos = np.stack(positions)
-        if all(v is not None for v in velocities):
-            vel = np.stack(velocities)
-        else:
-            vel = np.stack([v if v is not None else CubicSpline(times[0], p, axis=0)(times[0], 1)
-                            for p, v in zip(positions, velocities)])
+        vel = np.stack([v if v is not None else CubicSpline(times[0], p, axis=0)(times[0], 1)
+                        for p, v in zip(positions, velocities)])
         return Demonstrations(pos, vel, times[0], obstacles, name)
     given = velocities if all(v is not None for v in velocities) else None
     return Demonstrations.from_trajectories(positions, times, velocities=given, obstacles=obstacles, name=name)
