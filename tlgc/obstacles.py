@@ -75,12 +75,18 @@ def cylinder_clearance(cyl: GeneralizedCylinder, obstacle: Any, num_angles: int 
     every ``step``-th section at ``num_angles`` angles and ``num_radii`` radial fractions, so
     the value is an upper bound of the exact clearance, tight to the sample spacing.
     """
+    return _clearance_and_centre(cyl, obstacle, num_angles, num_radii, step)[0]
+
+
+def _clearance_and_centre(cyl: GeneralizedCylinder, obstacle: Any, num_angles: int,
+                          num_radii: int, step: int) -> tuple[float, np.ndarray]:
+    """Sampled clearance [m] (see cylinder_clearance) and a point (3,) inside ``obstacle``."""
     if not isinstance(cyl, GeneralizedCylinder):
         raise InvalidArgumentError(f"cyl: expected a GeneralizedCylinder, got {type(cyl).__name__}")
-    distance, _ = _distance_function(obstacle)
+    distance, centre = _distance_function(obstacle)
     pts = _solid_samples(cyl, as_count(num_angles, "num_angles", 3),
                          as_count(num_radii, "num_radii", 2), as_count(step, "step"))
-    return float(np.min(distance(pts)))
+    return float(np.min(distance(pts))), centre
 
 
 def cylinder_intersects(cyl: GeneralizedCylinder, obstacle: Any, num_angles: int = 48,
@@ -90,9 +96,9 @@ def cylinder_intersects(cyl: GeneralizedCylinder, obstacle: Any, num_angles: int
     Also true when the obstacle's centre lies inside the cylinder, which catches obstacles
     smaller than the sample spacing.
     """
-    if cylinder_clearance(cyl, obstacle, num_angles, num_radii, step) < 0.0:
+    clearance, centre = _clearance_and_centre(cyl, obstacle, num_angles, num_radii, step)
+    if clearance < 0.0:
         return True
-    _, centre = _distance_function(obstacle)
     c = cyl.containment(centre[None])
     spacing = float(np.linalg.norm(np.diff(cyl.directrix, axis=0), axis=1).max())
     return bool(c.inside[0] and abs(c.offset[0]) <= spacing)
