@@ -27,7 +27,7 @@ from clamp.keys import state_key
 from clamp.levenberg_marquardt import DAMPING_UPDATES, SOLVERS, levenberg_marquardt
 from clamp.validation import as_array, as_count, as_scalar
 from clamp.vectorized_graph import VectorizedGraph
-from clamp.workspace_correction import WorkspaceCorrection
+from clamp.workspace_correction import WorkspaceCorrection, states_to_values, values_to_states
 
 OPTIMIZERS = ("lean", "gtsam")
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
@@ -435,10 +435,7 @@ def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: An
     if extras:
         add("extra", extras)
 
-    initial = gtsam.Values()
-    theta = init.theta
-    for i in range(T):
-        initial.insert(state_key(i), theta[i])
+    initial = states_to_values(init.theta, evaluator.keys)
     return PlanningProblem(graph, initial, evaluator, families, init, q_start, start_position,
                            goal_target, sdf, dt, time.perf_counter() - t0)
 
@@ -484,11 +481,6 @@ def optimize(problem: PlanningProblem, config: PlannerConfig,
     if details is not None:
         details.update(out.timings, trials=out.trials)
     return out.values, out.iterations, out.initial_error, out.final_error
-
-
-def joint_states(values: gtsam.Values, num_states: int) -> np.ndarray:
-    """Joint states theta (T, 2n) read from GTSAM values."""
-    return np.stack([values.atVector(state_key(i)) for i in range(num_states)])
 
 
 def family_errors(problem: PlanningProblem, values: gtsam.Values) -> dict[str, float]:
@@ -580,8 +572,8 @@ def _evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, valu
               config: PlannerConfig, start: Target, timings: dict[str, float], iterations: int,
               initial_error: float, final_error: float) -> PlanResult:
     """Metrics and success checks of an optimised plan."""
-    n, T = robot.n, problem.evaluator.num_states
-    theta = joint_states(values, T)
+    n = robot.n
+    theta = values_to_states(values, problem.evaluator.keys)
     q, qdot = theta[:, :n], theta[:, n:]
     kin = robot.ee_kinematics(q, qdot, jacobians=False)
     x = np.concatenate([kin.position, kin.velocity], axis=1)
