@@ -39,3 +39,17 @@ def shared_dataset():
         return path
 
     return get
+
+
+@pytest.fixture(scope="session")
+def jaco():
+    """The built-in Kinova Jaco2 (robots.load_robot), loaded once for the whole run."""
+    from robots import load_robot
+    return load_robot("jaco")
+
+
+@pytest.fixture(scope="session")
+def sawyer():
+    """The built-in Rethink Sawyer (robots.load_robot), loaded once for the whole run."""
+    from robots import load_robot
+    return load_robot("sawyer")

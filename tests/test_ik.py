@@ -13,11 +13,6 @@ def robot(request):
     return load_robot(request.param)
 
 
-@pytest.fixture(scope="module")
-def jaco():
-    return load_robot("jaco")
-
-
 def test_ik_reaches_random_reachable_targets_within_limits(robot):
     rng = np.random.default_rng(11)
     for _ in range(8):

@@ -1,21 +1,12 @@
 """Initial trajectories: shifted prior mean (blend, goal), IK continuity, straight lines."""
 from __future__ import annotations
 
-import warnings
 
 import numpy as np
 import pytest
 
 from clamp.initialisation import (blend_weights, joint_velocities, prior_mean_initialisation,
                                   shifted_mean_path, straight_line_initialisation)
-
-
-@pytest.fixture(scope="module")
-def jaco():
-    from robots import load_robot
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_robot("jaco")
 
 
 def mean_path(T=80):

@@ -1,7 +1,6 @@
 """Plan figures: PNG written, arm, path and every obstacle kind drawn."""
 from __future__ import annotations
 
-import warnings
 
 import numpy as np
 
@@ -16,12 +15,9 @@ class FakeResult:
         self.success, self.reasons = False, ["collision: minimum clearance -1.0 mm"]
 
 
-def test_plot_plan_writes_png_with_obstacles(tmp_path):
-    from robots import load_robot
+def test_plot_plan_writes_png_with_obstacles(tmp_path, jaco):
     from scenes import Box, Cylinder, Scene, Sphere
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        robot = load_robot("jaco")
+    robot = jaco
     rng = np.random.default_rng(0)
     q0 = robot.random_configuration(rng)
     q = q0 + np.linspace(0, 0.5, 30)[:, None]

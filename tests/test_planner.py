@@ -2,7 +2,6 @@
 failure reporting, input errors, extra factors, initialisations."""
 from __future__ import annotations
 
-import warnings
 
 import gtsam
 import numpy as np
@@ -18,16 +17,6 @@ REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
 # clear the box in ~15 iterations; the reference's plain LM needs ~500 against the stiff
 # learned prior (see benchmarks/bench_clamp.py)
 OBSTACLE_CONFIG = PlannerConfig()
-
-
-@pytest.fixture(scope="module")
-def jaco():
-    from robots import load_robot
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        robot = load_robot("jaco")
-        robot.sphere_centres(np.zeros((1, robot.n)))
-    return robot
 
 
 @pytest.fixture(scope="module")
@@ -237,11 +226,7 @@ def test_prior_robot_mismatch_raises(jaco):
         plan(joint_prior, jaco, None, [0.3, -0.3, 0.2])
 
 
-def test_box_closing_on_sawyer(box_closing):
-    from robots import load_robot
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        sawyer = load_robot("sawyer")
+def test_box_closing_on_sawyer(box_closing, sawyer):
     demos = box_closing[0].translated(np.array([0.3, 0.0, 0.2]))
     prior = learn_prior(demos)
     result = plan(prior, sawyer, None, prior.mean[0, :3] + np.array([0.0, -0.03, 0.02]))

@@ -11,16 +11,6 @@ from robots import (InvalidArrayError, Robot, RobotError, SphereModel, UnknownFr
                     UnsupportedJointError, URDFParseError, available_robots, load_robot)
 
 
-@pytest.fixture(scope="module")
-def jaco() -> Robot:
-    return load_robot("jaco")
-
-
-@pytest.fixture(scope="module")
-def sawyer() -> Robot:
-    return load_robot("sawyer")
-
-
 def test_available_robots_and_their_joints(jaco, sawyer):
     assert set(available_robots()) == {"jaco", "sawyer"}
     assert jaco.n == 6 and jaco.model.nq == 9 and jaco.end_effector == "j2s6s200_end_effector"

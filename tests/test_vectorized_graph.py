@@ -3,7 +3,6 @@ equal GTSAM's graph.error / graph.linearize (synthetic box_closing skill on the 
 obstacle, a goal position, via-points and an extra factor that GTSAM keeps evaluating)."""
 from __future__ import annotations
 
-import warnings
 
 import gtsam
 import numpy as np
@@ -17,12 +16,9 @@ from clamp.vectorized_graph import VectorizedGraph
 
 
 @pytest.fixture(scope="module")
-def problem():
-    from robots import load_robot
+def problem(jaco):
     from scenes import Box, Scene, make_demonstrations
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        robot = load_robot("jaco")
+    robot = jaco
     demos = make_demonstrations("box_closing", num_demos=5, num_points=40, seed=2)
     prior = learn_prior(demos)
     start = demos.positions[:, 0].mean(axis=0)

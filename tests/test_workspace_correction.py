@@ -2,24 +2,14 @@
 point correction built on it (Jaco, random seeded states)."""
 from __future__ import annotations
 
-import warnings
 
 import gtsam
 import numpy as np
-import pytest
 
 from clamp.factors.evaluation import workspace_states
 from clamp.keys import state_key
 from clamp.workspace_correction import (WorkspaceCorrection, project_to_workspace,
                                         states_to_values, values_to_states)
-
-
-@pytest.fixture(scope="module")
-def jaco():
-    from robots import load_robot
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_robot("jaco")
 
 
 def random_states(robot, rng, T=7):
