@@ -46,9 +46,9 @@ def _as_generator(rng) -> np.random.Generator:
     raise RobotError(f"rng: expected a numpy.random.Generator or an integer seed, got {type(rng).__name__}")
 
 
-def _position_jacobian(robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """End-effector positions (B, 3) and Jacobians (B, 3, n) for validated q (B, n)."""
-    att = robot.attachment(robot.end_effector)
+def _position_jacobian(robot, att, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (B, 3) and Jacobians (B, 3, n) of the point at attachment `att` (the end effector)
+    for validated q (B, n)."""
     frames = robot.chain.joint_frames(q)
     pos, columns, _ = robot.chain.point(frames, att.joint, att.translation, True)
     return pos, columns.transpose(0, 2, 1)
@@ -67,7 +67,8 @@ def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float,
     """
     lower, upper = robot.lower_limits, robot.upper_limits
     q = np.clip(np.array(q0, dtype=float), lower, upper)
-    pos, jac = _position_jacobian(robot, q)
+    ee = robot.attachment(robot.end_effector)
+    pos, jac = _position_jacobian(robot, ee, q)
     residual = targets - pos
     error = np.linalg.norm(residual, axis=1)
     lam = np.full(len(q), float(damping))
@@ -85,7 +86,7 @@ def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float,
         size = np.abs(step).max(axis=1, keepdims=True)
         step *= np.minimum(1.0, max_step / np.maximum(size, 1e-300))
         q_new = np.clip(qa + step, lower, upper)
-        pos_new, jac_new = _position_jacobian(robot, q_new)
+        pos_new, jac_new = _position_jacobian(robot, ee, q_new)
         res_new = targets[active] - pos_new
         err_new = np.linalg.norm(res_new, axis=1)
         better = err_new < error[active]
