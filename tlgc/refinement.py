@@ -24,6 +24,7 @@ can be added, removed and combined (applied in order) without fitting anything a
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Iterator, Sequence
 
 import numpy as np
@@ -96,15 +97,23 @@ class RefinementConstraint:
                 f"(one point per cross-section, like the correction), got {r.shape}")
         return r
 
-    def violation(self, reproductions: np.ndarray) -> np.ndarray:
-        """How far [m] each point of reproductions (R,N,3) or (N,3) lies on the forbidden side
-        of its constraining plane; 0 where it does not or where the constraint is inactive."""
-        r = self._check(reproductions)
+    @cached_property
+    def _unit_normals(self) -> np.ndarray:
+        """Unit plane normals v_k / ||v_k|| (N,3); zero rows where the constraint is inactive."""
         unit = np.zeros_like(self.vectors)
         unit[self.active] = self.vectors[self.active] / np.linalg.norm(
             self.vectors[self.active], axis=1, keepdims=True)
-        depth = np.einsum("...ni,ni->...n", self.corrected - r, unit)
+        return unit
+
+    def _depth(self, r: np.ndarray) -> np.ndarray:
+        """:meth:`violation` of checked reproductions ``r``."""
+        depth = np.einsum("...ni,ni->...n", self.corrected - r, self._unit_normals)
         return np.where(self.active & (depth > 0.0), depth, 0.0)
+
+    def violation(self, reproductions: np.ndarray) -> np.ndarray:
+        """How far [m] each point of reproductions (R,N,3) or (N,3) lies on the forbidden side
+        of its constraining plane; 0 where it does not or where the constraint is inactive."""
+        return self._depth(self._check(reproductions))
 
     def crosses(self, reproductions: np.ndarray) -> np.ndarray:
         """Boolean (R,) (or scalar for one path): does the reproduction cross the constraint?"""
@@ -113,11 +122,10 @@ class RefinementConstraint:
     def apply(self, reproductions: np.ndarray) -> np.ndarray:
         """Corrected copy of reproductions (R,N,3) or (N,3); points that do not cross are unchanged."""
         r = self._check(reproductions)
-        depth = self.violation(r)
+        depth = self._depth(r)
         hit = depth > 0.0
         if self.mode == "project":
-            unit = self.vectors / np.maximum(np.linalg.norm(self.vectors, axis=1, keepdims=True), 1e-300)
-            shifted = r + depth[..., None] * unit
+            shifted = r + depth[..., None] * self._unit_normals
         else:
             shifted = r + self.vectors
         return np.where(hit[..., None], shifted, r)
