@@ -209,12 +209,10 @@ class Robot:
         """Chain joint (S,) and centre in that joint's frame (S, 3) of every collision sphere."""
         spheres = self.spheres
         if self._sphere_cache is None or self._sphere_cache[0] is not spheres:
-            names = list(spheres.link_names)
-            centres = np.asarray(spheres.centres, dtype=float).reshape(len(names), 3)
-            joints = np.zeros(len(names), dtype=int)
-            local = np.zeros((len(names), 3))
-            for s, (link, centre) in enumerate(zip(names, centres)):
-                att = self.attachment(str(link), "spheres.link_names")
+            joints = np.zeros(spheres.count, dtype=int)
+            local = np.zeros((spheres.count, 3))
+            for s, (link, centre) in enumerate(zip(spheres.link_names, spheres.centres)):
+                att = self.attachment(link, "spheres.link_names")
                 joints[s] = att.joint
                 local[s] = att.rotation @ centre + att.translation
             self._sphere_cache = (spheres, joints, local)
