@@ -1,7 +1,10 @@
-"""GTSAM keys of the planner's variables."""
+"""GTSAM keys of the planner's variables and the stacking of their vectors to / from arrays."""
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import gtsam
+import numpy as np
 
 STATE_SYMBOL = "x"
 
@@ -9,3 +12,34 @@ STATE_SYMBOL = "x"
 def state_key(index: int) -> int:
     """Key of the joint state theta_i = [q, qdot] (2n,) of support state ``index``."""
     return gtsam.symbol(STATE_SYMBOL, int(index))
+
+
+def values_to_states(values: gtsam.Values | gtsam.VectorValues, keys: Sequence[int]) -> np.ndarray:
+    """Stack the vectors of ``keys`` (T, d) from GTSAM (Vector)Values.
+
+    When ``values`` holds exactly ``keys`` (GTSAM stores them sorted), the vectors are read in
+    one C++ call (Values: utilities.extractVectors of the keys' symbol; VectorValues: vector()).
+    """
+    keys = list(keys)
+    if values.size() == len(keys) and keys == sorted(keys):
+        if isinstance(values, gtsam.VectorValues):
+            if all(values.exists(k) for k in keys):
+                return values.vector().reshape(len(keys), -1)
+        elif list(values.keys()) == keys and \
+                len({gtsam.Symbol(k).chr() for k in (keys[0], keys[-1])}) == 1:
+            try:  # GTSAM refuses vectors of different sizes
+                stacked = gtsam.utilities.extractVectors(values, chr(gtsam.Symbol(keys[0]).chr()))
+            except RuntimeError:
+                stacked = None
+            if stacked is not None and stacked.shape[0] == len(keys):
+                return stacked
+    get = values.atVector if isinstance(values, gtsam.Values) else values.at
+    return np.stack([get(k) for k in keys])
+
+
+def states_to_values(theta: np.ndarray, keys: Sequence[int]) -> gtsam.Values:
+    """GTSAM Values holding row i of theta (T, d) under keys[i]."""
+    values = gtsam.Values()
+    for key, row in zip(keys, theta):
+        values.insert(key, row)
+    return values

@@ -23,11 +23,11 @@ from clamp.factors import (TrajectoryEvaluator, ee_position_factors, joint_gp_fa
                            shifted_start_mean, workspace_gp_factors, workspace_start_factor)
 from clamp.initialisation import (INITIALISATIONS, Initialisation, joint_velocities,
                                   prior_mean_initialisation, straight_line_initialisation)
-from clamp.keys import state_key
+from clamp.keys import state_key, states_to_values, values_to_states
 from clamp.levenberg_marquardt import DAMPING_UPDATES, SOLVERS, levenberg_marquardt
 from clamp.validation import as_array, as_count, as_scalar
 from clamp.vectorized_graph import VectorizedGraph
-from clamp.workspace_correction import WorkspaceCorrection, states_to_values, values_to_states
+from clamp.workspace_correction import WorkspaceCorrection
 
 OPTIMIZERS = ("lean", "gtsam")
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]

@@ -30,7 +30,7 @@ import gtsam
 import numpy as np
 
 from clamp.factors.evaluation import FamilyBlock, TrajectoryEvaluator
-from clamp.workspace_correction import values_to_states
+from clamp.keys import values_to_states
 
 
 def _nonzero_rows(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -22,37 +22,7 @@ import gtsam
 import numpy as np
 
 from clamp.factors.evaluation import workspace_states
-
-
-def values_to_states(values: gtsam.Values | gtsam.VectorValues, keys: Sequence[int]) -> np.ndarray:
-    """Stack the vectors of ``keys`` (T, d) from GTSAM (Vector)Values.
-
-    When ``values`` holds exactly ``keys`` (GTSAM stores them sorted), the vectors are read in
-    one C++ call (Values: utilities.extractVectors of the keys' symbol; VectorValues: vector()).
-    """
-    keys = list(keys)
-    if values.size() == len(keys) and keys == sorted(keys):
-        if isinstance(values, gtsam.VectorValues):
-            if all(values.exists(k) for k in keys):
-                return values.vector().reshape(len(keys), -1)
-        elif list(values.keys()) == keys and \
-                len({gtsam.Symbol(k).chr() for k in (keys[0], keys[-1])}) == 1:
-            try:  # GTSAM refuses vectors of different sizes
-                stacked = gtsam.utilities.extractVectors(values, chr(gtsam.Symbol(keys[0]).chr()))
-            except RuntimeError:
-                stacked = None
-            if stacked is not None and stacked.shape[0] == len(keys):
-                return stacked
-    get = values.atVector if isinstance(values, gtsam.Values) else values.at
-    return np.stack([get(k) for k in keys])
-
-
-def states_to_values(theta: np.ndarray, keys: Sequence[int]) -> gtsam.Values:
-    """GTSAM Values holding row i of theta (T, d) under keys[i]."""
-    values = gtsam.Values()
-    for key, row in zip(keys, theta):
-        values.insert(key, row)
-    return values
+from clamp.keys import states_to_values, values_to_states
 
 
 def project_to_workspace(robot, theta: np.ndarray, target: np.ndarray, iterations: int,

@@ -16,7 +16,7 @@ from functools import partial
 import gtsam
 import numpy as np
 
-from clamp.keys import state_key
+from clamp.keys import state_key, values_to_states
 
 
 @dataclass(frozen=True)
@@ -116,7 +116,7 @@ class TrajectoryEvaluator:
         """Make the cache agree with ``values`` on the states ``indices``; reload all on mismatch."""
         for i in indices:
             if values.atVector(self.keys[i]).tobytes() != self._state_bytes[i]:
-                self.load(np.stack([values.atVector(k) for k in self.keys]))
+                self.load(values_to_states(values, self.keys))
                 self.reloads += 1
                 return
 
