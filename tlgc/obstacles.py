@@ -57,12 +57,10 @@ def _solid_samples(cyl: GeneralizedCylinder, num_angles: int, num_radii: int, st
                    ) -> np.ndarray:
     """Points (K, A*R, 3) filling every ``step``-th cross-section (and the last one)."""
     idx = np.unique(np.r_[np.arange(0, cyl.num_sections, step), cyl.num_sections - 1])
-    angles = np.linspace(0.0, 2.0 * np.pi, num_angles, endpoint=False)
-    fractions = np.linspace(0.0, 1.0, num_radii)
-    r = cyl.radius(idx[:, None], angles[None, :])                                 # (K, A)
-    rho = r[:, :, None] * fractions[None, None, :]                                # (K, A, R)
-    local = np.stack([rho * np.cos(angles)[None, :, None], rho * np.sin(angles)[None, :, None]], -1)
-    pts = cyl.to_world(local, idx[:, None, None])
+    centre = cyl.directrix[idx][:, None, None]                                    # (K, 1, 1, 3)
+    ring = cyl.boundary_points(num_angles, idx)[:, :, None]                       # (K, A, 1, 3)
+    fractions = np.linspace(0.0, 1.0, num_radii)[:, None]                         # (R, 1)
+    pts = centre + fractions * (ring - centre)                                    # (K, A, R, 3)
     return pts.reshape(len(idx), -1, 3)
 
 
