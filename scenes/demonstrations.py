@@ -11,7 +11,7 @@ from scipy.interpolate import CubicSpline
 from .alignment import dtw_warp
 from .errors import InvalidDemonstrationsError, InvalidObstacleError
 from .obstacles import Obstacle, obstacle_from_dict
-from .validation import as_array, as_count, as_vector
+from .validation import as_array, as_count, as_positive, as_vector
 
 #: Duration (s) given to demonstrations recorded without time stamps (e.g. TLGC smoothData).
 NOMINAL_DURATION = 10.0
@@ -188,10 +188,7 @@ class Demonstrations:
                 raise _E(f"times: expected {len(paths)} arrays (one per trajectory), got {len(times)}")
             stamps = [_check_time(t, f"times[{m}]", len(p)) for m, (t, p) in enumerate(zip(times, paths))]
         else:
-            total = NOMINAL_DURATION if duration is None else float(
-                as_vector([duration], "duration", 1, _E)[0])
-            if total <= 0:
-                raise _E(f"duration: expected a positive number of seconds, got {duration}")
+            total = NOMINAL_DURATION if duration is None else as_positive(duration, "duration", _E)
             stamps = [np.linspace(0.0, total, len(p)) for p in paths]
         if velocities is not None:
             velocities = list(velocities)
