@@ -29,7 +29,7 @@ import numpy as np
 
 from clamp.learning import learn_prior
 from clamp.planner import PlannerConfig, plan
-from harness import print_environment, shared_demonstrations
+from harness import median_seconds, print_environment, shared_demonstrations
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
@@ -95,13 +95,10 @@ def main() -> None:
     jaco = load_robot("jaco")
     jaco.sphere_centres(np.zeros((1, jaco.n)))  # build the sphere model outside the timings
 
-    learn_times = []
-    for _ in range(max(args.repeats, 3)):
-        t0 = time.perf_counter()
-        prior = learn_prior(demos)
-        learn_times.append(time.perf_counter() - t0)
+    learn_seconds = median_seconds(lambda: learn_prior(demos), max(args.repeats, 3))
+    prior = learn_prior(demos)
     print(f"learning box_closing (M={demos.M}, T={demos.T}): median "
-          f"{1e3 * statistics.median(learn_times):.1f} ms")
+          f"{1e3 * learn_seconds:.1f} ms")
 
     scene = Scene([Box.from_reference(REFERENCE_BOX)])
     t0 = time.perf_counter()
