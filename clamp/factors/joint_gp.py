@@ -11,7 +11,7 @@ import numpy as np
 
 from clamp.keys import state_key
 
-from .evaluation import Residuals
+from .evaluation import Residuals, square_root_information
 from .linear import linear_factor
 
 
@@ -44,7 +44,7 @@ def joint_gp_factors(num_states: int, n: int, dt: float,
     """The T-1 joint GP factors between consecutive support states of step ``dt`` [s]."""
     Phi = joint_gp_transition(n, dt)
     Q = joint_gp_covariance(n, dt, Qc)
-    R = np.linalg.cholesky(np.linalg.inv(Q)).T
+    R = square_root_information(Q)
     minus_eye = -np.eye(2 * n)
     zero = np.zeros(2 * n)
     return [linear_factor([state_key(i), state_key(i + 1)], [Phi, minus_eye], zero, R)
