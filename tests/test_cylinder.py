@@ -5,9 +5,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-import scipy.io
 
-from scenes import make_demonstrations
+from scenes import load_demonstrations, make_demonstrations
 from tlgc import (CROSS_SECTION_TYPES, GeneralizedCylinder, InvalidArgumentError,
                   InvalidDemonstrationsError, TooFewDemonstrationsError, UnknownCrossSectionError,
                   fit_cylinder)
@@ -18,8 +17,7 @@ KINDS = sorted(CROSS_SECTION_TYPES)
 
 def load_smooth_data(path) -> np.ndarray:
     """TLGC .mat file -> demonstrations (M, N, 3)."""
-    data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
-    return np.stack([np.asarray(d, dtype=float) for d in data["smoothData"]])
+    return load_demonstrations(path).positions
 
 
 @pytest.fixture(scope="module")

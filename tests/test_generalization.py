@@ -3,9 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.io
 
-from scenes import make_demonstrations
+from scenes import load_demonstrations, make_demonstrations
 from tlgc.cylinder import fit_cylinder
 from tlgc.errors import InvalidArgumentError
 from tlgc.generalization import (fit_similarity, fit_tps, landmark_constraints, laplacian_matrix,
@@ -153,8 +152,7 @@ def test_lte_scales_cross_sections_with_the_path(synthetic_cylinder):
 
 # ---------------------------------------------------------------------------- paper 5.2
 def _pick_place_cylinder(shared_dataset):
-    data = scipy.io.loadmat(shared_dataset("pick_place"), squeeze_me=True, struct_as_record=False)
-    return fit_cylinder(np.stack(list(data["smoothData"])), "spline")
+    return fit_cylinder(load_demonstrations(shared_dataset("pick_place")), "spline")
 
 
 PLACE_OFFSETS = np.array([[0.06, 0.04, 0.0], [-0.05, 0.08, 0.02], [0.10, -0.06, 0.05],

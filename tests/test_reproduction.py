@@ -3,9 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.io
 
-from scenes import make_demonstrations
+from scenes import load_demonstrations, make_demonstrations
 from tlgc import (CROSS_SECTION_TYPES, InvalidArgumentError, StartOutsideError, fit_cylinder,
                   random_starts, ratio_schedule, reproduce, start_coordinates)
 
@@ -45,9 +44,7 @@ def check_reproductions(cyl, starts: np.ndarray) -> None:
 @pytest.mark.parametrize("dataset", ["needle_threading", "pick_place"])
 @pytest.mark.parametrize("kind", KINDS)
 def test_real_data_reproductions_stay_inside_and_converge_or_diverge(shared_dataset, dataset, kind):
-    data = scipy.io.loadmat(shared_dataset(dataset), squeeze_me=True, struct_as_record=False)
-    demos = np.stack([np.asarray(d, dtype=float) for d in data["smoothData"]])
-    cyl = fit_cylinder(demos, kind)
+    cyl = fit_cylinder(load_demonstrations(shared_dataset(dataset)), kind)
     check_reproductions(cyl, random_starts(cyl, 100, rng=np.random.default_rng(11)))
 
 

@@ -3,9 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.io
 
-from scenes import Box, Sphere, make_demonstrations
+from scenes import Box, Sphere, load_demonstrations, make_demonstrations
 from tlgc.bounding_sphere import BoundingSphere
 from tlgc.cylinder import fit_cylinder
 from tlgc.errors import InvalidArgumentError
@@ -111,8 +110,7 @@ def test_method_one_clears_sphere_on_synthetic_skill(reach_cylinder):
 
 
 def test_method_one_clears_sphere_on_pick_place(shared_dataset):
-    data = scipy.io.loadmat(shared_dataset("pick_place"), squeeze_me=True, struct_as_record=False)
-    cyl = fit_cylinder(np.stack(list(data["smoothData"])), "spline")
+    cyl = fit_cylinder(load_demonstrations(shared_dataset("pick_place")), "spline")
     starts = random_starts(cyl, 3, rng=11)
     _check_method_one(cyl, starts, 0.03, 700)
 
