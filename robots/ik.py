@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import RobotError
-from .validation import as_joint_array, as_point, as_points
+from .validation import as_generator, as_joint_array, as_point, as_points
 
 
 @dataclass(frozen=True)
@@ -36,14 +36,6 @@ def _check_settings(tol: float, max_iter: int) -> None:
         raise RobotError(f"tol: expected a positive tolerance in metres, got {tol!r}")
     if int(max_iter) != max_iter or max_iter < 0:
         raise RobotError(f"max_iter: expected a non-negative integer, got {max_iter!r}")
-
-
-def _as_generator(rng) -> np.random.Generator:
-    if isinstance(rng, np.random.Generator):
-        return rng
-    if rng is None or isinstance(rng, (int, np.integer)):
-        return np.random.default_rng(rng if rng is not None else 0)
-    raise RobotError(f"rng: expected a numpy.random.Generator or an integer seed, got {type(rng).__name__}")
 
 
 def _position_jacobian(robot, att, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -111,7 +103,7 @@ def solve_ik(robot, target, seed=None, tol: float = 1e-4, max_iter: int = 200, r
         raise RobotError(f"seed: expected shape ({robot.n},), got {seed.shape}")
     if int(restarts) != restarts or restarts < 0:
         raise RobotError(f"restarts: expected a non-negative integer, got {restarts!r}")
-    generator = _as_generator(rng)
+    generator = as_generator(rng)
     q, errors = damped_least_squares(robot, target[None], seed[None], tol, max_iter)
     if errors[0] > tol and restarts > 0:
         starts = np.array([robot.random_configuration(generator) for _ in range(int(restarts))])

@@ -31,6 +31,7 @@ from scipy.spatial import cKDTree
 from .collision_geometry import LinkSurface, link_surfaces
 from .errors import CollisionGeometryError, UnknownFrameError
 from .sphere_model import SphereModel, save_sphere_file
+from .validation import as_generator
 
 MIN_RADIUS = 1e-3  # [m] smallest radius a fitted sphere gets (tiny geometry, large inflation)
 TOLERANCE = 1e-9  # [m] a point this close outside a grown sphere counts as covered (rounding)
@@ -59,17 +60,6 @@ class CoverageReport:
     mean_radius: float
     max_radius: float
     sphere_volume: float
-
-
-def _as_rng(rng: np.random.Generator | int | None) -> np.random.Generator:
-    """None -> seed 0 (fitting is deterministic by default); int -> seed; Generator as is."""
-    if rng is None:
-        return np.random.default_rng(0)
-    if isinstance(rng, np.random.Generator):
-        return rng
-    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
-        return np.random.default_rng(int(rng))
-    raise CollisionGeometryError(f"rng: expected a numpy Generator, an int seed or None, got {type(rng).__name__}")
 
 
 def _check_nonnegative(value: float, name: str) -> float:
@@ -237,7 +227,7 @@ def fit_spheres(model: pin.Model, collision_model: pin.GeometryModel, links: Seq
     min_gain = _check_nonnegative(min_gain, "min_gain")
     restarts = _check_count(restarts, "restarts", 0)
     iterations = _check_count(iterations, "iterations", 1)
-    generator = _as_rng(rng)
+    generator = as_generator(rng, CollisionGeometryError)  # None: seed 0, fitting is deterministic
     surfaces = link_surfaces(model, collision_model, links)
     if max_spheres < len(surfaces):
         raise CollisionGeometryError(
@@ -298,7 +288,7 @@ def sphere_coverage(model: pin.Model, collision_model: pin.GeometryModel, sphere
     samples = _check_count(samples, "samples", 1)
     if not isinstance(spheres, SphereModel):
         raise CollisionGeometryError(f"spheres: expected a SphereModel, got {type(spheres).__name__}")
-    generator = _as_rng(1 if rng is None else rng)
+    generator = as_generator(rng, CollisionGeometryError, default_seed=1)
     surfaces = link_surfaces(model, collision_model, links)
     sphere_joints = _sphere_joints(model, spheres)
     areas = np.array([s.area for s in surfaces])

@@ -1,9 +1,9 @@
-"""Input checks for the robots package: arrays of joint values and points."""
+"""Input checks for the robots package: arrays of joint values and points, random generators."""
 from __future__ import annotations
 
 import numpy as np
 
-from .errors import InvalidArrayError
+from .errors import InvalidArrayError, RobotError
 
 
 def as_array(value, name: str, last_dims: tuple[int, ...], max_leading: int | None = None) -> np.ndarray:
@@ -49,3 +49,17 @@ def as_points(x, name: str) -> np.ndarray:
     if array.ndim != 2:
         raise InvalidArrayError(f"{name}: expected shape (T, 3), got {array.shape}")
     return array
+
+
+def as_generator(rng, error: type[RobotError] = RobotError, default_seed: int = 0) -> np.random.Generator:
+    """A numpy Generator as is; an int seed -> default_rng(seed); None -> default_rng(default_seed).
+
+    Anything else (bools included) raises `error` naming the argument rng.
+    """
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None:
+        return np.random.default_rng(default_seed)
+    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
+        return np.random.default_rng(int(rng))
+    raise error(f"rng: expected a numpy Generator, an int seed or None, got {type(rng).__name__}")
