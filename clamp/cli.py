@@ -15,7 +15,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from clamp.planner import PlannerConfig, PlanResult, plan
+from clamp.initialisation import INITIALISATIONS
+from clamp.planner import OPTIMIZERS, PlannerConfig, PlanResult, plan
 
 DEMO_START_OFFSET = np.array([0.0, -0.03, 0.03])
 
@@ -24,8 +25,8 @@ def _config(args: argparse.Namespace) -> PlannerConfig:
     """PlannerConfig defaults (workspace-corrected LM) with --sigma-obs (default 0.005),
     PlannerConfig.fast() with --fast."""
     changes = {"epsilon": args.epsilon, "initialisation": args.init,
-               "max_iterations": args.max_iterations, "optimizer": args.optimizer}
-    changes["sigma_obs"] = args.sigma_obs
+               "max_iterations": args.max_iterations, "optimizer": args.optimizer,
+               "sigma_obs": args.sigma_obs}
     return PlannerConfig.fast(**changes) if args.fast else PlannerConfig(**changes)
 
 
@@ -142,8 +143,8 @@ def parser() -> argparse.ArgumentParser:
                             "the path by 2 cm, and with the reference's 0.05 the optimum of the "
                             "stiff learned prior plus obstacle cost still touches it)")
         p.add_argument("--epsilon", type=float, default=0.05, help="obstacle safety distance [m]")
-        p.add_argument("--init", choices=("prior_mean", "straight_line"), default="prior_mean")
-        p.add_argument("--optimizer", choices=("lean", "gtsam"), default="lean")
+        p.add_argument("--init", choices=INITIALISATIONS, default="prior_mean")
+        p.add_argument("--optimizer", choices=OPTIMIZERS, default="lean")
         p.add_argument("--max-iterations", type=int, default=500)
 
     demo = sub.add_parser("demo", help="learn a built-in synthetic skill and plan it")
