@@ -37,7 +37,7 @@ from clamp.factors.evaluation import ResidualFamily, Residuals, TrajectoryEvalua
 from clamp.keys import state_key
 
 from .errors import InvalidArgumentError
-from .validation import as_array, as_points, as_scalar
+from .validation import as_array, as_count, as_points, as_scalar
 
 ANGLE_STEP = 1e-6       # [rad] central-difference step for the boundary slope fallback
 _RHO_MIN = 1e-12        # [m] below this the position sits on the directrix (inside)
@@ -45,8 +45,7 @@ _RHO_MIN = 1e-12        # [m] below this the position sits on the directrix (ins
 
 def section_indices(index: Any, num_states: int, num_sections: int) -> np.ndarray:
     """Cross-section index round(i / (T - 1) * (N - 1)) (...,) of support states i (...,) of T."""
-    if isinstance(num_states, bool) or not isinstance(num_states, (int, np.integer)) or num_states < 1:
-        raise InvalidArgumentError(f"num_states: expected an integer >= 1, got {num_states!r}")
+    num_states = as_count(num_states, "num_states")
     i = np.asarray(index)
     if i.dtype.kind not in "iu" or (i.size and (i.min() < 0 or i.max() >= num_states)):
         raise InvalidArgumentError(
@@ -224,7 +223,7 @@ class BoundaryFactorMaker:
     def shared(self, num_states: int) -> tuple[TrajectoryEvaluator, BoundaryFamily]:
         """Evaluator and family shared by the factors of ``num_states`` states (made on first use)."""
         if num_states not in self._shared:
-            section_indices(np.zeros(0, dtype=np.intp), num_states, 1)     # validates num_states
+            as_count(num_states, "num_states")
             indices = np.arange(num_states)
             if self.states is not None:
                 indices = indices[np.isin(indices, sorted(self.states))]
