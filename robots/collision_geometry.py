@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import CollisionGeometryError, UnknownFrameError
+from .kinematics import frame_names
 
 SUPPORTED_SHAPES = ("Sphere", "Box", "Cylinder", "Capsule", "BVHModel (triangle mesh)")
 
@@ -130,14 +131,14 @@ def link_surfaces(model: pin.Model, collision_model: pin.GeometryModel,
     else:
         if isinstance(links, str):
             links = [links]
-        frame_names = [f.name for f in model.frames]
+        valid = frame_names(model)
         by_frame = {}
         for obj in objects:
             by_frame.setdefault(model.frames[obj.parentFrame].name, []).append(obj)
         selected = []
         for name in links:
-            if name not in frame_names:
-                raise UnknownFrameError("links", name, frame_names)
+            if name not in valid:
+                raise UnknownFrameError("links", name, valid)
             if name not in by_frame:
                 raise CollisionGeometryError(
                     f"links: {name!r} has no collision geometry; links with geometry: {', '.join(by_frame)}")

@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 
 from .collision_geometry import LinkSurface, link_surfaces
 from .errors import CollisionGeometryError, UnknownFrameError
+from .kinematics import frame_names
 from .sphere_model import SphereModel, save_sphere_file
 from .validation import as_generator
 
@@ -325,11 +326,10 @@ def sphere_coverage(model: pin.Model, collision_model: pin.GeometryModel, sphere
 
 def _sphere_joints(model: pin.Model, spheres: SphereModel) -> np.ndarray:
     """Parent joint id of each sphere's link frame (S,); UnknownFrameError for unknown names."""
-    frame_names = [f.name for f in model.frames]
     joints = []
     for name in spheres.link_names:
         if not model.existFrame(name):
-            raise UnknownFrameError("spheres.link_names", name, frame_names)
+            raise UnknownFrameError("spheres.link_names", name, frame_names(model))
         joints.append(model.frames[model.getFrameId(name)].parentJoint)
     return np.array(joints, dtype=int)
 
