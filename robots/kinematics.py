@@ -138,15 +138,15 @@ class SerialChain:
         self.is_prismatic = np.array([k == PRISMATIC for k in self.kinds])
         self.idx_q = np.array([model.joints[k].idx_q for k in range(1, model.njoints)])
         self.nq = model.nq
-        self.placement_rotations = np.array([model.jointPlacements[k].rotation for k in range(1, n + 1)])
-        self.placement_translations = np.array([model.jointPlacements[k].translation for k in range(1, n + 1)])
+        placement_rotations = np.array([model.jointPlacements[k].rotation for k in range(1, n + 1)])
+        placement_translations = np.array([model.jointPlacements[k].translation for k in range(1, n + 1)])
         # Internally every joint frame is turned by a constant rotation U_k so that its z axis is
         # the joint axis (U_0 = I for the root); placements are re-expressed accordingly.
         aligned = np.concatenate((np.eye(3)[None], np.array([_axis_frame(a) for a in self.axes])))
         self._aligned = aligned                                               # (n+1, 3, 3)
-        self._steps = np.einsum("kji,kjl,klm->kim", aligned[:-1], self.placement_rotations, aligned[1:])
-        self._offsets = np.einsum("kji,kj->ki", aligned[:-1], self.placement_translations)
-        self._step_offsets = np.concatenate((self._steps, self._offsets[:, :, None]), axis=2)  # (n, 3, 4)
+        steps = np.einsum("kji,kjl,klm->kim", aligned[:-1], placement_rotations, aligned[1:])
+        offsets = np.einsum("kji,kj->ki", aligned[:-1], placement_translations)
+        self._step_offsets = np.concatenate((steps, offsets[:, :, None]), axis=2)  # (n, 3, 4)
         self.base_frame = base_frame
         self._last_frames: tuple[np.ndarray, JointFrames] | None = None  # see joint_frames
         if base_frame is None:
