@@ -4,8 +4,9 @@ The factor graph (paper eq. 14-20) over joint states theta_i = [q_i, qdot_i] of 
 states of the prior holds: the learned workspace GP factors, the workspace start factor
 (learned initial velocity, position moved to the requested start), the constant-velocity joint
 GP prior, start / goal / via-point factors, one obstacle factor per support state, joint-limit
-factors, and any extra factors of the caller. GTSAM's Levenberg-Marquardt optimises it from an
-initial trajectory (see :mod:`clamp.initialisation`).
+factors, and any extra factors of the caller. Levenberg-Marquardt (the lean loop of
+:mod:`clamp.levenberg_marquardt` by default, or GTSAM's) optimises it from an initial trajectory
+(see :mod:`clamp.initialisation`).
 """
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ ExtraFactor = Union[gtsam.NonlinearFactor, PerStateFactorMaker]
 @dataclass
 class PlannerConfig:
     """Planner settings. The factor graph's defaults are the reference implementation's
-    (box_closing demo); the optimizer's defaults add the workspace correction and QR solver and
+    (box_closing demo); the optimizer's defaults add the workspace correction and banded solver and
     stop after two consecutive steps below a 0.1 % relative decrease (:meth:`reference` gives
     the reference's optimizer).
 
@@ -47,8 +48,8 @@ class PlannerConfig:
     sdf_cell_size [m]; initialisation "prior_mean" (IK of the shifted prior mean) or
     "straight_line" (between the start configuration and IK of the prior's mean final
     position, or the given goal; ``straight_line_configurations`` overrides both ends);
-    optimizer "lean" (:mod:`clamp.levenberg_marquardt`, the same rules on GTSAM's
-    linearization and solver, cheaper per iteration) or "gtsam" (gtsam's optimizer);
+    optimizer "lean" (:mod:`clamp.levenberg_marquardt` on the numpy linearization of
+    :mod:`clamp.vectorized_graph`, cheaper per iteration) or "gtsam" (gtsam's optimizer);
     Levenberg-Marquardt: lambda_initial, lambda_upper_bound, max_iterations, relative and
     absolute error tolerances; lean optimizer only: workspace_correction, the number of
     per-state Gauss-Newton updates that move every trial point back onto the workspace states
