@@ -7,7 +7,7 @@ the absolute or relative error decrease falls below its tolerance) but reuses on
 ordering and one set of damping factors per lambda, which is several times cheaper per
 iteration than the generic optimizer for the planner's chain-structured graphs.
 
-Three optional extensions (off by default, so the plain loop reproduces GTSAM's rules):
+Optional extensions (off by default, so the plain loop reproduces GTSAM's rules):
 ``correction(values, delta, candidate) -> Values`` maps every trial point values + delta to
 the point actually evaluated (a second-order correction that restores stiff, curved
 constraints the linear model keeps only to first order; see
