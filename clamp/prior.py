@@ -79,6 +79,15 @@ def prefix_compose(Phi: np.ndarray, u: np.ndarray,
     return A, b, B
 
 
+def envelope_quantile(level: float) -> float:
+    """Two-sided standard normal quantile z of a probability ``level`` in (0, 1) (1.96 for
+    0.95): a Gaussian coordinate lies within mean -+ z sigma with probability ``level``."""
+    level = as_scalar(level, "level", strictly_positive=True)
+    if level >= 1.0:
+        raise InvalidParameterError(f"level: expected a probability in (0, 1), got {level}")
+    return float(stats.norm.ppf(0.5 + 0.5 * level))
+
+
 class LinearGaussianPrior:
     """Discrete linear-Gaussian (LTV-SDE) trajectory prior over T support states of size D.
 
@@ -164,11 +173,7 @@ class LinearGaussianPrior:
         Returns (lower, upper), each (T, D): each coordinate lies inside its band with
         probability ``level`` under the prior (marginally, one coordinate at a time).
         """
-        level = as_scalar(level, "level", strictly_positive=True)
-        if level >= 1.0:
-            raise InvalidParameterError(f"level: expected a probability in (0, 1), got {level}")
-        z = float(stats.norm.ppf(0.5 + 0.5 * level))
-        half = z * self.std
+        half = envelope_quantile(level) * self.std
         return self.mean - half, self.mean + half
 
     # ------------------------------------------------------------------ sampling

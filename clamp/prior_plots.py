@@ -15,11 +15,10 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
-from scipy import stats
 
-from clamp.errors import InvalidParameterError, ShapeError
-from clamp.prior import LinearGaussianPrior
-from clamp.validation import as_array, as_count, as_scalar
+from clamp.errors import ShapeError
+from clamp.prior import LinearGaussianPrior, envelope_quantile
+from clamp.validation import as_array, as_count
 
 __all__ = ["plot_prior_3d", "plot_prior_time", "envelope_tube"]
 
@@ -79,11 +78,8 @@ def envelope_tube(prior: LinearGaussianPrior, level: float = 0.95,
     if prior.num_axes != 3:
         raise ShapeError(f"prior: expected a workspace prior with 3 position axes, "
                          f"got {prior.num_axes}")
-    level = as_scalar(level, "level", strictly_positive=True)
-    if level >= 1:
-        raise InvalidParameterError(f"level: expected a probability in (0, 1), got {level}")
+    z = envelope_quantile(level)
     resolution = as_count(resolution, "resolution", minimum=3)
-    z = float(stats.norm.ppf(0.5 + 0.5 * level))
     centre = prior.mean[:, :3]
     tangent = np.gradient(centre, axis=0)
     length = np.linalg.norm(tangent, axis=1)
