@@ -206,13 +206,17 @@ class LinearGaussianPrior:
             return as_array(x, name, (self.T, self.D))[None], True
         return as_array(x, name, (None, self.T, self.D)), False
 
+    def _residuals(self, xs: np.ndarray) -> np.ndarray:
+        """x_{i+1} - Phi_i x_i - u_i (K, T-1, D) of validated trajectories xs (K, T, D)."""
+        return xs[:, 1:] - np.einsum("tij,ktj->kti", self.Phi, xs[:, :-1]) - self.u
+
     def transition_residuals(self, x: np.ndarray) -> np.ndarray:
         """Residuals ``x_{i+1} - Phi_i x_i - u_i`` of trajectories x (T, D) or (K, T, D).
 
         Returns (T-1, D) or (K, T-1, D).
         """
         xs, single = self._as_trajectories(x)
-        r = xs[:, 1:] - np.einsum("tij,ktj->kti", self.Phi, xs[:, :-1]) - self.u
+        r = self._residuals(xs)
         return r[0] if single else r
 
     def step_mahalanobis_squared(self, x: np.ndarray) -> np.ndarray:
@@ -223,8 +227,7 @@ class LinearGaussianPrior:
         chi-square distributed with D degrees of freedom, independently of the others.
         """
         xs, single = self._as_trajectories(x)
-        r = xs[:, 1:] - np.einsum("tij,ktj->kti", self.Phi, xs[:, :-1]) - self.u
-        white = np.einsum("tij,ktj->kti", self._white_Q, r)
+        white = np.einsum("tij,ktj->kti", self._white_Q, self._residuals(xs))
         white0 = (xs[:, 0] - self.mean0) @ self._white_0.T
         d2 = np.concatenate([np.sum(white0**2, axis=-1)[:, None], np.sum(white**2, axis=-1)],
                             axis=1)
