@@ -1,0 +1,52 @@
+"""The planning cases whose plans are pinned by ``plans.npz`` (see make_fixtures.py)."""
+from __future__ import annotations
+
+import numpy as np
+
+REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
+REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
+SAWYER_SHIFT = np.array([0.3, 0.0, 0.2])
+
+CASES = ("jaco_empty", "jaco_box", "jaco_goal", "sawyer_empty", "sawyer_box", "sawyer_goal",
+         "jaco_boundary")
+
+
+def _box_closing():
+    from clamp import learn_prior
+    from scenes import load_demonstrations
+    from tests.conftest import dataset_path
+    path = dataset_path("box_closing")
+    if path is None:
+        return None
+    demos = load_demonstrations(path)
+    return demos, learn_prior(demos)
+
+
+def run_case(name: str):
+    """Plan case ``name`` with the current planner; None when its data set is missing."""
+    from clamp import plan
+    from robots import load_robot
+    from scenes import Box, Scene
+    if name == "jaco_boundary":
+        from tlgc.demo_clamp_cylinder import run_clamp_cylinder_demo
+        return run_clamp_cylinder_demo().with_factor
+    data = _box_closing()
+    if data is None:
+        return None
+    demos, prior = data
+    robot_name, kind = name.split("_")
+    robot = load_robot(robot_name)
+    shift = SAWYER_SHIFT if robot_name == "sawyer" else np.zeros(3)
+    if robot_name == "sawyer":
+        from clamp import learn_prior
+        prior = learn_prior(demos.translated(shift))
+    start = REFERENCE_START + shift
+    scene = None
+    goal = None
+    if kind == "box":
+        box = np.array(REFERENCE_BOX, dtype=float)
+        box[:3] += shift
+        scene = Scene([Box.from_reference(box.tolist())])
+    if kind == "goal":
+        goal = np.asarray(prior.mean)[-1, :3] + np.array([0.0, 0.03, 0.0])
+    return plan(prior, robot, scene, start, goal=goal)
