@@ -1,17 +1,23 @@
 """CLAMP: learned workspace trajectory priors and factor-graph skill reproduction.
 
 Learning (:mod:`clamp.learning`) turns demonstrations into a :class:`WorkspacePrior`
-(:mod:`clamp.prior`); the planner (:mod:`clamp.planner`) reproduces the skill on a robot.
+(:mod:`clamp.prior`); :func:`build` makes the planning problem (:mod:`clamp.problem`: factor
+families of :mod:`clamp.factors`, a GTSAM graph on demand) and :func:`plan` solves and checks
+it (:mod:`clamp.planner`, :mod:`clamp.solver`), returning a :class:`PlanResult`.
 """
+from clamp.config import CheckConfig, ModelConfig, OptimizerConfig, PlannerConfig
 from clamp.errors import (ClampError, ClampWarning, InsufficientDemonstrationsError,
                           InvalidParameterError, NonFiniteError, PriorFileError, ShapeError)
 from clamp.learning import learn_joint_prior, learn_prior
+from clamp.planner import build, optimize, plan
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
-from clamp.planner import PlannerConfig, PlanResult, build, plan
+from clamp.problem import PlanningProblem
+from clamp.result import PlanResult
 
 __all__ = [
     "learn_prior", "learn_joint_prior", "WorkspacePrior", "LinearGaussianPrior",
-    "PlannerConfig", "plan", "build", "PlanResult",
+    "PlannerConfig", "ModelConfig", "OptimizerConfig", "CheckConfig",
+    "plan", "build", "optimize", "PlanningProblem", "PlanResult",
     "ClampError", "ClampWarning", "InsufficientDemonstrationsError", "InvalidParameterError",
     "NonFiniteError", "PriorFileError", "ShapeError",
 ]

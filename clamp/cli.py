@@ -15,19 +15,22 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from clamp.config import OPTIMIZERS, PlannerConfig
 from clamp.initialisation import INITIALISATIONS
-from clamp.planner import OPTIMIZERS, PlannerConfig, PlanResult, plan
+from clamp.planner import plan
+from clamp.result import PlanResult
 
 DEMO_START_OFFSET = np.array([0.0, -0.03, 0.03])
 
 
 def _config(args: argparse.Namespace) -> PlannerConfig:
-    """PlannerConfig defaults (workspace-corrected LM) with --sigma-obs (default 0.005),
-    PlannerConfig.fast() with --fast."""
-    changes = {"epsilon": args.epsilon, "initialisation": args.init,
-               "max_iterations": args.max_iterations, "optimizer": args.optimizer,
-               "sigma_obs": args.sigma_obs}
-    return PlannerConfig.fast(**changes) if args.fast else PlannerConfig(**changes)
+    """PlannerConfig() (PlannerConfig.fast() with --fast) with the options given on the command
+    line; an option left out keeps the Python API's default."""
+    given = {"epsilon": args.epsilon, "initialisation": args.init,
+             "max_iterations": args.max_iterations, "optimizer": args.optimizer,
+             "sigma_obs": args.sigma_obs}
+    changes = {name: value for name, value in given.items() if value is not None}
+    return PlannerConfig.fast(**changes) if args.fast else PlannerConfig().with_(**changes)
 
 
 def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
@@ -91,8 +94,7 @@ def run_demo(args: argparse.Namespace) -> int:
     scene = Scene([obstacle_below_path(empty)])
     scene.save(out / "scene_obstacle.json")
     with_obstacle = plan(prior, robot, scene, start, config=config)
-    unaware = plan(prior, robot, scene, start, config=PlannerConfig(
-        **{**vars(config), "obstacle_factors": False}))
+    unaware = plan(prior, robot, scene, start, config=config.with_(obstacle_factors=False))
     rows = [("empty scene", empty), ("obstacle", with_obstacle),
             ("obstacle, no factors", unaware)]
     write_plan(empty, out / "plan_empty.json", robot=robot.name, skill=args.skill)
@@ -138,14 +140,17 @@ def parser() -> argparse.ArgumentParser:
         p.add_argument("--fast", action="store_true",
                        help="PlannerConfig.fast(): stop at 5 %% relative decrease (about ten "
                             "iterations; less polished plans, check their success probability)")
-        p.add_argument("--sigma-obs", type=float, default=0.005,
-                       help="obstacle factor sigma (default 0.005: the demo's obstacle overlaps "
-                            "the path by 2 cm, and with the reference's 0.05 the optimum of the "
-                            "stiff learned prior plus obstacle cost still touches it)")
-        p.add_argument("--epsilon", type=float, default=0.05, help="obstacle safety distance [m]")
-        p.add_argument("--init", choices=INITIALISATIONS, default="prior_mean")
-        p.add_argument("--optimizer", choices=OPTIMIZERS, default="lean")
-        p.add_argument("--max-iterations", type=int, default=500)
+        defaults = PlannerConfig()
+        p.add_argument("--sigma-obs", type=float, default=None,
+                       help=f"obstacle hinge noise [m] (default {defaults.model.sigma_obs})")
+        p.add_argument("--epsilon", type=float, default=None,
+                       help=f"obstacle safety distance [m] (default {defaults.model.epsilon})")
+        p.add_argument("--init", choices=INITIALISATIONS, default=None,
+                       help=f"initialisation (default {defaults.optimizer.initialisation})")
+        p.add_argument("--optimizer", choices=OPTIMIZERS, default=None,
+                       help=f"optimizer (default {defaults.optimizer.optimizer})")
+        p.add_argument("--max-iterations", type=int, default=None,
+                       help=f"(default {defaults.optimizer.max_iterations})")
 
     demo = sub.add_parser("demo", help="learn a built-in synthetic skill and plan it")
     planning_options(demo)

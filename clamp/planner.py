@@ -1,237 +1,67 @@
 """CLAMP planner: MAP inference of a joint trajectory under the learned workspace prior.
 
-The factor graph (paper eq. 14-20) over joint states theta_i = [q_i, qdot_i] of the T support
-states of the prior holds: the learned workspace GP factors, the workspace start factor
-(learned initial velocity, position moved to the requested start), the constant-velocity joint
-GP prior, start / goal / via-point factors, one obstacle factor per support state, joint-limit
-factors, and any extra factors of the caller. Levenberg-Marquardt (the lean loop of
-:mod:`clamp.levenberg_marquardt` by default, or GTSAM's) optimises it from an initial trajectory
-(see :mod:`clamp.initialisation`).
+:func:`build` turns a request (prior, robot, scene, start, goal, via points, extra factors)
+into a :class:`~clamp.problem.PlanningProblem` over joint states theta_i = [q_i, qdot_i] of
+the prior's T support states, with the families: learned workspace GP, workspace start,
+constant-velocity joint GP, joint / end-effector targets (start, goal, via points), obstacle
+hinges, joint-limit hinges, plus the caller's families and GTSAM factors (paper eq. 14-20).
+:func:`plan` optimises it (the fast solver of :mod:`clamp.solver` by default, or one of GTSAM's
+optimizers on ``problem.graph()``), computes the posterior covariance at the optimum and
+checks the result.
 """
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Union
 
 import gtsam
 import numpy as np
 
+from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError, ShapeError
-from clamp.factors import (TrajectoryEvaluator, ee_position_factors, joint_gp_factors,
-                           joint_limit_factors, joint_position_factor, obstacle_factors,
-                           shifted_start_mean, workspace_gp_factors, workspace_start_factor)
-from clamp.initialisation import (INITIALISATIONS, Initialisation, joint_velocities,
-                                  prior_mean_initialisation, straight_line_initialisation)
-from clamp.keys import state_key, states_to_values, values_to_states
-from clamp.levenberg_marquardt import DAMPING_UPDATES, SOLVERS, levenberg_marquardt
-from clamp.validation import as_array, as_count, as_scalar
-from clamp.vectorized_graph import VectorizedGraph
-from clamp.workspace_correction import WorkspaceCorrection
+from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
+                           JointTargetFamily, ObstacleFamily, WorkspaceGPFamily,
+                           WorkspaceStartFamily, shifted_start_mean)
+from clamp.initialisation import (Initialisation, joint_velocities, prior_mean_initialisation,
+                                  straight_line_initialisation)
+from clamp.keys import state_key, values_to_states
+from clamp.problem import PlanningProblem
+from clamp.result import PlanResult
+from clamp.solver import levenberg_marquardt
+from clamp.uncertainty import plan_covariances
+from clamp.validation import as_array, as_count
 
-OPTIMIZERS = ("lean", "gtsam")
+log = logging.getLogger(__name__)
+
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
-ExtraFactor = Union[gtsam.NonlinearFactor, PerStateFactorMaker]
+#: what ``extra_factors`` may hold: a family (fast path), any GTSAM factor on the planner's
+#: state keys, or a maker(index, num_states, key) -> factor | None called for every state
+ExtraFactor = Union[Family, gtsam.NonlinearFactor, PerStateFactorMaker]
 
 
-@dataclass
-class PlannerConfig:
-    """Planner settings. The factor graph's defaults are the reference implementation's
-    (box_closing demo); the optimizer's defaults add the workspace correction and banded solver and
-    stop after two consecutive steps below a 0.1 % relative decrease (:meth:`reference` gives
-    the reference's optimizer).
-
-    epsilon [m] obstacle safety distance; sigma_obs obstacle noise; Qc joint GP power spectral
-    density; start_sigma [m or rad] start fix; goal_sigma / via_sigma for goal and via-points;
-    limit_sigma, limit_margin [rad], velocity_margin [rad/s] for joint limits;
-    sdf_cell_size [m]; initialisation "prior_mean" (IK of the shifted prior mean) or
-    "straight_line" (between the start configuration and IK of the prior's mean final
-    position, or the given goal; ``straight_line_configurations`` overrides both ends);
-    optimizer "lean" (:mod:`clamp.levenberg_marquardt` on the numpy linearization of
-    :mod:`clamp.vectorized_graph`, cheaper per iteration) or "gtsam" (gtsam's optimizer);
-    Levenberg-Marquardt: lambda_initial, lambda_upper_bound, max_iterations, relative and
-    absolute error tolerances; lean optimizer only: workspace_correction, the number of
-    per-state Gauss-Newton updates that move every trial point back onto the workspace states
-    the linear model predicts (:mod:`clamp.workspace_correction`; 0 = the reference's plain
-    LM, which crawls against stiff learned priors), linear_solver "banded" (banded
-    Cholesky of the scaled normal equations, QR where that fails; cheapest), "qr" or
-    "cholesky" (the reference's; it fails at the small damping the corrected steps allow) and
-    damping_update "gain_ratio" (lambda follows the ratio of actual to predicted decrease) or
-    "gtsam" (the reference's fixed factor 10); convergence_patience, the number of consecutive
-    accepted steps below the tolerances that stop the loop (the reference's: 1; 2 tolerates
-    one small step on a non-monotone descent). The graph error is a negative log posterior
-    in nats, so the default absolute tolerance 0.01 stops once steps change the posterior
-    density by less than 1 % (the reference's 1e-5 keeps polishing the joint-space
-    smoothness of an already converged end-effector path: 13 instead of 3 iterations on
-    box_closing in an empty scene). With the correction the linear model is accurate
-    from the first step, hence the small default lambda_initial (reference: 1e3).
-    Success checks: start_tolerance [m], goal_tolerance [m or rad], ik_tolerance [m] for
-    reaching the start, limit_tolerance [rad] on position limits (the
-    limit factors are soft, sigma limit_sigma) and velocity_tolerance [rad/s] on velocity limits.
-    """
-
-    epsilon: float = 0.05
-    sigma_obs: float = 0.05
-    Qc: float = 1.0
-    start_sigma: float = 1e-6
-    goal_sigma: float = 1e-3
-    via_sigma: float = 1e-3
-    workspace_start: bool = True
-    fix_start_configuration: bool = True
-    obstacle_factors: bool = True
-    joint_limits: bool = True
-    limit_sigma: float = 1e-3
-    limit_margin: float = 0.0
-    velocity_margin: float = 0.0
-    sdf_cell_size: float = 0.01
-    initialisation: str = "prior_mean"
-    blend_start_offset: bool = True
-    straight_line_configurations: tuple[Any, Any] | None = None
-    optimizer: str = "lean"
-    lambda_initial: float = 0.1
-    lambda_upper_bound: float = 1e10
-    max_iterations: int = 500
-    relative_error_tol: float = 1e-3
-    absolute_error_tol: float = 1e-2
-    workspace_correction: int = 2
-    convergence_patience: int = 2
-    linear_solver: str = "banded"
-    damping_update: str = "gain_ratio"
-    start_tolerance: float = 1e-3
-    goal_tolerance: float = 0.02
-    ik_tolerance: float = 1e-4
-    limit_tolerance: float = 1e-4
-    velocity_tolerance: float = 1e-3
-
-    @classmethod
-    def reference(cls, **changes: Any) -> "PlannerConfig":
-        """The reference implementation's optimizer: plain LM (no workspace correction,
-        Cholesky) stopping at a 1e-5 relative or absolute decrease. ``changes`` override fields."""
-        return cls(**{"workspace_correction": 0, "linear_solver": "cholesky",
-                      "damping_update": "gtsam", "lambda_initial": 1e3,
-                      "relative_error_tol": 1e-5, "absolute_error_tol": 1e-5,
-                      "convergence_patience": 1, **changes})
-
-    @classmethod
-    def fast(cls, **changes: Any) -> "PlannerConfig":
-        """Settings for planning inside a control loop: a stronger obstacle term (sigma_obs
-        0.005: with the reference's 0.05 the optimum may still touch obstacles that overlap
-        the learned path) and a loose stopping rule (one step below a 5 % relative decrease),
-        giving a collision-free but less polished plan in under ten iterations: its
-        workspace-prior cost is higher, so check ``success_probability`` (or warm-start a full
-        run from it). ``changes`` override fields."""
-        return cls(**{"sigma_obs": 0.005, "relative_error_tol": 0.05, "convergence_patience": 1,
-                      **changes})
-
-    def validate(self) -> "PlannerConfig":
-        """Check every field; raises InvalidParameterError naming the bad one."""
-        for name in ("epsilon", "limit_margin", "velocity_margin", "relative_error_tol",
-                     "absolute_error_tol", "limit_tolerance", "velocity_tolerance"):
-            as_scalar(getattr(self, name), f"config.{name}", minimum=0.0)
-        for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
-                     "sdf_cell_size", "lambda_initial", "lambda_upper_bound", "start_tolerance",
-                     "goal_tolerance", "ik_tolerance"):
-            as_scalar(getattr(self, name), f"config.{name}", strictly_positive=True)
-        as_count(self.max_iterations, "config.max_iterations", minimum=0)
-        as_count(self.workspace_correction, "config.workspace_correction", minimum=0)
-        as_count(self.convergence_patience, "config.convergence_patience", minimum=1)
-        if self.damping_update not in DAMPING_UPDATES:
-            raise InvalidParameterError(f"config.damping_update: unknown "
-                                        f"{self.damping_update!r}; valid: "
-                                        f"{', '.join(DAMPING_UPDATES)}")
-        if self.linear_solver not in SOLVERS:
-            raise InvalidParameterError(f"config.linear_solver: unknown {self.linear_solver!r}; "
-                                        f"valid: {', '.join(SOLVERS)}")
-        if self.optimizer not in OPTIMIZERS:
-            raise InvalidParameterError(f"config.optimizer: unknown {self.optimizer!r}; "
-                                        f"valid: {', '.join(OPTIMIZERS)}")
-        if self.initialisation not in INITIALISATIONS:
-            raise InvalidParameterError(f"config.initialisation: unknown {self.initialisation!r};"
-                                        f" valid: {', '.join(INITIALISATIONS)}")
-        return self
-
-
-@dataclass
+@dataclass(frozen=True)
 class Target:
-    """A start / goal / via-point: kind "joint" (value (n,) rad) or "position" (value (3,) m)."""
+    """A start / goal / via point: kind "joint" (value (n,) rad) or "position" (value (3,) m)."""
 
     kind: str
     value: np.ndarray
 
 
-@dataclass
-class PlanningProblem:
-    """What :func:`build` returns: the factor graph, its initial values and bookkeeping.
+@dataclass(frozen=True)
+class Request:
+    """A validated planning request (what :func:`build` was asked), with the start resolved:
+    q_start (n,) [rad], start_position (3,) [m], vias [(index, Target)]."""
 
-    families maps a factor family name to the indices of its factors in ``graph``;
-    q_start (n,) start configuration; start_position (3,) its end-effector position.
-    """
-
-    graph: gtsam.NonlinearFactorGraph
-    initial: gtsam.Values
-    evaluator: TrajectoryEvaluator
-    families: dict[str, list[int]]
-    initialisation: Initialisation
+    start: Target
+    goal: Target | None
+    vias: tuple[tuple[int, Target], ...]
     q_start: np.ndarray
     start_position: np.ndarray
-    goal: Target | None
-    sdf: Any
-    dt: float
-    build_seconds: float
-
-
-@dataclass
-class PlanResult:
-    """Outcome of :func:`plan` (plain data).
-
-    q, qdot (T, n) [rad, rad/s]; ee_path, ee_velocity (T, 3) [m, m/s]; time (T,) [s];
-    timings [s] ("sdf", "build" (incl. initialisation), "optimize", "total"; the lean
-    optimizer adds its phases "linearize", "solve", "correction", "error"); trials = solved
-    trial steps (accepted or rejected; 0 for the gtsam optimizer);
-    errors are GTSAM graph errors (0.5 sum of squared whitened residuals); family_errors per
-    factor family; collision_cost = error of the obstacle factors; min_clearance [m] = smallest
-    exact distance (scene's analytic geometry) between any collision sphere and any obstacle
-    over all states (+inf without obstacles); start_error, goal_error [m] (goal_error in rad for
-    a joint goal; None without goal); log_likelihood and success_probability of the plan's
-    workspace trajectory under the prior (initial-state term left out: the plan starts
-    elsewhere); within_limits: joint position and velocity limits hold at every state;
-    success and reasons (why it failed).
-    """
-
-    q: np.ndarray
-    qdot: np.ndarray
-    ee_path: np.ndarray
-    ee_velocity: np.ndarray
-    time: np.ndarray
-    timings: dict[str, float]
-    iterations: int
-    initial_error: float
-    final_error: float
-    family_errors: dict[str, float]
-    collision_cost: float
-    min_clearance: float
-    start_error: float
-    goal_error: float | None
-    log_likelihood: float
-    success_probability: float
-    within_limits: bool
-    success: bool
-    reasons: list[str] = field(default_factory=list)
-    initialisation: str = "prior_mean"
-    initial_q: np.ndarray | None = None
-    trials: int = 0
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (arrays as nested lists, +inf as None)."""
-        out: dict[str, Any] = {}
-        for key, value in asdict(self).items():
-            if isinstance(value, np.ndarray):
-                value = value.tolist()
-            elif isinstance(value, float) and not np.isfinite(value):
-                value = None
-            out[key] = value
-        return out
+    start_ik_error: float
 
 
 # ---------------------------------------------------------------------------------- inputs
@@ -252,6 +82,32 @@ def _check_robot(robot: Any) -> None:
                                         f"{type(robot).__name__} without '{attr}'")
 
 
+def _as_config(config: Any) -> PlannerConfig:
+    if config is None:
+        return PlannerConfig()
+    if not isinstance(config, PlannerConfig):
+        raise InvalidParameterError(f"config: expected a clamp.PlannerConfig (e.g. "
+                                    f"PlannerConfig().with_(sigma_obs=0.005)), got "
+                                    f"{type(config).__name__}")
+    return config.validate()
+
+
+def as_scene(scene: Any) -> Any:
+    """A scenes.Scene from None, a Scene, an obstacle, a list of obstacles or a scene file path."""
+    from scenes import Scene
+    from scenes.obstacles import Obstacle
+    if scene is None or isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, Obstacle):
+        return Scene([scene])
+    if isinstance(scene, (str, Path)):
+        return Scene.load(scene)
+    if isinstance(scene, (list, tuple)) and all(isinstance(o, Obstacle) for o in scene):
+        return Scene(list(scene))
+    raise InvalidParameterError(f"scene: expected a scenes.Scene, an obstacle, a list of "
+                                f"obstacles, a scene file path or None, got {type(scene).__name__}")
+
+
 def as_target(value: Any, name: str, n: int) -> Target:
     """A joint configuration (n,) or an end-effector position (3,) (joint wins when n == 3)."""
     size = np.size(value) if np.ndim(value) == 1 else -1
@@ -263,7 +119,8 @@ def as_target(value: Any, name: str, n: int) -> Target:
                      f"position (3,), got shape {np.shape(value)}")
 
 
-def _via_targets(via_points: Sequence[tuple[int, Any]], T: int, n: int) -> list[tuple[int, Target]]:
+def _via_targets(via_points: Sequence[tuple[int, Any]], T: int,
+                 n: int) -> tuple[tuple[int, Target], ...]:
     out = []
     for k, item in enumerate(via_points):
         if not isinstance(item, (tuple, list)) or len(item) != 2:
@@ -274,44 +131,58 @@ def _via_targets(via_points: Sequence[tuple[int, Any]], T: int, n: int) -> list[
             raise InvalidParameterError(f"via_points[{k}] index: expected 0 <= index < {T}, "
                                         f"got {index}")
         out.append((index, as_target(item[1], f"via_points[{k}] target", n)))
-    return out
+    return tuple(out)
 
 
 def _has_obstacles(scene: Any) -> bool:
     return scene is not None and len(getattr(scene, "obstacles", ())) > 0
 
 
+def _request(prior: Any, robot: Any, start: Any, goal: Any, via_points: Sequence,
+             config: PlannerConfig, q_start: np.ndarray | None = None) -> Request:
+    n, T = robot.n, prior.Phi.shape[0] + 1
+    if start is None:
+        raise InvalidParameterError(f"start: expected a joint configuration ({n},) or an "
+                                    "end-effector position (3,), got None")
+    start_target = as_target(start, "start", n)
+    goal_target = None if goal is None else as_target(goal, "goal", n)
+    vias = _via_targets(via_points, T, n)
+    ik_error = 0.0
+    if q_start is not None:
+        q_start = as_array(q_start, "q_start", (n,))
+    elif start_target.kind == "joint":
+        q_start = start_target.value
+    else:
+        checks = config.checks
+        ik = robot.ik(start_target.value, tol=min(checks.ik_tolerance, checks.start_tolerance))
+        q_start, ik_error = np.asarray(ik.q, dtype=float), float(ik.error)
+    position = start_target.value if start_target.kind == "position" else robot.fk(q_start)
+    return Request(start_target, goal_target, vias, q_start, position, ik_error)
+
+
 # ---------------------------------------------------------------------------------- building
-def resolve_start(robot: Any, start: Target, config: PlannerConfig) -> tuple[np.ndarray, float]:
-    """Start configuration (n,) and its end-effector position error [m] (IK for a position)."""
-    if start.kind == "joint":
-        return start.value, 0.0
-    ik = robot.ik(start.value, tol=min(config.ik_tolerance, config.start_tolerance))
-    return np.asarray(ik.q, dtype=float), float(ik.error)
-
-
-def _initialise(prior: Any, robot: Any, q_start: np.ndarray, goal: Target | None,
-                config: PlannerConfig) -> Initialisation:
+def _initialise(prior: Any, robot: Any, request: Request, config: PlannerConfig) -> Initialisation:
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
     mean_path = np.asarray(prior.mean)[:, :3]
-    if config.initialisation == "prior_mean":
+    opt, goal = config.optimizer, request.goal
+    if opt.initialisation == "prior_mean":
         goal_position = None
         if goal is not None:
             goal_position = goal.value if goal.kind == "position" else robot.fk(goal.value)
-        return prior_mean_initialisation(robot, mean_path, dt, q_start, goal_position,
-                                         config.blend_start_offset, config.ik_tolerance)
-    if config.straight_line_configurations is not None:
-        first = as_array(config.straight_line_configurations[0],
-                         "config.straight_line_configurations[0]", (robot.n,))
-        last = as_array(config.straight_line_configurations[1],
-                        "config.straight_line_configurations[1]", (robot.n,))
+        return prior_mean_initialisation(robot, mean_path, dt, request.q_start, goal_position,
+                                         opt.blend_start_offset, config.checks.ik_tolerance)
+    if opt.straight_line_configurations is not None:
+        first, last = (as_array(c, f"config.optimizer.straight_line_configurations[{k}]",
+                                (robot.n,))
+                       for k, c in enumerate(opt.straight_line_configurations))
     else:
-        first = q_start
+        first = request.q_start
         if goal is not None and goal.kind == "joint":
             last = goal.value
         else:
             end = goal.value if goal is not None else mean_path[-1]
-            last = np.asarray(robot.ik(end, seed=q_start, tol=config.ik_tolerance).q, dtype=float)
+            last = np.asarray(robot.ik(end, seed=first, tol=config.checks.ik_tolerance).q,
+                              dtype=float)
     return straight_line_initialisation(robot, first, last, T, dt)
 
 
@@ -327,169 +198,184 @@ def warm_start(robot: Any, initial: Any, T: int, dt: float) -> Initialisation:
     return Initialisation(q, qdot, robot.fk(q), np.zeros(T))
 
 
+def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None) -> Callable | None:
+    """The signed-distance query the obstacle family uses: ``sdf.query`` when given, else the
+    scene's (exact for primitives, a grid cached by the scene otherwise); None without
+    obstacles or with obstacle factors off."""
+    if not config.model.obstacle_factors or not _has_obstacles(scene):
+        return None
+    if sdf is not None:
+        return sdf.query
+    return scene.distance_query(config.model.sdf_cell_size)
+
+
+def _families(prior: Any, robot: Any, request: Request, config: PlannerConfig,
+              query: Callable | None) -> list[Family]:
+    """The planner's own factor families for ``request``."""
+    T, n, dt, model = prior.Phi.shape[0] + 1, robot.n, float(prior.dt), config.model
+    families: list[Family] = [WorkspaceGPFamily(prior.Phi, prior.u, prior.Q)]
+    if model.workspace_start:
+        families.append(WorkspaceStartFamily(
+            shifted_start_mean(np.asarray(prior.mean0), request.start_position),
+            np.asarray(prior.cov0)))
+    families.append(JointGPFamily(T, n, dt, model.Qc))
+    start = request.start
+    if start.kind == "position" and model.fix_start_configuration:
+        # the IK solution becomes the start: a fully determined theta_0 keeps the problem
+        # well conditioned (an end-effector start leaves the arm's self-motion free)
+        start = Target("joint", request.q_start)
+    targets = [(0, start, model.start_sigma)]
+    if request.goal is not None:
+        targets.append((T - 1, request.goal, model.goal_sigma))
+    targets += [(i, target, model.via_sigma) for i, target in request.vias]
+    for kind, family in (("joint", JointTargetFamily), ("position", EEPositionFamily)):
+        chosen = [(i, t.value, s) for i, t, s in targets if t.kind == kind]
+        if chosen:
+            index, value, sigma = zip(*chosen)
+            families.append(family(index, np.array(value), sigma))
+    if query is not None:
+        families.append(ObstacleFamily(np.arange(T), robot.spheres.radii, query, model.epsilon,
+                                       model.sigma_obs))
+    if model.joint_limits:
+        families.append(JointLimitFamily(np.arange(T), robot.lower_limits, robot.upper_limits,
+                                         robot.velocity_limits, model.limit_sigma,
+                                         model.limit_margin, model.velocity_margin))
+    return families
+
+
+def _extras(extra_factors: Sequence[ExtraFactor], T: int
+            ) -> tuple[list[Family], list[gtsam.NonlinearFactor]]:
+    families, factors = [], []
+    for k, extra in enumerate(extra_factors):
+        if isinstance(extra, Family):
+            if len(extra) and (extra.first.min() < 0 or extra.first.max() + extra.arity > T):
+                raise InvalidParameterError(f"extra_factors[{k}]: family {extra.name!r} uses "
+                                            f"states outside 0..{T - 1}")
+            families.append(extra)
+        elif isinstance(extra, gtsam.NonlinearFactor):
+            factors.append(extra)
+        elif callable(extra):
+            for i in range(T):
+                made = extra(i, T, state_key(i))
+                if made is None:
+                    continue
+                if not isinstance(made, gtsam.NonlinearFactor):
+                    raise InvalidParameterError(f"extra_factors[{k}]: the maker returned "
+                                                f"{type(made).__name__} for state {i}, expected "
+                                                "a gtsam.NonlinearFactor or None")
+                factors.append(made)
+        else:
+            raise InvalidParameterError(f"extra_factors[{k}]: expected a clamp Family, a "
+                                        f"gtsam.NonlinearFactor or a callable maker(index, "
+                                        f"num_states, key), got {type(extra).__name__}")
+    return families, factors
+
+
 def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
           via_points: Sequence[tuple[int, Any]] = (), extra_factors: Sequence[ExtraFactor] = (),
           config: PlannerConfig | None = None, sdf: Any = None,
-          q_start: np.ndarray | None = None, initial: np.ndarray | None = None) -> PlanningProblem:
-    """Factor graph and initial values for reproducing ``prior`` with ``robot`` from ``start``.
+          initial: np.ndarray | None = None) -> PlanningProblem:
+    """The planning problem for reproducing ``prior`` with ``robot`` from ``start``.
 
     prior: clamp.WorkspacePrior (T support states, step dt); robot: robots.Robot (n joints);
-    scene: scenes.Scene or None; start: joint configuration (n,) [rad] or end-effector
-    position (3,) [m]; goal: the same kinds, or None; via_points: (index, position (3,) or
-    configuration (n,)); extra_factors: gtsam.NonlinearFactor or
-    maker(index, num_states, key) -> factor | None called for every support state;
-    sdf: a precomputed scenes.SignedDistanceField of ``scene`` (built otherwise);
-    q_start: start configuration to use for a position start (IK otherwise);
-    initial: a warm start, joint positions (T, n) (velocities by finite differences) or joint
-    states (T, 2n), replacing ``config.initialisation`` (e.g. the previous plan).
-    Raises ClampError subclasses on bad input.
+    scene: scenes.Scene, obstacle(s), a scene file or None; start: joint configuration (n,)
+    [rad] or end-effector position (3,) [m]; goal: the same kinds, or None; via_points:
+    (index, position (3,) or configuration (n,)); extra_factors: see :data:`ExtraFactor`;
+    sdf: a precomputed scenes.SignedDistanceField to use instead of the scene's own distance;
+    initial: a warm start, joint positions (T, n) or joint states (T, 2n) (e.g. a previous
+    plan), replacing the configured initialisation. ``problem.graph()`` and
+    ``problem.values()`` give the GTSAM graph and initial values. Raises ClampError
+    subclasses on bad input.
     """
-    t0 = time.perf_counter()
-    config = (config or PlannerConfig()).validate()
+    problem, _, _ = _build(prior, robot, as_scene(scene), start, goal, via_points,
+                           extra_factors, _as_config(config), sdf, initial)
+    return problem
+
+
+def _build(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf, initial,
+           request: Request | None = None) -> tuple[PlanningProblem, Request, Initialisation]:
     _check_prior(prior)
     _check_robot(robot)
-    n = robot.n
-    if start is None:
-        raise InvalidParameterError("start: expected a joint configuration "
-                                    f"({n},) or an end-effector position (3,), got None")
-    start_target = as_target(start, "start", n)
-    goal_target = None if goal is None else as_target(goal, "goal", n)
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
-    vias = _via_targets(via_points, T, n)
-    for k, extra in enumerate(extra_factors):
-        if not isinstance(extra, gtsam.NonlinearFactor) and not callable(extra):
-            raise InvalidParameterError(f"extra_factors[{k}]: expected a gtsam.NonlinearFactor "
-                                        f"or a callable maker(index, num_states, key), "
-                                        f"got {type(extra).__name__}")
-    if q_start is None:
-        q_start, _ = resolve_start(robot, start_target, config)
-    else:
-        q_start = as_array(q_start, "q_start", (n,))
-    start_position = start_target.value if start_target.kind == "position" else robot.fk(q_start)
-
-    if sdf is None and config.obstacle_factors and _has_obstacles(scene):
-        sdf = scene.sdf(config.sdf_cell_size)
-    init = (_initialise(prior, robot, q_start, goal_target, config) if initial is None
+    request = request or _request(prior, robot, start, goal, via_points, config)
+    extra_families, foreign = _extras(extra_factors, T)
+    families = _families(prior, robot, request, config, distance_query(scene, config, sdf))
+    init = (_initialise(prior, robot, request, config) if initial is None
             else warm_start(robot, initial, T, dt))
-
-    evaluator = TrajectoryEvaluator(robot, T)
-    graph = gtsam.NonlinearFactorGraph()
-    families: dict[str, list[int]] = {}
-
-    def add(name: str, factors: Sequence[gtsam.NonlinearFactor]) -> None:
-        first = graph.size()
-        for f in factors:
-            graph.add(f)
-        families.setdefault(name, []).extend(range(first, graph.size()))
-
-    add("workspace_gp", workspace_gp_factors(evaluator, np.asarray(prior.Phi),
-                                             np.asarray(prior.u), np.asarray(prior.Q)))
-    if config.workspace_start:
-        mean = shifted_start_mean(np.asarray(prior.mean0), start_position)
-        add("workspace_start", [workspace_start_factor(evaluator, mean, np.asarray(prior.cov0))])
-    add("joint_gp", joint_gp_factors(T, n, dt, config.Qc))
-
-    ee_indices, ee_targets, ee_sigmas = [], [], []
-    endpoint_joint = []
-    if start_target.kind == "position" and config.fix_start_configuration:
-        # the IK solution becomes the start: a fully determined theta_0 keeps the problem
-        # well conditioned (an end-effector start leaves the arm's self-motion free)
-        start_target = Target("joint", q_start)
-    targets = [(0, start_target, config.start_sigma)]
-    if goal_target is not None:
-        targets.append((T - 1, goal_target, config.goal_sigma))
-    targets += [(i, tgt, config.via_sigma) for i, tgt in vias]
-    for index, target, sigma in targets:
-        if target.kind == "joint":
-            endpoint_joint.append(joint_position_factor(index, target.value, sigma))
-        else:
-            ee_indices.append(index)
-            ee_targets.append(target.value)
-            ee_sigmas.append(sigma)
-    if ee_indices:
-        endpoint_joint += ee_position_factors(evaluator, ee_indices, np.array(ee_targets), ee_sigmas)
-    add("endpoint", endpoint_joint)
-
-    if sdf is not None and config.obstacle_factors:
-        add("obstacle", obstacle_factors(evaluator, range(T), np.asarray(robot.spheres.radii),
-                                         sdf.query, config.epsilon, config.sigma_obs))
-    if config.joint_limits:
-        add("joint_limits", joint_limit_factors(
-            evaluator, range(T), np.asarray(robot.lower_limits), np.asarray(robot.upper_limits),
-            np.asarray(robot.velocity_limits), config.limit_sigma, config.limit_margin,
-            config.velocity_margin))
-    extras: list[gtsam.NonlinearFactor] = []
-    for extra in extra_factors:
-        if isinstance(extra, gtsam.NonlinearFactor):
-            extras.append(extra)
-        else:
-            extras += [f for f in (extra(i, T, state_key(i)) for i in range(T)) if f is not None]
-    known = set(evaluator.keys)
-    for k, factor in enumerate(extras):
-        if not isinstance(factor, gtsam.NonlinearFactor):
-            raise InvalidParameterError(f"extra_factors: a maker returned {type(factor).__name__}, "
-                                        "expected a gtsam.NonlinearFactor or None")
-        unknown = [gtsam.DefaultKeyFormatter(key) for key in factor.keys() if key not in known]
-        if unknown:
-            raise InvalidParameterError(f"extra_factors: factor {k} uses keys {unknown} that are "
-                                        f"not planner states (state_key(0..{T - 1}))")
-    if extras:
-        add("extra", extras)
-
-    initial = states_to_values(init.theta, evaluator.keys)
-    return PlanningProblem(graph, initial, evaluator, families, init, q_start, start_position,
-                           goal_target, sdf, dt, time.perf_counter() - t0)
+    problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
+    return problem, request, init
 
 
 # ---------------------------------------------------------------------------------- solving
-def optimizer_parameters(config: PlannerConfig) -> gtsam.LevenbergMarquardtParams:
-    """GTSAM Levenberg-Marquardt parameters from the config."""
-    params = gtsam.LevenbergMarquardtParams()
-    params.setlambdaInitial(config.lambda_initial)
-    params.setlambdaUpperBound(config.lambda_upper_bound)
-    params.setMaxIterations(config.max_iterations)
-    params.setRelativeErrorTol(config.relative_error_tol)
-    params.setAbsoluteErrorTol(config.absolute_error_tol)
-    return params
+def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig):
+    opt = config.optimizer
+    graph, values = problem.graph(), problem.values()
+    if opt.optimizer == "gtsam":
+        params = gtsam.LevenbergMarquardtParams()
+        params.setlambdaInitial(opt.lambda_initial)
+        params.setlambdaUpperBound(opt.lambda_upper_bound)
+        make = gtsam.LevenbergMarquardtOptimizer
+    elif opt.optimizer == "gtsam_dogleg":
+        params, make = gtsam.DoglegParams(), gtsam.DoglegOptimizer
+    else:
+        params, make = gtsam.GaussNewtonParams(), gtsam.GaussNewtonOptimizer
+    # QR: the stiff learned prior makes the undamped normal equations too ill-conditioned
+    # for Cholesky (GTSAM reports an indeterminate system)
+    params.setLinearSolverType("MULTIFRONTAL_QR")
+    params.setMaxIterations(opt.max_iterations)
+    params.setRelativeErrorTol(opt.relative_error_tol)
+    params.setAbsoluteErrorTol(opt.absolute_error_tol)
+    return make(graph, values, params)
 
 
-def optimize(problem: PlanningProblem, config: PlannerConfig,
-             details: dict[str, float] | None = None) -> tuple[gtsam.Values, int, float, float]:
-    """Run Levenberg-Marquardt on ``problem``: (values, iterations, initial error, final error).
+@dataclass(frozen=True)
+class Optimized:
+    """theta (T, 2n) at the optimum, iterations, trials, errors, stop reason, phase seconds."""
 
-    details: optional dict that receives the lean optimizer's seconds per phase ("linearize",
-    "solve", "correction", "error") and its number of trial steps ("trials").
+    theta: np.ndarray
+    iterations: int
+    trials: int
+    initial_error: float
+    final_error: float
+    stop_reason: str
+    timings: dict[str, float]
+    optimizer: str
+
+
+def optimize(problem: PlanningProblem, config: PlannerConfig | None = None) -> Optimized:
+    """Optimise ``problem`` from its initial trajectory with ``config.optimizer``.
+
+    The fast solver needs every factor on one or two neighbouring states; otherwise GTSAM's
+    Levenberg-Marquardt runs on the graph (logged).
     """
-    if config.optimizer == "gtsam":
-        optimizer = gtsam.LevenbergMarquardtOptimizer(problem.graph, problem.initial,
-                                                      optimizer_parameters(config))
-        initial_error = float(optimizer.error())
-        values = optimizer.optimize()
-        return values, int(optimizer.iterations()), initial_error, float(optimizer.error())
-    T, n = problem.evaluator.num_states, problem.evaluator.robot.n
-    out = levenberg_marquardt(problem.graph, problem.initial, problem.evaluator.keys, [2 * n] * T,
-                              config.lambda_initial, config.lambda_upper_bound,
-                              max_iterations=config.max_iterations,
-                              relative_error_tol=config.relative_error_tol,
-                              absolute_error_tol=config.absolute_error_tol,
-                              correction=WorkspaceCorrection(problem.evaluator.robot,
-                                                             problem.evaluator.keys,
-                                                             config.workspace_correction),
-                              solver=config.linear_solver,
-                              damping_update=config.damping_update,
-                              patience=config.convergence_patience,
-                              system=VectorizedGraph(problem.graph, problem.evaluator))
-    if details is not None:
-        details.update(out.timings, trials=out.trials)
-    return out.values, out.iterations, out.initial_error, out.final_error
+    config = _as_config(config)
+    opt = config.optimizer
+    name = opt.optimizer
+    if name == "fast" and not problem.banded:
+        log.warning("extra factors connect non-neighbouring states: using GTSAM's "
+                    "Levenberg-Marquardt instead of the fast solver")
+        name = "gtsam"
+        config = config.with_(optimizer="gtsam")
+    if name == "fast":
+        out = levenberg_marquardt(problem, problem.initial, lambda_initial=opt.lambda_initial,
+                                  lambda_max=opt.lambda_upper_bound,
+                                  max_iterations=opt.max_iterations,
+                                  relative_tol=opt.relative_error_tol,
+                                  absolute_tol=opt.absolute_error_tol,
+                                  patience=opt.convergence_patience,
+                                  workspace_correction=opt.workspace_correction)
+        return Optimized(out.theta, out.iterations, out.trials, out.initial_error,
+                         out.final_error, out.stop_reason, out.timings, name)
+    optimizer = _gtsam_optimizer(problem, config)
+    initial_error = float(optimizer.error())
+    values = optimizer.optimize()
+    iterations = int(optimizer.iterations())
+    stop = "max_iterations" if iterations >= opt.max_iterations else "converged"
+    return Optimized(values_to_states(values, problem.keys), iterations, 0, initial_error,
+                     float(optimizer.error()), stop, {}, name)
 
 
-def family_errors(problem: PlanningProblem, values: gtsam.Values) -> dict[str, float]:
-    """Graph error of every factor family at ``values``."""
-    return {name: float(sum(problem.graph.at(i).error(values) for i in idx))
-            for name, idx in problem.families.items()}
-
-
+# ---------------------------------------------------------------------------------- checking
 def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
     """Exact clearance (T, S) [m] of every collision sphere at q (T, n); +inf without obstacles."""
     centres, _ = robot.sphere_centres(q)
@@ -500,116 +386,123 @@ def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
 
 def _failed(prior: Any, robot: Any, q: np.ndarray, reasons: list[str], t0: float,
             start_error: float, config: PlannerConfig) -> PlanResult:
-    T, n = q.shape
     kin = robot.ee_kinematics(q, np.zeros_like(q), jacobians=False)
     return PlanResult(q=q, qdot=np.zeros_like(q), ee_path=kin.position,
                       ee_velocity=kin.velocity, time=np.asarray(prior.time, dtype=float),
-                      timings={"sdf": 0.0, "build": 0.0, "optimize": 0.0,
+                      timings={"build": 0.0, "optimize": 0.0, "marginals": 0.0,
                                "total": time.perf_counter() - t0},
                       iterations=0, initial_error=float("nan"), final_error=float("nan"),
                       family_errors={}, collision_cost=float("nan"),
                       min_clearance=float("nan"), start_error=start_error, goal_error=None,
                       log_likelihood=float("nan"), success_probability=0.0,
                       within_limits=bool(np.all(robot.within_limits(q))), success=False,
-                      reasons=reasons, initialisation=config.initialisation)
+                      reasons=reasons, initialisation=config.optimizer.initialisation,
+                      optimizer=config.optimizer.optimizer, stop_reason="not started")
+
+
+def _start_problems(robot: Any, scene: Any, request: Request, config: PlannerConfig) -> list[str]:
+    start = request.start
+    if start.kind == "position" and request.start_ik_error > config.checks.start_tolerance:
+        return [f"start position {np.round(start.value, 4).tolist()} is out of reach (IK "
+                f"error {request.start_ik_error * 1000:.1f} mm)"]
+    reasons = []
+    if _has_obstacles(scene):
+        if start.kind == "position" and float(scene.distance(start.value)) < 0:
+            reasons.append("start position is inside an obstacle")
+        clearance = sphere_clearance(robot, scene, request.q_start[None])
+        if np.min(clearance) < 0:
+            reasons.append(f"start configuration is in collision (clearance "
+                           f"{np.min(clearance) * 1000:.1f} mm)")
+    return reasons
 
 
 def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
          via_points: Sequence[tuple[int, Any]] = (), extra_factors: Sequence[ExtraFactor] = (),
          config: PlannerConfig | None = None, sdf: Any = None,
-         initial: np.ndarray | None = None) -> PlanResult:
+         initial: np.ndarray | None = None, covariance: bool = True) -> PlanResult:
     """Reproduce the skill of ``prior`` with ``robot`` from ``start`` in ``scene``.
 
-    Arguments as for :func:`build`. A start that is out of reach or in collision gives
-    ``success=False`` with a reason (no exception); bad input raises ClampError subclasses.
+    Arguments as for :func:`build`; covariance: compute the posterior covariance of every
+    state (``PlanResult.state_covariance`` / ``ee_covariance``). A start that is out of reach
+    or in collision gives ``success=False`` with a reason (no exception); bad input raises
+    ClampError subclasses.
     """
     t0 = time.perf_counter()
-    config = (config or PlannerConfig()).validate()
+    config = _as_config(config)
     _check_prior(prior)
     _check_robot(robot)
-    n, T = robot.n, prior.Phi.shape[0] + 1
-    if start is None:
-        raise InvalidParameterError(f"start: expected a joint configuration ({n},) or an "
-                                    "end-effector position (3,), got None")
-    start_target = as_target(start, "start", n)
-    q_start, ik_error = resolve_start(robot, start_target, config)
-    reasons = []
-    if start_target.kind == "position" and ik_error > config.start_tolerance:
-        reasons.append(f"start position {np.round(start_target.value, 4).tolist()} is out of "
-                       f"reach (IK error {ik_error * 1000:.1f} mm)")
-    elif _has_obstacles(scene):
-        if start_target.kind == "position" and float(scene.distance(start_target.value)) < 0:
-            reasons.append("start position is inside an obstacle")
-        clearance = sphere_clearance(robot, scene, q_start[None])
-        if np.min(clearance) < 0:
-            reasons.append(f"start configuration is in collision (clearance "
-                           f"{np.min(clearance) * 1000:.1f} mm)")
+    scene = as_scene(scene)
+    request = _request(prior, robot, start, goal, via_points, config)
+    T = prior.Phi.shape[0] + 1
+    reasons = _start_problems(robot, scene, request, config)
     if reasons:
-        return _failed(prior, robot, np.repeat(q_start[None], T, axis=0), reasons, t0,
-                       ik_error, config)
-
-    t_sdf = time.perf_counter()
-    if sdf is None and config.obstacle_factors and _has_obstacles(scene):
-        sdf = scene.sdf(config.sdf_cell_size)
-    sdf_seconds = time.perf_counter() - t_sdf
-    problem = build(prior, robot, scene, start, goal, via_points, extra_factors, config,
-                    sdf=sdf, q_start=q_start, initial=initial)
-
+        return _failed(prior, robot, np.repeat(request.q_start[None], T, axis=0), reasons, t0,
+                       request.start_ik_error, config)
+    problem, request, init = _build(prior, robot, scene, start, goal, via_points, extra_factors,
+                                    config, sdf, initial, request)
     t_opt = time.perf_counter()
-    details: dict[str, float] = {}
-    values, iterations, initial_error, final_error = optimize(problem, config, details)
-    optimize_seconds = time.perf_counter() - t_opt
-    total = time.perf_counter() - t0
-    trials = int(details.pop("trials", iterations))
-    result = _evaluate(prior, robot, scene, problem, values, config, start_target,
-                       {"sdf": sdf_seconds, "build": problem.build_seconds,
-                        "optimize": optimize_seconds, "total": total, **details},
-                       iterations, initial_error, final_error)
-    result.trials = trials
+    out = optimize(problem, config)
+    t_cov = time.perf_counter()
+    state_cov = ee_cov = None
+    if covariance and problem.banded and False:  # TEMP until marginals land
+        state_cov, ee_cov = plan_covariances(problem, out.theta)
+    t_end = time.perf_counter()
+    timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
+               **out.timings}
+    result = _evaluate(prior, robot, scene, problem, request, out, config, timings)
+    result.initial_q = init.q
+    result.state_covariance, result.ee_covariance = state_cov, ee_cov
+    result.timings["total"] = time.perf_counter() - t0
     return result
 
 
-def _evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, values: gtsam.Values,
-              config: PlannerConfig, start: Target, timings: dict[str, float], iterations: int,
-              initial_error: float, final_error: float) -> PlanResult:
+def _evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
+              out: Optimized, config: PlannerConfig, timings: dict[str, float]) -> PlanResult:
     """Metrics and success checks of an optimised plan."""
-    n = robot.n
-    theta = values_to_states(values, problem.evaluator.keys)
-    q, qdot = theta[:, :n], theta[:, n:]
-    kin = robot.ee_kinematics(q, qdot, jacobians=False)
-    x = np.concatenate([kin.position, kin.velocity], axis=1)
-    families = family_errors(problem, values)
+    n, checks = robot.n, config.checks
+    q, qdot = out.theta[:, :n], out.theta[:, n:]
+    x, _ = problem.window(out.theta).workspace()
+    position = x[:, :3]
+    families = problem.family_errors(out.theta)
     clearance = float(np.min(sphere_clearance(robot, scene, q)))
-    if start.kind == "position":
-        start_error = float(np.linalg.norm(kin.position[0] - start.value))
-    else:
-        start_error = float(np.linalg.norm(q[0] - start.value))
+    start = request.start
+    start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
+                                       - start.value))
     goal_error = None
-    if problem.goal is not None:
-        reached = kin.position[-1] if problem.goal.kind == "position" else q[-1]
-        goal_error = float(np.linalg.norm(reached - problem.goal.value))
-    within = bool(np.all(robot.within_limits(q, config.limit_tolerance)) and np.all(
-        np.abs(qdot) <= np.asarray(robot.velocity_limits) + config.velocity_tolerance))
+    if request.goal is not None:
+        reached = position[-1] if request.goal.kind == "position" else q[-1]
+        goal_error = float(np.linalg.norm(reached - request.goal.value))
+    via_errors = [float(np.linalg.norm((position[i] if t.kind == "position" else q[i]) - t.value))
+                  for i, t in request.vias]
+    within = bool(np.all(robot.within_limits(q, checks.limit_tolerance)) and np.all(
+        np.abs(qdot) <= np.asarray(robot.velocity_limits) + checks.velocity_tolerance))
     log_likelihood = float(prior.log_likelihood(x, initial=False))
     probability = float(prior.success_probability(x)) if hasattr(prior, "success_probability") \
         else float("nan")
 
     reasons = []
-    if not np.isfinite(final_error):
+    if not np.isfinite(out.final_error):
         reasons.append("optimisation diverged (non-finite error)")
-    if start_error > config.start_tolerance:
-        reasons.append(f"start error {start_error:.4g} exceeds {config.start_tolerance:.4g}")
-    if goal_error is not None and goal_error > config.goal_tolerance:
-        reasons.append(f"goal error {goal_error:.4g} exceeds {config.goal_tolerance:.4g}")
+    if start_error > checks.start_tolerance:
+        reasons.append(f"start error {start_error:.4g} exceeds {checks.start_tolerance:.4g}")
+    if goal_error is not None and goal_error > checks.goal_tolerance:
+        reasons.append(f"goal error {goal_error:.4g} exceeds {checks.goal_tolerance:.4g}")
+    for (index, _), error in zip(request.vias, via_errors):
+        if error > checks.goal_tolerance:
+            reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
+                           f"{checks.goal_tolerance:.4g}")
     if clearance < 0:
         reasons.append(f"collision: minimum clearance {clearance * 1000:.1f} mm")
     if not within:
         reasons.append("joint position or velocity limits violated")
-    return PlanResult(q=q, qdot=qdot, ee_path=kin.position, ee_velocity=kin.velocity,
+    return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float), timings=timings,
-                      iterations=iterations, initial_error=initial_error, final_error=final_error,
-                      family_errors=families, collision_cost=families.get("obstacle", 0.0),
-                      min_clearance=clearance, start_error=start_error, goal_error=goal_error,
+                      iterations=out.iterations, initial_error=out.initial_error,
+                      final_error=out.final_error, family_errors=families,
+                      collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
+                      start_error=start_error, goal_error=goal_error,
                       log_likelihood=log_likelihood, success_probability=probability,
                       within_limits=within, success=not reasons, reasons=reasons,
-                      initialisation=config.initialisation, initial_q=problem.initialisation.q)
+                      initialisation=config.optimizer.initialisation, trials=out.trials,
+                      optimizer=out.optimizer, stop_reason=out.stop_reason,
+                      via_errors=via_errors)

@@ -88,6 +88,17 @@ def envelope_quantile(level: float) -> float:
     return float(stats.norm.ppf(0.5 + 0.5 * level))
 
 
+
+def transition_residuals(Phi: np.ndarray, u: np.ndarray, x_prev: np.ndarray,
+                         x_next: np.ndarray) -> np.ndarray:
+    """Transition residuals x_{i+1} - Phi_i x_i - u_i (..., K, D) of the linear Gaussian prior.
+
+    Phi (K, D, D), u (K, D); x_prev, x_next (..., K, D) the states before and after each of the
+    K transitions. The one definition used by the prior's likelihood and by the planner's
+    workspace GP factors.
+    """
+    return x_next - np.einsum("kij,...kj->...ki", Phi, x_prev) - u
+
 class LinearGaussianPrior:
     """Discrete linear-Gaussian (LTV-SDE) trajectory prior over T support states of size D.
 
@@ -208,7 +219,7 @@ class LinearGaussianPrior:
 
     def _residuals(self, xs: np.ndarray) -> np.ndarray:
         """x_{i+1} - Phi_i x_i - u_i (K, T-1, D) of validated trajectories xs (K, T, D)."""
-        return xs[:, 1:] - np.einsum("tij,ktj->kti", self.Phi, xs[:, :-1]) - self.u
+        return transition_residuals(self.Phi, self.u, xs[:, :-1], xs[:, 1:])
 
     def transition_residuals(self, x: np.ndarray) -> np.ndarray:
         """Residuals ``x_{i+1} - Phi_i x_i - u_i`` of trajectories x (T, D) or (K, T, D).

@@ -9,11 +9,12 @@ import pytest
 
 from clamp.errors import ClampError
 from clamp.learning import learn_prior
-from clamp.planner import PlannerConfig, build, plan, sphere_clearance
+from clamp import PlannerConfig, build, plan
+from clamp.planner import sphere_clearance
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
-# the defaults (reference graph, sigma_obs = 0.05, with the workspace correction and QR solver)
+# the defaults (reference graph with sigma_obs 0.005, fast solver with the workspace correction)
 # clear the box in ~15 iterations; the reference's plain LM needs ~500 against the stiff
 # learned prior (see benchmarks/bench_clamp.py)
 OBSTACLE_CONFIG = PlannerConfig()
@@ -55,7 +56,7 @@ def assert_reproduces_skill(result, demos, robot):
     final = demos.positions[:, -1].mean(axis=0)
     assert np.linalg.norm(result.ee_path[-1] - final) <= 0.02
     # the limit factors are soft: allow the success check's tolerance (1e-4 rad)
-    assert np.all(robot.within_limits(result.q, PlannerConfig().limit_tolerance))
+    assert np.all(robot.within_limits(result.q, PlannerConfig().checks.limit_tolerance))
     assert np.all(np.abs(result.qdot) <= robot.velocity_limits + 1e-3)
     # the reported end-effector path is the forward kinematics of the plan
     np.testing.assert_allclose(result.ee_path, robot.fk(result.q), atol=1e-9)
@@ -86,7 +87,7 @@ def test_box_closing_with_obstacle(jaco, box_closing, obstacle_scene, empty_plan
     # without obstacle factors the same skill runs through the box
     assert sphere_clearance(jaco, scene, empty_plan.q).min() < 0.0
     unaware = plan(prior, jaco, scene, REFERENCE_START,
-                   config=PlannerConfig(obstacle_factors=False))
+                   config=PlannerConfig().with_(obstacle_factors=False))
     assert not unaware.success and any("collision" in r for r in unaware.reasons)
 
 
@@ -115,7 +116,7 @@ def test_synthetic_skill_from_new_start_and_joint_goal(jaco, synthetic):
     assert result.start_error <= 1e-3
     # a joint-space start and goal are honoured too
     goal = result.q[-1] + 0.02
-    again = plan(prior, jaco, None, result.q[0], goal=goal, config=PlannerConfig(goal_sigma=1e-5))
+    again = plan(prior, jaco, None, result.q[0], goal=goal, config=PlannerConfig().with_(goal_sigma=1e-5))
     np.testing.assert_allclose(again.q[0], result.q[0], atol=1e-4)
     assert again.goal_error is not None and again.goal_error <= 0.01
 
@@ -125,7 +126,7 @@ def test_end_effector_goal_and_via_point(jaco, synthetic):
     start = prior.mean[0, :3]
     goal = prior.mean[-1, :3] + np.array([0.0, 0.0, 0.03])
     via = prior.mean[60, :3] + np.array([0.0, 0.0, 0.02])
-    config = PlannerConfig(goal_sigma=1e-4, via_sigma=1e-4)
+    config = PlannerConfig().with_(goal_sigma=1e-4, via_sigma=1e-4)
     result = plan(prior, jaco, None, start, goal=goal, via_points=[(60, via)], config=config)
     assert result.goal_error <= 2e-3
     assert np.linalg.norm(result.ee_path[60] - via) <= 2e-3
@@ -133,9 +134,9 @@ def test_end_effector_goal_and_via_point(jaco, synthetic):
 
 def test_straight_line_initialisation(jaco, synthetic):
     _, prior = synthetic
-    config = PlannerConfig(initialisation="straight_line")
+    config = PlannerConfig().with_(initialisation="straight_line")
     problem = build(prior, jaco, None, prior.mean[0, :3], config=config)
-    q = problem.initialisation.q
+    q = problem.initial[:, :jaco.n]
     second_difference = q[2:] - 2 * q[1:-1] + q[:-2]
     np.testing.assert_allclose(second_difference, 0.0, atol=1e-12)
     result = plan(prior, jaco, None, prior.mean[0, :3], config=config)
@@ -155,13 +156,13 @@ def test_warm_start_from_previous_plan_converges_at_once(jaco, synthetic):
         plan(prior, jaco, None, start, initial=first.q[:-1])
 
 
-def test_gtsam_optimizer_agrees_with_lean_loop(jaco, synthetic):
+def test_gtsam_optimizer_agrees_with_fast_solver(jaco, synthetic):
     _, prior = synthetic
     start = prior.mean[0, :3]
     # the whole error here is below the default absolute tolerance (0.01): compare converged runs
-    lean = plan(prior, jaco, None, start, config=PlannerConfig(absolute_error_tol=1e-5))
+    lean = plan(prior, jaco, None, start, config=PlannerConfig().with_(absolute_error_tol=1e-5))
     reference = plan(prior, jaco, None, start,
-                     config=PlannerConfig(optimizer="gtsam", absolute_error_tol=1e-5))
+                     config=PlannerConfig().with_(optimizer="gtsam", absolute_error_tol=1e-5))
     assert reference.final_error == pytest.approx(lean.final_error, rel=1e-2)
     np.testing.assert_allclose(reference.ee_path, lean.ee_path, atol=2e-3)
 
@@ -188,7 +189,7 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
     result = plan(prior, jaco, None, prior.mean[0, :3], extra_factors=[lift_last_state])
     assert [c[0] for c in calls] == list(range(prior.T))
     assert np.linalg.norm(result.ee_path[-1] - target) <= 2e-3
-    assert "extra" in result.family_errors
+    assert "foreign" in result.family_errors
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -196,15 +197,16 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
     ({"start": [np.nan, 0.2, 0.3]}, "start"),
     ({"start": [0.3, -0.3, 0.2], "goal": np.zeros(5)}, "goal"),
     ({"start": [0.3, -0.3, 0.2], "via_points": [(10_000, [0.3, 0.2, 0.1])]}, "via_points"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(initialisation="magic")}, "prior_mean"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(sigma_obs=-1.0)}, "sigma_obs"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(workspace_correction=-1)},
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(initialisation="magic")}, "prior_mean"),
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(sigma_obs=-1.0)}, "sigma_obs"),
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(workspace_correction=-1)},
      "workspace_correction"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(linear_solver="lu")}, "cholesky"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(damping_update="x")}, "gain_ratio"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(convergence_patience=0)},
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(optimizer="lu")}, "gtsam_dogleg"),
+    ({"start": [0.3, -0.3, 0.2], "config": {"sigma_obs": 0.005}}, "config"),
+    ({"start": [0.3, -0.3, 0.2], "scene": 42}, "scene"),
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(convergence_patience=0)},
      "convergence_patience"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig(limit_tolerance=-1.0)},
+    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(limit_tolerance=-1.0)},
      "limit_tolerance"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [42]}, "extra_factors"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [gtsam.PriorFactorVector(
@@ -212,9 +214,15 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [lambda i, n, key: "factor"]}, "maker returned"),
 ])
 def test_bad_input_raises_clamp_error(jaco, synthetic, kwargs, match):
+    kwargs = dict(kwargs)
     _, prior = synthetic
     with pytest.raises(ClampError, match=match):
-        plan(prior, jaco, None, **kwargs)
+        plan(prior, jaco, kwargs.pop("scene", None), **kwargs)
+
+
+def test_unknown_config_field_lists_the_valid_ones():
+    with pytest.raises(ClampError, match="sigma_obs"):
+        PlannerConfig().with_(sigma_obstacle=0.1)
 
 
 def test_prior_robot_mismatch_raises(jaco):

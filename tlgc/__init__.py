@@ -22,7 +22,7 @@ from .obstacles import (ObstacleAvoidanceError, adaptive_ratio_parameters,
 from .refinement import RefinementConstraint, RefinementSet, refine_incrementally
 from .reproduction import random_starts, ratio_schedule, reproduce, start_coordinates
 
-_LAZY = {"BoundaryFactorMaker": "boundary_factor", "boundary_distance": "boundary_factor",
+_LAZY = {"BoundaryFamily": "boundary_factor", "boundary_distance": "boundary_factor",
          "boundary_residuals": "boundary_factor"}
 
 

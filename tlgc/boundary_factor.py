@@ -17,27 +17,20 @@ The slope r_k'(angle) of the boundary comes from the cylinder's ``radius_derivat
 has one, otherwise from a central difference of ``radius`` with a 1e-6 rad step (the shape
 function only; everything else is analytic).
 
-Residuals are vectorised numpy functions of many states at once; :class:`BoundaryFactorMaker`
-adapts them to GTSAM as the planner's per-state factor maker
-``maker(index, num_states, key) -> gtsam.CustomFactor``. The factors share one
-``clamp.factors.evaluation.TrajectoryEvaluator`` per number of states: the first factor called
-at new joint states reloads all support states and :class:`BoundaryFamily` computes every
-residual and Jacobian in one vectorized kinematics call; the other factors return their rows.
+Residuals are vectorised numpy functions of many states at once; :class:`BoundaryFamily` is
+the CLAMP factor family built on them (fast solver and GTSAM graph alike).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import partial
 from typing import Any
 
-import gtsam
 import numpy as np
 
-from clamp.factors.evaluation import ResidualFamily, Residuals, TrajectoryEvaluator
-from clamp.keys import state_key
+from clamp.factors import Family, Linearization, StateWindow
 
 from .errors import InvalidArgumentError
-from .validation import as_array, as_count, as_points, as_scalar
+from .validation import as_count, as_points, as_scalar
 
 ANGLE_STEP = 1e-6       # [rad] central-difference step for the boundary slope fallback
 _RHO_MIN = 1e-12        # [m] below this the position sits on the directrix (inside)
@@ -116,129 +109,43 @@ def boundary_residuals(cylinder: Any, sections: Any, positions: Any, margin: flo
     return h, np.where(active[:, None], dist.gradient, 0.0)
 
 
-def boundary_state_residuals(cylinder: Any, robot: Any, sections: Any, q: Any,
-                             margin: float = 0.0, jacobians: bool = True
-                             ) -> tuple[np.ndarray, np.ndarray | None]:
-    """Hinge residuals (T,) [m] of joint configurations q (T,n) and Jacobians (T, 2n) w.r.t.
-    theta = [q, qdot] (the velocity half is zero); None instead of Jacobians if not jacobians."""
-    q = as_array(q, "q")
-    if q.ndim != 2 or q.shape[1] != robot.n:
-        raise InvalidArgumentError(f"q: expected shape (T, {robot.n}), got {q.shape}")
-    kin = robot.ee_kinematics(q, None, jacobians=jacobians)
-    h, dh_dp = boundary_residuals(cylinder, sections, kin.position, margin)
-    if not jacobians:
-        return h, None
-    jac = np.zeros((len(q), 2 * robot.n))
-    jac[:, : robot.n] = np.einsum("ti,tij->tj", dh_dp, kin.jacobian)
-    return h, jac
+class BoundaryFamily(Family):
+    """The boundary hinge as a CLAMP factor family: one factor per support state in ``states``
+    (default all ``num_states``), residual (1,) [m], isotropic noise ``sigma`` [m]; ``margin``
+    [m] shrinks the allowed region (positive) or widens it (negative).
 
-
-class BoundaryFamily(ResidualFamily):
-    """Boundary hinge of support states ``indices`` (F,) of ``num_states``, all in one call.
-
-    Residuals (F, 1) [m] and Jacobians (F, 1, 2n) w.r.t. theta at the evaluator's states.
+    Pass it in ``clamp.plan(extra_factors=[BoundaryFamily(cylinder, T)])``: it is on the fast
+    solver's path like the planner's own families and shares their end-effector kinematics
+    (:meth:`clamp.factors.StateWindow.workspace`); ``problem.graph()`` gets one GTSAM factor
+    per state from the same kernel.
     """
 
     name = "tlgc_boundary"
+    arity = 1
+    cost = 1
 
-    def __init__(self, cylinder: Any, indices: Any, num_states: int, margin: float) -> None:
-        self.cylinder = cylinder
-        self.indices = np.asarray(indices, dtype=np.intp)
-        self.sections = section_indices(self.indices, num_states, len(cylinder.directrix))
-        self.margin = float(margin)
-
-    def compute(self, evaluator: TrajectoryEvaluator, jacobians: bool) -> Residuals:
-        n = evaluator.robot.n
-        h, jac = boundary_state_residuals(self.cylinder, evaluator.robot, self.sections,
-                                          evaluator.theta[self.indices, :n], self.margin, jacobians)
-        return Residuals(h[:, None], None if jac is None else (jac[:, None, :],))
-
-
-def _boundary_error(cylinder: Any, robot: Any, section: int, margin: float,
-                    this: gtsam.CustomFactor, values: gtsam.Values, H: list | None) -> np.ndarray:
-    """GTSAM CustomFactor error function (1,) of one support state, evaluated on its own."""
-    theta = values.atVector(this.keys()[0])
-    h, jac = boundary_state_residuals(cylinder, robot, np.array([section]),
-                                      theta[None, : robot.n], margin, H is not None)
-    if H is not None:
-        H[0] = jac
-    return h
-
-
-def _shared_boundary_error(evaluator: TrajectoryEvaluator, family: BoundaryFamily, row: int,
-                           index: int, this: gtsam.CustomFactor, values: gtsam.Values,
-                           H: list | None) -> np.ndarray:
-    """GTSAM CustomFactor error function (1,): row ``row`` of the family's shared residuals.
-
-    Values lacking some support state (not the planner's graph) cannot refill the shared
-    cache; this state is then evaluated on its own.
-    """
-    try:
-        evaluator.sync(values, (index,))
-    except RuntimeError:                     # GTSAM: a support state's key is not in values
-        return _boundary_error(family.cylinder, evaluator.robot, int(family.sections[row]),
-                               family.margin, this, values, H)
-    result = evaluator.residuals(family, H is not None)
-    if H is not None:
-        H[0] = result.jacobians[0][row]
-    return result.error[row]
-
-
-class BoundaryFactorMaker:
-    """Per-state factor maker for ``clamp.plan(extra_factors=[...])``.
-
-    ``maker(index, num_states, key)`` returns a 1-D ``gtsam.CustomFactor`` on theta_index with
-    the boundary hinge residual (metres) and isotropic noise ``sigma`` [m]; ``margin`` [m]
-    shrinks the allowed region (positive) or widens it (negative). ``states`` optionally
-    restricts the factor to some support-state indices (others give None).
-
-    With ``shared_evaluation`` (default) the factors on planner keys (``clamp.keys.state_key``)
-    share one evaluator and :class:`BoundaryFamily` per ``num_states`` (see :meth:`shared`);
-    otherwise, or for other keys, every factor runs its own kinematics call.
-    """
-
-    def __init__(self, cylinder: Any, robot: Any, margin: float = 0.0, sigma: float = 0.01,
-                 states: Any = None, shared_evaluation: bool = True) -> None:
+    def __init__(self, cylinder: Any, num_states: int, margin: float = 0.0,
+                 sigma: float = 0.01, states: Any = None) -> None:
         for attr in ("directrix", "frames", "radius"):
             if not hasattr(cylinder, attr):
                 raise InvalidArgumentError(
                     f"cylinder: expected a GeneralizedCylinder (missing .{attr}), got "
                     f"{type(cylinder).__name__}")
-        if not hasattr(robot, "ee_kinematics") or not hasattr(robot, "n"):
-            raise InvalidArgumentError(
-                f"robot: expected a robots.Robot (with .n and .ee_kinematics), got {type(robot).__name__}")
+        num_states = as_count(num_states, "num_states")
+        indices = np.arange(num_states)
+        if states is not None:
+            chosen = np.unique(np.asarray(states))
+            if chosen.dtype.kind not in "iu":
+                raise InvalidArgumentError(f"states: expected support-state indices, got {states!r}")
+            indices = indices[np.isin(indices, chosen)]
         self.cylinder = cylinder
-        self.robot = robot
+        self.sections = section_indices(indices, num_states, len(cylinder.directrix))
         self.margin = as_scalar(margin, "margin")
-        self.sigma = as_scalar(sigma, "sigma", minimum=1e-12)
-        self.states = None if states is None else set(int(s) for s in np.atleast_1d(states))
-        self.shared_evaluation = bool(shared_evaluation)
-        self._noise = gtsam.noiseModel.Isotropic.Sigma(1, self.sigma)
-        self._shared: dict[int, tuple[TrajectoryEvaluator, BoundaryFamily]] = {}
+        super().__init__(indices, 1, sigma=as_scalar(sigma, "sigma", minimum=1e-12))
 
-    def section(self, index: int, num_states: int) -> int:
-        """Cross-section index matching support state ``index`` of ``num_states``."""
-        return int(section_indices(np.asarray(index), num_states, len(self.cylinder.directrix)))
-
-    def shared(self, num_states: int) -> tuple[TrajectoryEvaluator, BoundaryFamily]:
-        """Evaluator and family shared by the factors of ``num_states`` states (made on first use)."""
-        if num_states not in self._shared:
-            as_count(num_states, "num_states")
-            indices = np.arange(num_states)
-            if self.states is not None:
-                indices = indices[np.isin(indices, sorted(self.states))]
-            self._shared[num_states] = (TrajectoryEvaluator(self.robot, num_states),
-                                        BoundaryFamily(self.cylinder, indices, num_states, self.margin))
-        return self._shared[num_states]
-
-    def __call__(self, index: int, num_states: int, key: int) -> gtsam.CustomFactor | None:
-        if self.states is not None and int(index) not in self.states:
-            return None
-        section = self.section(index, num_states)
-        if self.shared_evaluation and key == state_key(int(index)):
-            evaluator, family = self.shared(num_states)
-            row = int(np.searchsorted(family.indices, int(index)))
-            error = partial(_shared_boundary_error, evaluator, family, row, int(index))
-        else:
-            error = partial(_boundary_error, self.cylinder, self.robot, section, self.margin)
-        return gtsam.CustomFactor(self._noise, gtsam.KeyVector([key]), error)
+    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+        x, dx = window.workspace()
+        i = window.local(self.first[rows])
+        h, dh_dp = boundary_residuals(self.cylinder, self.sections[rows], x[i, :3], self.margin)
+        jac = np.einsum("ti,tij->tj", dh_dp, dx[i, :3])[:, None, :] if jacobians else None
+        return Linearization(rows, h[:, None], jac)

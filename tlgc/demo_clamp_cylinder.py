@@ -8,8 +8,7 @@ demonstrated region early; with it the path stays inside the cylinder until the 
 it out. The fractions of support states whose end-effector position lies inside (within
 1 mm of) the matching cross-section are printed for both plans.
 
-Run: ``python -m tlgc.demo_clamp_cylinder [--skill NAME] [--robot jaco|sawyer] [--per-state]``
-(``--per-state``: boundary factors without the shared evaluation, for timing comparisons).
+Run: ``python -m tlgc.demo_clamp_cylinder [--skill NAME] [--robot jaco|sawyer]``.
 """
 from __future__ import annotations
 
@@ -19,7 +18,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .boundary_factor import BoundaryFactorMaker, boundary_distance, section_indices
+from .boundary_factor import BoundaryFamily, boundary_distance, section_indices
 from .cylinder import GeneralizedCylinder, fit_cylinder
 from .errors import InvalidArgumentError
 
@@ -57,15 +56,14 @@ def outside_distances(cylinder: GeneralizedCylinder, ee_path: np.ndarray) -> np.
 def run_clamp_cylinder_demo(skill: str = "reach_from_above", robot_name: str = "jaco",
                             num_states: int = 40, goal_offset: float = 0.05,
                             jitter: float = 1e-4, sigma: float = 0.005, margin: float = 0.0,
-                            start_ratio: float = 0.3, seed: int = 0,
-                            shared_evaluation: bool = True) -> ClampCylinderDemo:
-    """Plan the skill twice (without / with :class:`BoundaryFactorMaker`) and compare.
+                            start_ratio: float = 0.3, seed: int = 0) -> ClampCylinderDemo:
+    """Plan the skill twice (without / with :class:`BoundaryFamily`) and compare.
 
     num_states T support states (demonstrations resampled to T, same total duration as the
     250-step reference); goal_offset [m] beyond the last boundary along its normal; jitter is
     added to the learned prior's covariances (a softer prior lets the goal pull the plan);
     sigma [m], margin [m] of the boundary factor; start at ``start_ratio`` of the first
-    boundary along its normal; shared_evaluation as in :class:`BoundaryFactorMaker`.
+    boundary along its normal.
     """
     from clamp import learn_prior, plan            # clamp does not import tlgc: no cycle
     from robots import load_robot
@@ -83,8 +81,8 @@ def run_clamp_cylinder_demo(skill: str = "reach_from_above", robot_name: str = "
     goal = cylinder.directrix[-1] + (end_radius + goal_offset) * cylinder.normals[-1]
     plain = plan(prior, robot, None, start, goal=goal)
     bounded = plan(prior, robot, None, start, goal=goal,
-                   extra_factors=[BoundaryFactorMaker(cylinder, robot, margin=margin, sigma=sigma,
-                                                       shared_evaluation=shared_evaluation)])
+                   extra_factors=[BoundaryFamily(cylinder, num_states, margin=margin,
+                                                  sigma=sigma)])
     return ClampCylinderDemo(plain, bounded, cylinder, goal,
                              outside_distances(cylinder, plain.ee_path),
                              outside_distances(cylinder, bounded.ee_path))
@@ -97,11 +95,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--robot", default="jaco")
     parser.add_argument("--states", type=int, default=40)
     parser.add_argument("--goal-offset", type=float, default=0.05)
-    parser.add_argument("--per-state", action="store_true",
-                        help="one kinematics call per boundary factor (no shared evaluation)")
     args = parser.parse_args(argv)
-    demo = run_clamp_cylinder_demo(args.skill, args.robot, args.states, args.goal_offset,
-                                   shared_evaluation=not args.per_state)
+    demo = run_clamp_cylinder_demo(args.skill, args.robot, args.states, args.goal_offset)
     for label, result, outside, inside in (
             ("without boundary factor", demo.without_factor, demo.outside_without,
              demo.fraction_inside_without),

@@ -1,18 +1,14 @@
-"""Constant-velocity joint-space GP prior factor on (theta_i, theta_{i+1}) (as in GPMP2).
+"""Constant-velocity joint-space GP prior family (as in GPMP2), one factor per step.
 
-e_i = Phi(dt) theta_i - theta_{i+1},  Phi(dt) = [[I, dt I], [0, I]],
-Q(dt) = Qc kron [[dt^3/3, dt^2/2], [dt^2/2, dt]] (paper eq. 17). The factor is linear, so it
-is carried by a pure C++ linear factor.
+e_i = theta_{i+1} - Phi(dt) theta_i,  Phi(dt) = [[I, dt I], [0, I]],
+Q(dt) = Qc kron [[dt^3/3, dt^2/2], [dt^2/2, dt]] (paper eq. 17). Linear in theta.
 """
 from __future__ import annotations
 
-import gtsam
 import numpy as np
 
-from clamp.keys import state_key
-
-from .evaluation import Residuals, square_root_information
-from .linear import linear_factor
+from .family import Family, Linearization, square_root_information
+from .states import StateWindow
 
 
 def joint_gp_transition(n: int, dt: float) -> np.ndarray:
@@ -30,22 +26,25 @@ def joint_gp_covariance(n: int, dt: float, Qc: float | np.ndarray = 1.0) -> np.n
     return np.kron(block, Qc)
 
 
-def joint_gp_residuals(theta: np.ndarray, dt: float) -> Residuals:
-    """Residuals (T-1, 2n) of all joint GP factors for joint states theta (T, 2n), with Jacobians."""
-    T, d = theta.shape
-    Phi = joint_gp_transition(d // 2, dt)
-    error = theta[:-1] @ Phi.T - theta[1:]
-    return Residuals(error, (np.broadcast_to(Phi, (T - 1, d, d)),
-                             np.broadcast_to(-np.eye(d), (T - 1, d, d))))
+class JointGPFamily(Family):
+    """T-1 factors between consecutive support states of step ``dt`` [s] for n joints."""
 
+    name = "joint_gp"
+    arity = 2
+    cost = 0
+    linear = True
 
-def joint_gp_factors(num_states: int, n: int, dt: float,
-                     Qc: float | np.ndarray = 1.0) -> list[gtsam.LinearContainerFactor]:
-    """The T-1 joint GP factors between consecutive support states of step ``dt`` [s]."""
-    Phi = joint_gp_transition(n, dt)
-    Q = joint_gp_covariance(n, dt, Qc)
-    R = square_root_information(Q)
-    minus_eye = -np.eye(2 * n)
-    zero = np.zeros(2 * n)
-    return [linear_factor([state_key(i), state_key(i + 1)], [Phi, minus_eye], zero, R)
-            for i in range(num_states - 1)]
+    def __init__(self, num_states: int, n: int, dt: float, Qc: float | np.ndarray = 1.0):
+        self.Phi = joint_gp_transition(n, dt)
+        R = square_root_information(joint_gp_covariance(n, dt, Qc))
+        super().__init__(np.arange(num_states - 1), 2 * n,
+                         sqrt_information=np.broadcast_to(R, (num_states - 1, 2 * n, 2 * n)))
+        self._jacobian = np.concatenate([-self.Phi, np.eye(2 * n)], axis=1)
+
+    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+        i = window.local(self.first[rows])
+        theta = window.theta
+        error = theta[i + 1] - theta[i] @ self.Phi.T
+        jac = np.broadcast_to(self._jacobian, (len(rows),) + self._jacobian.shape) \
+            if jacobians else None
+        return Linearization(rows, error, jac)

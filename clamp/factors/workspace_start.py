@@ -1,4 +1,4 @@
-"""Workspace start factor: x(theta_0) against a Gaussian (mean (6,), covariance (6, 6)).
+"""Workspace start family: x(theta_0) against a Gaussian (mean (6,), covariance (6, 6)).
 
 With the learned prior this is (mean0, cov0) from the demonstrations' first states. When the
 skill is reproduced from a new start position, :func:`shifted_start_mean` moves the position
@@ -6,20 +6,10 @@ part of the mean to the requested start and keeps the learned initial velocity.
 """
 from __future__ import annotations
 
-import gtsam
 import numpy as np
 
-from .evaluation import (ResidualFamily, Residuals, TrajectoryEvaluator, WorkspaceStates,
-                         custom_factors, gaussian_noise)
-
-
-def workspace_start_residuals(states: WorkspaceStates, mean: np.ndarray,
-                              index: int = 0) -> Residuals:
-    """Residual (1, 6) = x(theta_index) - mean, Jacobian (1, 6, 2n)."""
-    error = (states.x[index] - mean)[None]
-    if states.jacobian is None:
-        return Residuals(error, None)
-    return Residuals(error, (states.jacobian[index][None],))
+from .family import Family, Linearization, square_root_information
+from .states import StateWindow
 
 
 def shifted_start_mean(mean0: np.ndarray, start_position: np.ndarray) -> np.ndarray:
@@ -29,21 +19,20 @@ def shifted_start_mean(mean0: np.ndarray, start_position: np.ndarray) -> np.ndar
     return mean
 
 
-class WorkspaceStartFamily(ResidualFamily):
-    """The single workspace start factor of a graph."""
+class WorkspaceStartFamily(Family):
+    """One factor: e = x(theta_index) - mean (6,), noise cov (6, 6)."""
 
     name = "workspace_start"
+    arity = 1
+    cost = 1
 
-    def __init__(self, mean: np.ndarray, index: int = 0):
-        self.mean = np.asarray(mean, dtype=float)
-        self.index = int(index)
+    def __init__(self, mean: np.ndarray, cov: np.ndarray, index: int = 0):
+        self.mean = np.asarray(mean, dtype=float).reshape(1, 6)
+        super().__init__([index], 6, sqrt_information=square_root_information(
+            np.asarray(cov, dtype=float))[None])
 
-    def compute(self, evaluator: TrajectoryEvaluator, jacobians: bool) -> Residuals:
-        return workspace_start_residuals(evaluator.workspace(jacobians), self.mean, self.index)
-
-
-def workspace_start_factor(evaluator: TrajectoryEvaluator, mean: np.ndarray,
-                           cov: np.ndarray, index: int = 0) -> gtsam.CustomFactor:
-    """x(theta_index) ~ N(mean (6,), cov (6, 6))."""
-    family = WorkspaceStartFamily(mean, index)
-    return custom_factors(evaluator, family, [(index,)], [gaussian_noise(cov)])[0]
+    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+        x, dx = window.workspace()
+        i = window.local(self.first[rows])
+        error = x[i] - self.mean[rows]
+        return Linearization(rows, error, dx[i] if jacobians else None)

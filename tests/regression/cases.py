@@ -7,6 +7,12 @@ REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
 SAWYER_SHIFT = np.array([0.3, 0.0, 0.2])
 
+#: the defaults when the fixtures were made (sigma_obs has since become 0.005)
+def _config():
+    from clamp import PlannerConfig
+    return PlannerConfig().with_(sigma_obs=0.05)
+
+
 CASES = ("jaco_empty", "jaco_box", "jaco_goal", "sawyer_empty", "sawyer_box", "sawyer_goal",
          "jaco_boundary")
 
@@ -41,12 +47,13 @@ def run_case(name: str):
         from clamp import learn_prior
         prior = learn_prior(demos.translated(shift))
     start = REFERENCE_START + shift
-    scene = None
+    scene = sdf = None
     goal = None
     if kind == "box":
         box = np.array(REFERENCE_BOX, dtype=float)
         box[:3] += shift
         scene = Scene([Box.from_reference(box.tolist())])
+        sdf = scene.sdf(0.01)   # the fixtures' obstacle distance: the 1 cm grid of the time
     if kind == "goal":
         goal = np.asarray(prior.mean)[-1, :3] + np.array([0.0, 0.03, 0.0])
-    return plan(prior, robot, scene, start, goal=goal)
+    return plan(prior, robot, scene, start, goal=goal, config=_config(), sdf=sdf)

@@ -1,0 +1,173 @@
+"""Planner settings in three small groups: the model (factor graph), the optimizer, the checks.
+
+``PlannerConfig()`` holds the one set of defaults used by the Python API and the command line.
+Every group is a frozen dataclass; ``dataclasses.replace`` or :meth:`PlannerConfig.with_` make
+variants. Units: metres, radians, seconds; errors in nats (negative log posterior).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+from clamp.errors import InvalidParameterError
+from clamp.initialisation import INITIALISATIONS
+from clamp.validation import as_count, as_scalar
+
+#: "fast": our Levenberg-Marquardt on the state array (:mod:`clamp.solver`); the others run
+#: GTSAM's optimizers on :meth:`clamp.problem.PlanningProblem.graph`.
+OPTIMIZERS = ("fast", "gtsam", "gtsam_dogleg", "gtsam_gauss_newton")
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """The factor graph (paper eq. 14-20; defaults are the reference implementation's except
+    ``sigma_obs``)."""
+
+    #: [m] obstacle safety distance: spheres closer than this to an obstacle are penalised
+    epsilon: float = 0.05
+    #: [m] obstacle hinge noise (smaller = stronger avoidance; the reference's 0.05 loses
+    #: against the stiff learned prior: its optimum still touches obstacles on the path)
+    sigma_obs: float = 0.005
+    #: joint GP power spectral density [rad^2 / s^3]
+    Qc: float = 1.0
+    #: [rad] start configuration fix (or [m] for an end-effector start without the IK fix)
+    start_sigma: float = 1e-6
+    #: [m or rad] goal factor
+    goal_sigma: float = 1e-3
+    #: [m or rad] via-point factors
+    via_sigma: float = 1e-3
+    #: learned initial workspace state factor (position moved to the start)
+    workspace_start: bool = True
+    #: an end-effector start is replaced by its IK configuration (removes the arm's self-motion)
+    fix_start_configuration: bool = True
+    #: obstacle factors when the scene has obstacles
+    obstacle_factors: bool = True
+    #: joint position and velocity limit hinges
+    joint_limits: bool = True
+    #: [rad, rad/s] limit hinge noise
+    limit_sigma: float = 1e-3
+    #: [rad] the position hinges start this far inside the limits
+    limit_margin: float = 0.0
+    #: [rad/s] the velocity hinges start this far inside the limits
+    velocity_margin: float = 0.0
+    #: [m] grid cell for scenes that need a grid signed distance (primitives are exact)
+    sdf_cell_size: float = 0.01
+
+
+@dataclass(frozen=True)
+class OptimizerConfig:
+    """How the graph is optimised (see :mod:`clamp.solver` for the fast solver's rules)."""
+
+    #: one of :data:`OPTIMIZERS`
+    optimizer: str = "fast"
+    #: "prior_mean" (IK of the prior mean moved to the start) or "straight_line" (joint space)
+    initialisation: str = "prior_mean"
+    #: prior_mean: fade the start offset out along the path (else shift the whole path)
+    blend_start_offset: bool = True
+    #: straight_line: the two end configurations (n,) each (default: start and IK of the end)
+    straight_line_configurations: tuple[Any, Any] | None = None
+    #: initial Levenberg-Marquardt damping (small: the workspace correction keeps the model
+    #: accurate from the first step; the reference uses 1e3)
+    lambda_initial: float = 0.1
+    #: give up when no damping up to this decreases the error
+    lambda_upper_bound: float = 1e10
+    #: accepted iterations at most
+    max_iterations: int = 500
+    #: stop when steps decrease the error by at most this fraction of it ...
+    relative_error_tol: float = 1e-3
+    #: ... or by at most this many nats (1 % change of the posterior density)
+    absolute_error_tol: float = 1e-2
+    #: ... for this many consecutive accepted steps
+    convergence_patience: int = 2
+    #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
+    #: workspace states (0 = plain LM, which crawls against stiff learned priors)
+    workspace_correction: int = 2
+
+
+@dataclass(frozen=True)
+class CheckConfig:
+    """Tolerances of the verdict (``PlanResult.success``)."""
+
+    #: [m] end-effector start (or [rad] joint start) error
+    start_tolerance: float = 1e-3
+    #: [m] end-effector goal (or [rad] joint goal) error
+    goal_tolerance: float = 0.02
+    #: [m] IK accuracy required to accept an end-effector start as reachable
+    ik_tolerance: float = 1e-4
+    #: [rad] joint position limits (the limit factors are soft)
+    limit_tolerance: float = 1e-4
+    #: [rad/s] joint velocity limits
+    velocity_tolerance: float = 1e-3
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """All planner settings: ``model``, ``optimizer`` and ``checks`` groups."""
+
+    model: ModelConfig = field(default_factory=ModelConfig)
+    optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
+    checks: CheckConfig = field(default_factory=CheckConfig)
+
+    def with_(self, **changes: Any) -> "PlannerConfig":
+        """A copy with fields of any group changed by name, e.g. ``with_(sigma_obs=0.005)``."""
+        groups = {"model": self.model, "optimizer": self.optimizer, "checks": self.checks}
+        updates: dict[str, dict[str, Any]] = {g: {} for g in groups}
+        owner = {f.name: g for g, obj in groups.items() for f in fields(obj)}
+        for name, value in changes.items():
+            if name not in owner:
+                raise InvalidParameterError(f"config field: unknown {name!r}; valid: "
+                                            f"{', '.join(sorted(owner))}")
+            updates[owner[name]][name] = value
+        return PlannerConfig(**{g: replace(obj, **updates[g]) for g, obj in groups.items()})
+
+    @classmethod
+    def reference(cls, **changes: Any) -> "PlannerConfig":
+        """The reference implementation's optimizer: GTSAM's Levenberg-Marquardt with
+        lambda0 1e3 and 1e-5 relative / absolute tolerances; ``changes`` override fields."""
+        return cls().with_(**{"optimizer": "gtsam", "lambda_initial": 1e3,
+                              "relative_error_tol": 1e-5, "absolute_error_tol": 1e-5,
+                              "convergence_patience": 1, **changes})
+
+    @classmethod
+    def fast(cls, **changes: Any) -> "PlannerConfig":
+        """For control loops: a loose stopping rule (one step below a 5 % relative decrease),
+        fewer iterations, a less polished plan."""
+        return cls().with_(**{"relative_error_tol": 0.05, "convergence_patience": 1, **changes})
+
+    def validate(self) -> "PlannerConfig":
+        """Check every field; raises InvalidParameterError naming the bad one."""
+        for group in ("model", "optimizer", "checks"):
+            if not isinstance(getattr(self, group), _GROUPS[group]):
+                raise InvalidParameterError(
+                    f"config.{group}: expected {_GROUPS[group].__name__}, got "
+                    f"{type(getattr(self, group)).__name__}")
+        m, o, c = self.model, self.optimizer, self.checks
+        for name in ("epsilon", "limit_margin", "velocity_margin"):
+            as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
+        for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
+                     "sdf_cell_size"):
+            as_scalar(getattr(m, name), f"config.model.{name}", strictly_positive=True)
+        for name in ("workspace_start", "fix_start_configuration", "obstacle_factors",
+                     "joint_limits"):
+            if not isinstance(getattr(m, name), bool):
+                raise InvalidParameterError(f"config.model.{name}: expected True or False, got "
+                                            f"{getattr(m, name)!r}")
+        for name in ("relative_error_tol", "absolute_error_tol"):
+            as_scalar(getattr(o, name), f"config.optimizer.{name}", minimum=0.0)
+        for name in ("lambda_initial", "lambda_upper_bound"):
+            as_scalar(getattr(o, name), f"config.optimizer.{name}", strictly_positive=True)
+        as_count(o.max_iterations, "config.optimizer.max_iterations", minimum=0)
+        as_count(o.workspace_correction, "config.optimizer.workspace_correction", minimum=0)
+        as_count(o.convergence_patience, "config.optimizer.convergence_patience", minimum=1)
+        for name, valid in (("optimizer", OPTIMIZERS), ("initialisation", INITIALISATIONS)):
+            if getattr(o, name) not in valid:
+                raise InvalidParameterError(f"config.optimizer.{name}: unknown "
+                                            f"{getattr(o, name)!r}; valid: {', '.join(valid)}")
+        for name in ("limit_tolerance", "velocity_tolerance"):
+            as_scalar(getattr(c, name), f"config.checks.{name}", minimum=0.0)
+        for name in ("start_tolerance", "goal_tolerance", "ik_tolerance"):
+            as_scalar(getattr(c, name), f"config.checks.{name}", strictly_positive=True)
+        return self
+
+
+_GROUPS = {"model": ModelConfig, "optimizer": OptimizerConfig, "checks": CheckConfig}

@@ -1,0 +1,131 @@
+"""The one definition of a factor family, from which every view of the problem is derived.
+
+A family is F factors of the same kind. Factor f connects the ``arity`` consecutive support
+states ``first[f] .. first[f] + arity - 1`` (arity 1: unary; 2: a step i -> i+1), has a
+residual e_f (m,) and Gaussian noise given by its square-root information R_f (m, m), so its
+error is 0.5 ||R_f e_f||^2 (GTSAM's convention). A subclass implements one vectorized kernel,
+:meth:`Family.residual`, returning the residuals and analytic Jacobians of any set of its
+factors at a :class:`~clamp.factors.states.StateWindow`. From it come:
+
+- the fast solver's stacked whitened system (:mod:`clamp.problem`),
+- the per-factor GTSAM adapters (:mod:`clamp.factors.gtsam_adapter`), which call the same
+  kernel for one factor,
+- the errors reported per family.
+
+Weighting lives only in the noise (the square-root information); kernels return unwhitened
+residuals. A kernel may leave out factors whose residual and Jacobian are exactly zero
+(inactive hinges): :class:`Linearization` lists the rows it describes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+
+from clamp.errors import InvalidParameterError, ShapeError
+
+from .states import StateWindow
+
+
+@dataclass(frozen=True)
+class Linearization:
+    """Residuals of some factors of a family at one window of states.
+
+    rows (F',) factor indices described (any factor of the request not listed has zero
+    residual and zero Jacobian); error (F', m) unwhitened residuals; jacobian (F', m, arity 2n)
+    d e / d [theta_first, ..., theta_first+arity-1], or None when not requested.
+    """
+
+    rows: np.ndarray
+    error: np.ndarray
+    jacobian: np.ndarray | None
+
+
+def square_root_information(cov: np.ndarray) -> np.ndarray:
+    """Upper-triangular R (..., m, m) with R^T R = cov^-1, for covariances (..., m, m)."""
+    info = np.linalg.inv(cov)
+    info = 0.5 * (info + np.swapaxes(info, -1, -2))
+    lower = np.linalg.cholesky(info)
+    return np.swapaxes(lower, -1, -2)
+
+
+class Family:
+    """Base class of a factor family (see the module docstring).
+
+    first (F,) first support state of every factor; dim m residual size; sigma: isotropic noise
+    standard deviation (scalar, or (F,) per factor) in the residual's units, or
+    sqrt_information (F, m, m) / (m, m) for correlated noise (exactly one of the two).
+    Subclasses set ``name``, ``arity`` and ``cost`` (0: no kinematics, 1: end-effector
+    kinematics, 2: collision spheres) and implement :meth:`residual`; ``linear = True`` declares
+    a residual affine in theta (constant Jacobian), which the fast solver then assembles once.
+    """
+
+    name: str = "family"
+    arity: int = 1
+    cost: int = 1
+    linear: bool = False
+
+    def __init__(self, first: np.ndarray, dim: int, sigma: float | np.ndarray | None = None,
+                 sqrt_information: np.ndarray | None = None):
+        self.first = np.asarray(first, dtype=np.intp).reshape(-1)
+        self.dim = int(dim)
+        F = len(self.first)
+        if (sigma is None) == (sqrt_information is None):
+            raise InvalidParameterError(f"{self.name}: give exactly one of sigma and "
+                                        "sqrt_information")
+        if sigma is not None:
+            s = np.broadcast_to(np.asarray(sigma, dtype=float), (F,))
+            if np.any(~np.isfinite(s)) or np.any(s <= 0):
+                raise InvalidParameterError(f"{self.name} sigma: expected positive finite "
+                                            f"values, got {np.asarray(sigma)!r}")
+            #: whitening weights (F,) (isotropic) or (F, m, m) (correlated)
+            self.whitening = 1.0 / s
+        else:
+            R = np.asarray(sqrt_information, dtype=float)
+            if R.shape[-2:] != (self.dim, self.dim):
+                raise ShapeError(f"{self.name} sqrt_information: expected (F, {self.dim}, "
+                                 f"{self.dim}), got {R.shape}")
+            self.whitening = np.ascontiguousarray(np.broadcast_to(R, (F, self.dim, self.dim)))
+        #: every factor on its own first state: direct (not accumulating) scatter is safe
+        self.distinct = bool(F <= 1 or np.all(np.diff(self.first) > 0))
+
+    def __len__(self) -> int:
+        return len(self.first)
+
+    @property
+    def isotropic(self) -> bool:
+        """Whether every factor's noise is isotropic (whitening is a per-factor weight)."""
+        return self.whitening.ndim == 1
+
+    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+        """Residuals (and Jacobians) of factors ``rows`` at ``window`` (which holds their states)."""
+        raise NotImplementedError
+
+    def whiten(self, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """R_f values_f for residuals (F', m) or Jacobians (F', m, c) of factors ``rows``."""
+        w = self.whitening[rows]
+        if w.ndim == 1:
+            return w.reshape((-1,) + (1,) * (values.ndim - 1)) * values
+        if values.ndim == 2:
+            return np.einsum("fij,fj->fi", w, values)
+        return w @ values
+
+    def error(self, window: StateWindow, rows: np.ndarray | None = None) -> float:
+        """0.5 sum of squared whitened residuals of factors ``rows`` (all by default)."""
+        rows = np.arange(len(self)) if rows is None else rows
+        lin = self.residual(window, rows, jacobians=False)
+        white = self.whiten(lin.rows, lin.error)
+        return 0.5 * float(np.sum(white * white))
+
+    def noise_model(self, row: int) -> gtsam.noiseModel.Base:
+        """GTSAM noise model of factor ``row`` (isotropic or Gaussian square-root information)."""
+        w = self.whitening[row]
+        if np.ndim(w) == 0:
+            return gtsam.noiseModel.Isotropic.Sigma(self.dim, 1.0 / float(w))
+        return gtsam.noiseModel.Gaussian.SqrtInformation(np.asarray(w))
+
+    def states(self, row: int) -> range:
+        """Support-state indices factor ``row`` connects, in key order."""
+        start = int(self.first[row])
+        return range(start, start + self.arity)

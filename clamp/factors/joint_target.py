@@ -1,0 +1,33 @@
+"""Joint-configuration targets (start, goal, via points): e_k = q_{i_k} - q_target_k (n,). Linear."""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .family import Family, Linearization
+from .states import StateWindow
+
+
+class JointTargetFamily(Family):
+    """One factor per target: state indices (K,), targets (K, n) [rad], sigmas (K,) [rad]."""
+
+    name = "joint_target"
+    arity = 1
+    cost = 0
+    linear = True
+
+    def __init__(self, indices: Sequence[int], targets: np.ndarray, sigmas: Sequence[float]):
+        order = np.argsort(np.asarray(indices), kind="stable")
+        self.targets = np.asarray(targets, dtype=float).reshape(len(order), -1)[order]
+        super().__init__(np.asarray(indices)[order], self.targets.shape[1],
+                         sigma=np.asarray(sigmas, dtype=float)[order])
+        n = self.dim
+        self._jacobian = np.hstack([np.eye(n), np.zeros((n, n))])
+
+    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+        i = window.local(self.first[rows])
+        error = window.q[i] - self.targets[rows]
+        jac = np.broadcast_to(self._jacobian, (len(rows),) + self._jacobian.shape) \
+            if jacobians else None
+        return Linearization(rows, error, jac)

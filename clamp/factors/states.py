@@ -1,0 +1,75 @@
+"""Joint states of a window of consecutive support states, with their kinematics computed once.
+
+A :class:`StateWindow` holds theta = [q, qdot] (K, 2n) of the support states
+``first .. first + K - 1`` and computes, on first use and for all K states in one vectorized
+call, what the factor families need: the workspace states x = [fk(q), J(q) qdot] with their
+Jacobian, and the collision-sphere centres. It is the only kinematics cache of the planner:
+the fast solver makes one window per trial point (K = T), a GTSAM adapter one per evaluation
+(K = T when GTSAM hands it all support states, else just the factor's own states).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+
+class StateWindow:
+    """Joint states theta (K, 2n) of support states first .. first + K - 1 of ``robot``."""
+
+    __slots__ = ("robot", "theta", "first", "_workspace", "_centres")
+
+    def __init__(self, robot: Any, theta: np.ndarray, first: int = 0):
+        self.robot = robot
+        self.theta = theta
+        self.first = int(first)
+        self._workspace: tuple[np.ndarray, np.ndarray] | None = None
+        self._centres: np.ndarray | None = None
+
+    @property
+    def n(self) -> int:
+        """Number of robot joints."""
+        return self.theta.shape[1] // 2
+
+    @property
+    def q(self) -> np.ndarray:
+        """Joint positions (K, n) [rad]."""
+        return self.theta[:, : self.n]
+
+    @property
+    def qdot(self) -> np.ndarray:
+        """Joint velocities (K, n) [rad/s]."""
+        return self.theta[:, self.n:]
+
+    def local(self, index: np.ndarray) -> np.ndarray:
+        """Rows of this window (...,) holding the support states ``index`` (...,)."""
+        return index - self.first
+
+    def workspace(self) -> tuple[np.ndarray, np.ndarray]:
+        """Workspace states x (K, 6) = [fk(q) [m], J(q) qdot [m/s]] and d x / d theta (K, 6, 2n).
+
+        d x / d theta = [[J, 0], [d(J qdot)/dq, J]]. Always computed with the Jacobian: the
+        velocity needs the position Jacobian anyway (~3 % more), and a linearization at an
+        accepted trial point then reuses it.
+        """
+        if self._workspace is None:
+            n = self.n
+            kin = self.robot.ee_kinematics(self.q, self.qdot, jacobians=True)
+            x = np.concatenate([kin.position, kin.velocity], axis=1)
+            jac = np.zeros((len(x), 6, 2 * n))
+            jac[:, :3, :n] = kin.jacobian
+            jac[:, 3:, :n] = kin.velocity_jacobian
+            jac[:, 3:, n:] = kin.jacobian
+            self._workspace = (x, jac)
+        return self._workspace
+
+    def sphere_centres(self) -> np.ndarray:
+        """Collision-sphere centres (K, S, 3) [m] of every state (no Jacobians)."""
+        if self._centres is None:
+            self._centres, _ = self.robot.sphere_centres(self.q, jacobians=False)
+        return self._centres
+
+    def sphere_jacobians(self, rows: np.ndarray) -> np.ndarray:
+        """d centre / d q (R, S, 3, n) of the window rows ``rows`` (R,) only."""
+        _, jac = self.robot.sphere_centres(self.q[rows], jacobians=True)
+        return jac

@@ -1,0 +1,74 @@
+"""What :func:`clamp.plan` returns: the plan, its verdict and its uncertainty, as plain data."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class PlanResult:
+    """Outcome of :func:`clamp.plan`.
+
+    q, qdot (T, n) [rad, rad/s]; ee_path, ee_velocity (T, 3) [m, m/s]; time (T,) [s];
+    timings [s] ("build" (incl. initialisation and distance field), "optimize", "marginals",
+    "total"; the fast solver adds its phases "linearize", "solve", "correction", "error");
+    iterations accepted steps, trials solved steps (0 for GTSAM's optimizers), stop_reason;
+    errors are graph errors in nats (0.5 sum of squared whitened residuals); family_errors per
+    factor family; collision_cost = error of the obstacle factors; min_clearance [m] smallest
+    exact distance between any collision sphere and any obstacle over all states (+inf without
+    obstacles); start_error, goal_error [m] (rad for joint targets; None without goal),
+    via_errors [m or rad] one per via point;
+    log_likelihood and success_probability of the plan's workspace path under the prior
+    (initial-state term left out); within_limits; success and reasons (why it failed);
+    state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
+    covariance of every joint state and end-effector position at the optimum (None when not
+    computed).
+    """
+
+    q: np.ndarray
+    qdot: np.ndarray
+    ee_path: np.ndarray
+    ee_velocity: np.ndarray
+    time: np.ndarray
+    timings: dict[str, float]
+    iterations: int
+    initial_error: float
+    final_error: float
+    family_errors: dict[str, float]
+    collision_cost: float
+    min_clearance: float
+    start_error: float
+    goal_error: float | None
+    log_likelihood: float
+    success_probability: float
+    within_limits: bool
+    success: bool
+    reasons: list[str] = field(default_factory=list)
+    initialisation: str = "prior_mean"
+    initial_q: np.ndarray | None = None
+    trials: int = 0
+    optimizer: str = "fast"
+    stop_reason: str = ""
+    state_covariance: np.ndarray | None = None
+    ee_covariance: np.ndarray | None = None
+    via_errors: list[float] = field(default_factory=list)
+
+    @property
+    def ee_std(self) -> np.ndarray | None:
+        """Posterior standard deviation (T, 3) [m] of the end-effector position per axis."""
+        if self.ee_covariance is None:
+            return None
+        return np.sqrt(np.clip(np.einsum("tii->ti", self.ee_covariance), 0.0, None))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (arrays as nested lists, non-finite floats as None)."""
+        out: dict[str, Any] = {}
+        for key, value in asdict(self).items():
+            if isinstance(value, np.ndarray):
+                value = value.tolist()
+            elif isinstance(value, float) and not np.isfinite(value):
+                value = None
+            out[key] = value
+        return out

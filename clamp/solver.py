@@ -1,0 +1,199 @@
+"""The fast solver: Levenberg-Marquardt on the (T, 2n) state array with a banded Cholesky.
+
+Each iteration linearizes the problem once (:meth:`clamp.problem.PlanningProblem.normal_equations`:
+block-tridiagonal H, gradient g), then tries damped steps (H + lambda I) delta = g, solved by
+LAPACK's banded Cholesky (``scipy.linalg.cholesky_banded``, lower storage, Jacobi-scaled so
+stiff and soft states do not decide the pivots). A damped matrix that is not numerically
+positive definite counts as a rejected trial (lambda grows), which is the fallback.
+
+Workspace correction (second-order correction, on by default): the learned workspace prior is
+extremely stiff (per-step noise down to micrometres) while x(theta) = [fk(q), J(q) qdot] is
+curved in theta, so a joint step of s rad leaves the linear model's prediction by ~s^2 x arm
+length and plain LM only accepts tiny steps (hundreds of iterations). Each trial point is moved
+back onto the workspace states the linear model predicts, x_pred = x(theta) + dx/dtheta delta,
+by ``workspace_correction`` per-state minimum-norm Gauss-Newton updates (the free joint
+directions keep the LM step). A trial is accepted only if the true error decreases.
+
+Damping: the gain ratio rho = actual / predicted decrease sets lambda *= max(1/3,
+1 - (2 rho - 1)^3) after an accepted step; a rejected one multiplies lambda by 2, 4, 8, ...
+Stopping (units: the graph error is a negative log posterior in nats): after ``patience``
+consecutive accepted steps each decreasing the error by at most ``absolute_tol`` nats or by
+at most ``relative_tol`` times the error; or when no damping up to ``lambda_max`` decreases
+it; or after ``max_iterations`` accepted steps.
+
+Every step runs with one BLAS thread (threadpoolctl): the products are small (d <= 14) and a
+threaded BLAS only adds synchronisation (measured slower under load).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+from threadpoolctl import threadpool_limits
+
+from clamp.problem import NormalEquations, PlanningProblem
+
+
+@dataclass(frozen=True)
+class SolverOutcome:
+    """Optimised joint states theta (T, 2n), accepted iterations, graph error before and after,
+    solved trial steps (accepted or rejected), why it stopped and seconds per phase
+    ("linearize", "solve", "correction", "error")."""
+
+    theta: np.ndarray
+    iterations: int
+    initial_error: float
+    final_error: float
+    trials: int
+    stop_reason: str
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+class BandLayout:
+    """Index maps from block-tridiagonal blocks (T blocks of d x d) to LAPACK lower band storage
+    (2d, T d): H[r, c] at band[r - c, c] for r >= c."""
+
+    def __init__(self, T: int, d: int):
+        self.T, self.d = T, d
+        a, b = np.meshgrid(np.arange(d), np.arange(d), indexing="ij")    # row a, column b
+        lower = a >= b
+        t = np.arange(T)[:, None]
+        self.diag_target = ((a[lower] - b[lower])[None] * (T * d) + t * d + b[lower][None]).ravel()
+        self.diag_source = (t * d * d + (a[lower] * d + b[lower])[None]).ravel()
+        # block (t+1, t) = E[t]^T: H[(t+1)d + a, t d + b] = E[t][b, a]; r - c = d + a - b
+        t1 = np.arange(T - 1)[:, None]
+        off = (d + a - b) < 2 * d
+        self.off_target = (((d + a - b)[off])[None] * (T * d) + t1 * d + b[off][None]).ravel()
+        self.off_source = (t1 * d * d + (b[off] * d + a[off])[None]).ravel()
+
+    def band(self, D: np.ndarray, E: np.ndarray) -> np.ndarray:
+        """Lower band storage (2d, T d) of the symmetric block-tridiagonal (D, E)."""
+        out = np.zeros(2 * self.d * self.T * self.d)
+        out[self.diag_target] = D.reshape(-1)[self.diag_source]
+        out[self.off_target] = E.reshape(-1)[self.off_source]
+        return out.reshape(2 * self.d, self.T * self.d)
+
+
+def solve_banded_damped(band: np.ndarray, gradient: np.ndarray,
+                        damping: float) -> np.ndarray | None:
+    """delta (N,) solving (H + damping I) delta = gradient for H in lower band storage (w, N);
+    None when the damped matrix is not numerically positive definite."""
+    damped = band.copy()
+    damped[0] += damping
+    diagonal = damped[0]
+    if not np.all(np.isfinite(damped)) or np.any(diagonal <= 0.0):
+        return None
+    scale = 1.0 / np.sqrt(diagonal)
+    N = band.shape[1]
+    rows = np.minimum(np.arange(N)[None, :] + np.arange(band.shape[0])[:, None], N - 1)
+    damped *= scale[rows]
+    damped *= scale[None, :]
+    try:
+        factor = scipy.linalg.cholesky_banded(damped, lower=True, check_finite=False)
+    except np.linalg.LinAlgError:
+        return None
+    delta = scale * scipy.linalg.cho_solve_banded((factor, True), scale * gradient,
+                                                  check_finite=False)
+    return delta if np.all(np.isfinite(delta)) else None
+
+
+def project_to_workspace(robot, theta: np.ndarray, target: np.ndarray, iterations: int,
+                         damping: float = 1e-9) -> np.ndarray:
+    """Joint states (T, 2n) near theta whose workspace states approach target (T, 6).
+
+    Each iteration: theta += J^T (J J^T + damping I)^-1 (target - x(theta)), J = dx/dtheta
+    (T, 6, 2n), all states at once (damping in m^2 keeps singular arms finite).
+    """
+    from clamp.factors.states import StateWindow
+    theta = np.array(theta, dtype=float, copy=True)
+    eye = damping * np.eye(target.shape[1])
+    for _ in range(iterations):
+        x, jac = StateWindow(robot, theta).workspace()
+        gram = jac @ np.swapaxes(jac, 1, 2) + eye
+        step = np.linalg.solve(gram, (target - x)[..., None])[..., 0]
+        theta += np.einsum("tji,tj->ti", jac, step)
+    return theta
+
+
+def levenberg_marquardt(problem: PlanningProblem, theta0: np.ndarray, *,
+                        lambda_initial: float = 0.1, lambda_max: float = 1e10,
+                        max_iterations: int = 500, relative_tol: float = 1e-3,
+                        absolute_tol: float = 1e-2, patience: int = 2,
+                        workspace_correction: int = 2) -> SolverOutcome:
+    """Minimise the problem's graph error from theta0 (T, 2n) (see the module docstring)."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _levenberg_marquardt(problem, np.array(theta0, dtype=float), lambda_initial,
+                                    lambda_max, max_iterations, relative_tol, absolute_tol,
+                                    patience, workspace_correction)
+
+
+def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float,
+                         lambda_max: float, max_iterations: int, relative_tol: float,
+                         absolute_tol: float, patience: int,
+                         correction: int) -> SolverOutcome:
+    T, d = problem.num_states, problem.dim
+    layout = BandLayout(T, d)
+    timings = dict.fromkeys(("linearize", "solve", "correction", "error"), 0.0)
+    clock = time.perf_counter()
+
+    def lap(phase: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[phase] += now - clock
+        clock = now
+
+    error = initial_error = problem.error(theta)
+    lap("error")
+    iterations = trials = small_steps = 0
+    growth = 2.0
+    stop = "max_iterations"
+    while iterations < max_iterations:
+        if error <= 0.0:
+            stop = "zero_error"
+            break
+        system: NormalEquations = problem.normal_equations(theta)
+        band = layout.band(system.D, system.E)
+        g = system.g.reshape(-1)
+        x_lin, dx_lin = problem.window(theta).workspace() if correction else (None, None)
+        lap("linearize")
+        accepted = False
+        while lam <= lambda_max:
+            trials += 1
+            step = solve_banded_damped(band, g, lam)
+            lap("solve")
+            if step is None:
+                lam *= growth
+                growth *= 2.0
+                continue
+            delta = step.reshape(T, d)
+            candidate = theta + delta
+            if correction:
+                target = x_lin + np.einsum("tij,tj->ti", dx_lin, delta)
+                candidate = project_to_workspace(problem.robot, candidate, target, correction)
+                lap("correction")
+            new_error = problem.error(candidate, bound=error)
+            lap("error")
+            if np.isfinite(new_error) and new_error < error:
+                accepted = True
+                break
+            lam *= growth
+            growth *= 2.0
+        if not accepted:
+            stop = "no_decrease"
+            break
+        iterations += 1
+        decrease = error - new_error
+        small = decrease <= absolute_tol or decrease <= relative_tol * error
+        small_steps = small_steps + 1 if small else 0
+        # predicted decrease of 0.5 ||A d - b||^2 with (H + lam I) d = g: 0.5 (d.g + lam d.d)
+        predicted = 0.5 * float(step @ g + lam * step @ step)
+        rho = decrease / predicted if predicted > 0.0 else 0.0
+        lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+        growth = 2.0
+        theta, error = candidate, new_error
+        if small_steps >= patience:
+            stop = "converged"
+            break
+    return SolverOutcome(theta, iterations, initial_error, error, trials, stop, timings)

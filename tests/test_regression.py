@@ -1,0 +1,33 @@
+"""The rewritten planner reproduces the plans of the planner it replaced (fixtures made before
+the rewrite by tests/regression/make_fixtures.py): each case's end-effector path within 1 mm
+and joints within 1 mrad, or a graph error no higher than the old plan's on the same graph,
+with the same verdict."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.regression.cases import CASES, run_case
+
+FIXTURES = np.load(Path(__file__).parent / "regression" / "plans.npz")
+
+
+@pytest.mark.parametrize("name", CASES)
+def test_plan_matches_the_pre_rewrite_plan(name, request):
+    if f"{name}/q" not in FIXTURES:
+        pytest.skip(f"no fixture for {name}")
+    result = run_case(name)
+    if result is None:
+        pytest.skip("box_closing.mat not found in ../shared/datasets (set SKILLPLAN_DATASETS)")
+    robot = request.getfixturevalue(name.split("_")[0])
+    old_q = FIXTURES[f"{name}/q"]
+    ee_gap = float(np.max(np.linalg.norm(robot.fk(result.q) - robot.fk(old_q), axis=1)))
+    joint_gap = float(np.max(np.abs(result.q - old_q)))
+    old_error = float(FIXTURES[f"{name}/final_error"])
+    assert result.success == bool(FIXTURES[f"{name}/success"]), result.reasons
+    same = ee_gap <= 1e-3 and joint_gap <= 1e-3
+    assert same or result.final_error <= old_error * (1 + 1e-9), (
+        f"{name}: end effector {ee_gap * 1e3:.3f} mm, joints {joint_gap * 1e3:.3f} mrad away; "
+        f"error {result.final_error:.6g} vs {old_error:.6g}")
