@@ -269,8 +269,10 @@ class SerialChain:
         (or None). Column k is w_k x (p - o_k) for a revolute joint and the axis for a prismatic
         one, and zero unless the point moves with joint k.
         """
-        rot = frames.rotations[:, joints]                                      # (B, P, 3, 3)
-        pos = frames.origins[:, joints] + np.einsum("bpij,pj->bpi", rot, local)
+        B, P = frames.rotations.shape[0], len(joints)
+        # every point in every joint frame with one matrix product, then each point's own joint
+        everywhere = (frames.rotations.reshape(-1, 3) @ local.T).reshape(B, -1, 3, P)
+        pos = everywhere[:, joints, :, np.arange(P)].transpose(1, 0, 2) + frames.origins[:, joints]
         if not jacobians:
             return pos, None
         moves = np.arange(1, self.n + 1)[None, :] <= joints[:, None]           # (P, n)
@@ -280,7 +282,6 @@ class SerialChain:
         shift = _cross(angular, frames.origins[:, 1:])
         if self.is_prismatic.any():
             shift -= np.where(self.is_prismatic[:, None], frames.axes, 0.0)
-        B, P = pos.shape[:2]
         factors = np.empty((B, 4, 3, self.n))
         factors[:, :3] = np.einsum("ijl,bkj->blik", _LEVI_CIVITA, angular)   # (w x p)_i = eps_ijl w_j p_l
         factors[:, 3] = -shift.transpose(0, 2, 1)

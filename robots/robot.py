@@ -197,10 +197,11 @@ class Robot:
                 raise RobotError(f"qdot: expected shape {lead + (self.n,)} like q, got {lead_dot + (self.n,)}")
         frames = self.chain.joint_frames(flat)
         pos, columns, angular = self.chain.point(frames, self._ee.joint, self._ee.translation, True)
-        velocity, velocity_jacobian = self.chain.velocity_and_derivative(columns, angular, qdot_flat)
         shape3, shape3n = lead + (3,), lead + (3, self.n)
-        if not jacobians:
+        if not jacobians:  # J qdot only: no derivative of the velocity
+            velocity = np.einsum("bnk,bn->bk", columns, qdot_flat)
             return EndEffectorKinematics(pos.reshape(shape3), velocity.reshape(shape3), None, None)
+        velocity, velocity_jacobian = self.chain.velocity_and_derivative(columns, angular, qdot_flat)
         return EndEffectorKinematics(pos.reshape(shape3), velocity.reshape(shape3),
                                      columns.transpose(0, 2, 1).reshape(shape3n),
                                      velocity_jacobian.reshape(shape3n))
