@@ -11,15 +11,12 @@ drops most, until `max_spheres` is reached or no link gains more than `min_gain`
 volume. Finally a fresh surface sample grows each sphere over the points it misses (closing the
 gaps between fitting samples).
 
-Regenerate the built-in sphere files with ``python -m robots.spheres --robot jaco`` (and ``--robot sawyer``);
-any URDF: ``python -m robots.spheres --urdf PATH --out FILE.json [--package-dir D]``.
+Regenerate the built-in sphere files with ``python -m robots.sphere_cli --robot jaco`` (and ``--robot sawyer``);
+any URDF: ``python -m robots.sphere_cli --urdf PATH --out FILE.json [--package-dir D]``.
 """
 from __future__ import annotations
 
-import argparse
 import math
-import sys
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -31,7 +28,7 @@ from scipy.spatial import cKDTree
 from .collision_geometry import LinkSurface, link_surfaces
 from .errors import CollisionGeometryError, UnknownFrameError
 from .kinematics import frame_names
-from .sphere_model import SphereModel, save_sphere_file
+from .sphere_model import SphereModel
 from .validation import as_generator
 
 MIN_RADIUS = 1e-3  # [m] smallest radius a fitted sphere gets (tiny geometry, large inflation)
@@ -355,42 +352,3 @@ def _boundary_to_surface(centres: np.ndarray, radii: np.ndarray, surface_points:
     depth[np.arange(len(boundary)), owner] = np.inf
     exposed = boundary[np.all(depth > 0.0, axis=1)]
     return cKDTree(surface_points).query(exposed)[0] if len(exposed) else np.zeros(0)
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: fit spheres to a built-in robot (--robot NAME, written to its sphere file
-    robots/spheres/NAME.json unless --out is given) or to any URDF (--urdf PATH --out FILE)."""
-    parser = argparse.ArgumentParser(prog="python -m robots.spheres", description=main.__doc__)
-    source = parser.add_mutually_exclusive_group(required=True)
-    source.add_argument("--robot", help="built-in robot name (jaco, sawyer)")
-    source.add_argument("--urdf", help="URDF file")
-    parser.add_argument("--out", help="sphere file to write (JSON)")
-    parser.add_argument("--package-dir", action="append", default=[], help="folder that holds package:// paths")
-    parser.add_argument("--links", nargs="*", default=None, help="links to cover (default: all moving links)")
-    parser.add_argument("--max-spheres", type=int, default=40)
-    parser.add_argument("--inflation", type=float, default=0.01, help="allowed growth in metres")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-    if args.robot is not None:
-        from .registry import load_robot, sphere_override_path
-        robot = load_robot(args.robot)
-        model, collision_model = robot.model, robot.collision_model
-        out = args.out or sphere_override_path(args.robot)
-    else:
-        if args.out is None:
-            parser.error("--out is required with --urdf")
-        model, collision_model, _ = pin.buildModelsFromUrdf(args.urdf, package_dirs=args.package_dir)
-        out = args.out
-    start = time.perf_counter()
-    spheres = fit_spheres(model, collision_model, args.links, args.max_spheres, args.inflation, args.seed)
-    seconds = time.perf_counter() - start
-    save_sphere_file(spheres, out)
-    report = sphere_coverage(model, collision_model, spheres, args.inflation, links=args.links)
-    print(f"{out}: {spheres.count} spheres in {seconds:.1f} s, coverage {report.coverage:.4f} at "
-          f"{args.inflation} m inflation, mean radius {report.mean_radius:.4f} m, "
-          f"mean overshoot {report.mean_overshoot:.4f} m")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -10,7 +10,8 @@ from synthetic_arms import TIP_PLACEMENT, builtin_models, one_link_model
 from robots import registry
 from robots.errors import CollisionGeometryError, RobotError, UnknownFrameError
 from robots.sphere_model import SphereModel, load_sphere_file
-from robots.spheres import enclosing_ball, fit_spheres, main, sphere_coverage
+from robots.sphere_cli import main
+from robots.spheres import enclosing_ball, fit_spheres, sphere_coverage
 
 BOX_PLACEMENT = pin.SE3(pin.utils.rpyToMatrix(0.2, 0.5, -0.3), np.array([0.1, 0.0, 0.25]))
 
@@ -134,7 +135,7 @@ def test_builtin_robots_are_covered_by_at_most_40_spheres(name):
 def test_builtin_sphere_files_cover_their_robot(name):
     path = registry.sphere_override_path(name)
     if not path.is_file():
-        pytest.skip(f"{path} not generated (python -m robots.spheres --robot {name})")
+        pytest.skip(f"{path} not generated (python -m robots.sphere_cli --robot {name})")
     model, geometry = builtin_models(name)
     spheres = load_sphere_file(path)
     report = sphere_coverage(model, geometry, spheres, inflation=0.01, samples=20000, rng=2024)
