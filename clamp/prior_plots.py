@@ -68,32 +68,40 @@ def _transported_normals(tangent: np.ndarray) -> np.ndarray:
 
 def envelope_tube(prior: LinearGaussianPrior, level: float = 0.95,
                   resolution: int = 24) -> np.ndarray:
-    """Surface points (T, resolution, 3) of the position envelope tube of a prior.
-
-    At support state i the cross-section is the ellipse ``mean_i + z L_i [cos a, sin a]``
-    in the plane normal to the mean path (frames carried by parallel transport so the surface
-    does not twist), L_i the Cholesky factor of the position covariance projected on that
-    plane, z the two-sided normal quantile of ``level`` (1.96 for 0.95).
-    """
+    """Surface points (T, resolution, 3) of the position envelope tube of a prior
+    (:func:`covariance_tube` of its mean path and position covariances)."""
     if prior.num_axes != 3:
         raise ShapeError(f"prior: expected a workspace prior with 3 position axes, "
                          f"got {prior.num_axes}")
+    return covariance_tube(prior.mean[:, :3], prior.cov[:, :3, :3], level, resolution)
+
+
+def covariance_tube(centre: np.ndarray, cov: np.ndarray, level: float = 0.95,
+                    resolution: int = 24) -> np.ndarray:
+    """Surface points (T, resolution, 3) of the tube around a path centre (T, 3) [m] with
+    position covariances cov (T, 3, 3) [m^2].
+
+    At state i the cross-section is the ellipse ``centre_i + z L_i [cos a, sin a]`` in the
+    plane normal to the path (frames carried by parallel transport so the surface does not
+    twist), L_i the Cholesky factor of the covariance projected on that plane, z the two-sided
+    normal quantile of ``level`` (1.96 for 0.95).
+    """
     z = envelope_quantile(level)
     resolution = as_count(resolution, "resolution", minimum=3)
-    centre = prior.mean[:, :3]
+    T = len(centre)
     tangent = np.gradient(centre, axis=0)
     length = np.linalg.norm(tangent, axis=1)
     valid = length > STATIONARY_FRACTION * max(float(length.max()), 1e-300)
     if not np.any(valid):
-        tangent, valid = np.tile([0.0, 0.0, 1.0], (prior.T, 1)), np.ones(prior.T, bool)
+        tangent, valid = np.tile([0.0, 0.0, 1.0], (T, 1)), np.ones(T, bool)
     # Carry the last valid tangent over stationary stretches (forward, then backward fill).
-    idx = np.maximum.accumulate(np.where(valid, np.arange(prior.T), 0))
+    idx = np.maximum.accumulate(np.where(valid, np.arange(T), 0))
     idx = np.where(valid[idx], idx, np.argmax(valid))
     tangent = tangent[idx] / np.linalg.norm(tangent[idx], axis=1, keepdims=True)
     normal = _transported_normals(tangent)
     binormal = np.cross(tangent, normal)
     basis = np.stack([normal, binormal], axis=2)                  # (T, 3, 2)
-    cov2 = np.swapaxes(basis, 1, 2) @ prior.cov[:, :3, :3] @ basis  # (T, 2, 2)
+    cov2 = np.swapaxes(basis, 1, 2) @ cov @ basis                 # (T, 2, 2)
     scale = max(float(np.trace(cov2, axis1=1, axis2=2).max()), 1e-300)
     root = np.linalg.cholesky(cov2 + 1e-12 * scale * np.eye(2))   # continuous in cov2
     angle = np.linspace(0.0, 2.0 * np.pi, resolution)
