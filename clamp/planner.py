@@ -444,14 +444,16 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
     out = optimize(problem, config)
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
-    if covariance and problem.banded and False:  # TEMP until marginals land
-        state_cov, ee_cov = plan_covariances(problem, out.theta)
+    floor = 0.0
+    if covariance and problem.banded:
+        state_cov, ee_cov, floor = plan_covariances(problem, out.theta)
     t_end = time.perf_counter()
     timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
                **out.timings}
     result = _evaluate(prior, robot, scene, problem, request, out, config, timings)
     result.initial_q = init.q
     result.state_covariance, result.ee_covariance = state_cov, ee_cov
+    result.covariance_floor = floor
     result.timings["total"] = time.perf_counter() - t0
     return result
 

@@ -24,7 +24,9 @@ class PlanResult:
     (initial-state term left out); within_limits; success and reasons (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
-    computed).
+    computed); covariance_floor: information [1/rad^2] added to every coordinate because the
+    graph left a direction unconstrained (0.0: the exact Laplace covariance; see
+    :mod:`clamp.uncertainty`).
     """
 
     q: np.ndarray
@@ -54,6 +56,7 @@ class PlanResult:
     state_covariance: np.ndarray | None = None
     ee_covariance: np.ndarray | None = None
     via_errors: list[float] = field(default_factory=list)
+    covariance_floor: float = 0.0
 
     @property
     def ee_std(self) -> np.ndarray | None:

@@ -33,6 +33,7 @@ import numpy as np
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 from threadpoolctl import threadpool_limits
 
+from clamp.banded import BandLayout
 from clamp.factors.states import StateWindow
 from clamp.problem import NormalEquations, PlanningProblem
 
@@ -50,31 +51,6 @@ class SolverOutcome:
     trials: int
     stop_reason: str
     timings: dict[str, float] = field(default_factory=dict)
-
-
-class BandLayout:
-    """Index maps from block-tridiagonal blocks (T blocks of d x d) to LAPACK lower band storage
-    (2d, T d): H[r, c] at band[r - c, c] for r >= c."""
-
-    def __init__(self, T: int, d: int):
-        self.T, self.d = T, d
-        a, b = np.meshgrid(np.arange(d), np.arange(d), indexing="ij")    # row a, column b
-        lower = a >= b
-        t = np.arange(T)[:, None]
-        self.diag_target = ((a[lower] - b[lower])[None] * (T * d) + t * d + b[lower][None]).ravel()
-        self.diag_source = (t * d * d + (a[lower] * d + b[lower])[None]).ravel()
-        # block (t+1, t) = E[t]^T: H[(t+1)d + a, t d + b] = E[t][b, a]; r - c = d + a - b
-        t1 = np.arange(T - 1)[:, None]
-        off = (d + a - b) < 2 * d
-        self.off_target = (((d + a - b)[off])[None] * (T * d) + t1 * d + b[off][None]).ravel()
-        self.off_source = (t1 * d * d + (b[off] * d + a[off])[None]).ravel()
-
-    def band(self, D: np.ndarray, E: np.ndarray) -> np.ndarray:
-        """Lower band storage (2d, T d) of the symmetric block-tridiagonal (D, E)."""
-        out = np.zeros(2 * self.d * self.T * self.d)
-        out[self.diag_target] = D.reshape(-1)[self.diag_source]
-        out[self.off_target] = E.reshape(-1)[self.off_source]
-        return out.reshape(2 * self.d, self.T * self.d)
 
 
 class DampedBandSolver:

@@ -269,9 +269,9 @@ class SerialChain:
         (or None). Column k is w_k x (p - o_k) for a revolute joint and the axis for a prismatic
         one, and zero unless the point moves with joint k.
         """
-        B, P = frames.rotations.shape[0], len(joints)
+        B, J, P = frames.rotations.shape[0], frames.rotations.shape[1], len(joints)
         # every point in every joint frame with one matrix product, then each point's own joint
-        everywhere = (frames.rotations.reshape(-1, 3) @ local.T).reshape(B, -1, 3, P)
+        everywhere = (frames.rotations.reshape(-1, 3) @ local.T).reshape(B, J, 3, P)
         pos = everywhere[:, joints, :, np.arange(P)].transpose(1, 0, 2) + frames.origins[:, joints]
         if not jacobians:
             return pos, None

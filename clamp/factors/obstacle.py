@@ -42,8 +42,9 @@ class ObstacleFamily(Family):
         active = hinge > 0.0
         states = np.flatnonzero(np.any(active, axis=1))
         error = np.where(active[states], hinge[states], 0.0)
-        if not jacobians:
-            return Linearization(rows[states], error, None)
+        if not jacobians or not len(states):
+            return Linearization(rows[states], error,
+                                 None if not jacobians else np.zeros((0, len(self.radii), window.theta.shape[1])))
         centre_jac = window.sphere_jacobians(i[states])                  # (R, S, 3, n)
         g = gradient[states] * active[states][..., None]
         n = centre_jac.shape[-1]

@@ -1,0 +1,137 @@
+"""The GTSAM face of a planning problem against the fast solver, at the level of optima:
+
+- the fast solver's optimum on box_closing (empty and with the box) is an optimum of GTSAM's
+  own optimizers on ``problem.graph()``: started there, they find no lower error (1e-6
+  relative) and do not move the end effector (1 mm);
+- a caller's own GTSAM CustomFactor is honoured by the fast solver and by GTSAM's optimizers;
+- GTSAM's Marginals on the graph equal the plan's posterior covariances.
+
+(Per-factor and whole-graph error / linearization equality at random points are in
+tests/test_families.py.)
+"""
+from __future__ import annotations
+
+import gtsam
+import numpy as np
+import pytest
+
+from clamp import PlannerConfig, build, learn_prior, optimize, plan
+from clamp.keys import state_key, values_to_states
+from tests.regression.cases import REFERENCE_BOX, REFERENCE_START
+
+TIGHT = PlannerConfig().with_(relative_error_tol=1e-10, absolute_error_tol=1e-10,
+                              convergence_patience=10, max_iterations=5000)
+
+
+@pytest.fixture(scope="module")
+def box_closing_prior():
+    from scenes import load_demonstrations
+    from tests.conftest import dataset_path
+    path = dataset_path("box_closing")
+    if path is None:
+        pytest.skip("box_closing.mat not found in ../shared/datasets (set SKILLPLAN_DATASETS)")
+    return learn_prior(load_demonstrations(path))
+
+
+@pytest.mark.parametrize("with_box", [False, True])
+def test_fast_optimum_is_an_optimum_of_gtsams_optimizers(jaco, box_closing_prior, with_box):
+    from scenes import Box, Scene
+    scene = Scene([Box.from_reference(REFERENCE_BOX)]) if with_box else None
+    problem = build(box_closing_prior, jaco, scene, REFERENCE_START, config=TIGHT)
+    fast = optimize(problem, TIGHT)
+    graph, values = problem.graph(), problem.values(fast.theta)
+    assert graph.error(values) == pytest.approx(fast.final_error, rel=1e-9)
+    for make, params in ((gtsam.LevenbergMarquardtOptimizer, gtsam.LevenbergMarquardtParams()),
+                         (gtsam.DoglegOptimizer, gtsam.DoglegParams())):
+        params.setLinearSolverType("MULTIFRONTAL_QR")
+        params.setMaxIterations(20)
+        params.setRelativeErrorTol(1e-12)
+        params.setAbsoluteErrorTol(1e-12)
+        optimizer = make(graph, values, params)
+        optimizer.optimize()
+        assert optimizer.error() >= fast.final_error * (1 - 1e-6)
+        theta = values_to_states(optimizer.values(), problem.keys)
+        moved = np.linalg.norm(jaco.fk(theta[:, :jaco.n]) - jaco.fk(fast.theta[:, :jaco.n]), axis=1)
+        assert moved.max() <= 1e-3
+
+
+def lift_factor(robot, index: int, height: float) -> gtsam.CustomFactor:
+    """A caller's factor: the end effector at least ``height`` [m] high at state ``index``."""
+    n = robot.n
+
+    def error(this, values, H):
+        theta = values.atVector(this.keys()[0])
+        kin = robot.ee_kinematics(theta[None, :n], None, jacobians=True)
+        gap = height - kin.position[0, 2]
+        if H is not None:
+            H[0] = np.zeros((1, 2 * n))
+            if gap > 0:
+                H[0][0, :n] = -kin.jacobian[0, 2]
+        return np.array([max(gap, 0.0)])
+
+    return gtsam.CustomFactor(gtsam.noiseModel.Isotropic.Sigma(1, 1e-4),
+                              gtsam.KeyVector([state_key(index)]), error)
+
+
+@pytest.fixture(scope="module")
+def soft_prior():
+    from scenes import make_demonstrations
+    demos = make_demonstrations("box_closing", num_demos=6, num_points=60, dt=0.16 * 250 / 60,
+                                seed=3)
+    return learn_prior(demos, jitter=1e-4)
+
+
+@pytest.mark.parametrize("optimizer", ["fast", "gtsam", "gtsam_dogleg"])
+def test_user_custom_factor_is_honoured_by_every_optimizer(jaco, soft_prior, optimizer):
+    start = soft_prior.mean[0, :3]
+    free = plan(soft_prior, jaco, None, start, covariance=False)
+    height = float(free.ee_path[30, 2]) + 0.02                 # 2 cm above the free plan
+    result = plan(soft_prior, jaco, None, start, extra_factors=[lift_factor(jaco, 30, height)],
+                  config=PlannerConfig().with_(optimizer=optimizer, max_iterations=200),
+                  covariance=False)
+    assert result.optimizer == optimizer
+    assert result.ee_path[30, 2] >= height - 2e-3
+    assert "foreign" in result.family_errors
+
+
+@pytest.mark.parametrize("case", ["box", "joint_goal"])
+def test_posterior_covariance_equals_gtsam_marginals(jaco, soft_prior, case):
+    """On graphs that constrain every direction (GTSAM's Marginals refuse the others, see
+    test_unconstrained_direction_gets_the_information_floor)."""
+    from scenes import Box, Scene
+    start = soft_prior.mean[0, :3]
+    scene = goal = None
+    if case == "box":
+        scene = Scene([Box(soft_prior.mean[30, :3] + [0, 0, -0.04], [0.06] * 3)])
+    else:
+        goal = plan(soft_prior, jaco, None, start, covariance=False).q[-1] + 0.01
+    result = plan(soft_prior, jaco, scene, start, goal=goal)
+    assert result.covariance_floor == 0.0
+    problem = build(soft_prior, jaco, scene, start, goal=goal)
+    theta = np.concatenate([result.q, result.qdot], axis=1)
+    marginals = gtsam.Marginals(problem.graph(), problem.values(theta))
+    for i in (0, 1, 17, 30, len(theta) - 1):
+        expected = marginals.marginalCovariance(state_key(i))
+        np.testing.assert_allclose(result.state_covariance[i], expected, rtol=1e-6,
+                                   atol=1e-6 * np.abs(expected).max())
+    # the end-effector covariance is the joint covariance seen through the position Jacobian
+    J = jaco.ee_kinematics(result.q, result.qdot).jacobian
+    q_cov = result.state_covariance[:, :jaco.n, :jaco.n]
+    expected = np.einsum("tij,tjk,tlk->til", J, q_cov, J)
+    np.testing.assert_allclose(result.ee_covariance, expected, rtol=1e-6,
+                               atol=1e-9 * np.abs(expected).max())
+
+
+def test_unconstrained_direction_gets_the_information_floor(jaco, soft_prior):
+    """The Jaco's continuous wrist can spin at any constant speed at no cost in an empty scene
+    without a joint goal: GTSAM calls the graph underconstrained; the plan reports the floor."""
+    from clamp.uncertainty import INFORMATION_FLOOR
+    start = soft_prior.mean[0, :3]
+    result = plan(soft_prior, jaco, None, start)
+    problem = build(soft_prior, jaco, None, start)
+    theta = np.concatenate([result.q, result.qdot], axis=1)
+    with pytest.raises(RuntimeError, match="nderconstrained|ndeterminate"):
+        gtsam.Marginals(problem.graph(), problem.values(theta))
+    assert result.covariance_floor == INFORMATION_FLOOR
+    assert np.all(np.isfinite(result.ee_covariance))
+    assert np.all(np.linalg.eigvalsh(result.ee_covariance) > -1e-15)
