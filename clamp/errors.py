@@ -33,3 +33,7 @@ class PriorFileError(ClampError):
 
 class ClampWarning(UserWarning):
     """A learning or planning setting is legal but likely to give a poor result."""
+
+
+class AnimationError(ClampError):
+    """Bad input to the animation writer, or a viewer dependency that is missing."""

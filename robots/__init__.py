@@ -1,17 +1,22 @@
 """Kinematics of real arms: Pinocchio models, joint limits, end effector, collision spheres,
 vectorized forward kinematics with Jacobians, and inverse kinematics for initialisation."""
-from .errors import (CollisionGeometryError, InvalidArrayError, RobotError, SphereFileError,
+from .errors import (CollisionGeometryError, InvalidArrayError, RetimingError, RobotError,
+                     SphereFileError, TrajectoryError, TrajectoryExistsError, TrajectoryFileError,
                      UnknownFrameError, UnknownRobotError, UnsupportedJointError, URDFParseError)
 from .ik import IKResult, IKTrajectoryResult
 from .kinematics import EndEffectorKinematics
 from .robot import Robot
 from .sphere_model import SphereModel
 from .registry import available_robots, load_robot
+from .retiming import RetimingReport, check_limits, retime, uniform_scaling
+from .trajectory import JointTrajectory, load_trajectory
 
 __all__ = [
     "Robot", "load_robot", "available_robots", "EndEffectorKinematics", "SphereModel",
-    "IKResult", "IKTrajectoryResult",
+    "IKResult", "IKTrajectoryResult", "JointTrajectory", "load_trajectory", "retime",
+    "RetimingReport", "check_limits", "uniform_scaling",
     "RobotError", "UnknownRobotError", "UnknownFrameError", "URDFParseError", "UnsupportedJointError",
-    "InvalidArrayError", "SphereFileError", "CollisionGeometryError",
+    "InvalidArrayError", "SphereFileError", "CollisionGeometryError", "TrajectoryError",
+    "TrajectoryFileError", "TrajectoryExistsError", "RetimingError",
 ]
 

@@ -44,3 +44,19 @@ class SphereFileError(RobotError):
 
 class CollisionGeometryError(RobotError):
     """Collision geometry that cannot be read or sampled, or bad sphere-fitting settings."""
+
+
+class TrajectoryError(RobotError):
+    """A joint trajectory with inconsistent shapes, times or header fields."""
+
+
+class TrajectoryFileError(TrajectoryError):
+    """A trajectory file that cannot be written, read or parsed."""
+
+
+class TrajectoryExistsError(TrajectoryFileError, FileExistsError):
+    """The output file exists and overwrite=False."""
+
+
+class RetimingError(RobotError):
+    """Bad retiming input (limits, method, joint names) or a parameterisation that failed."""

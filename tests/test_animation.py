@@ -1,0 +1,140 @@
+"""3-D animation (clamp.animation): one offline HTML file; headless Chromium sees the arm move."""
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("meshcat", reason="the animation needs meshcat (pip install meshcat)")
+
+from clamp.animation import AnimationError, surface_from_grid, write_animation  # noqa: E402
+from clamp.errors import ClampError  # noqa: E402
+from scenes import Box, Cylinder, Scene, Sphere  # noqa: E402
+
+JACO_A = np.array([0.0, 3.5, 1.8, 0.0, 2.5, 0.0])
+JACO_B = np.array([1.5, 2.5, 2.5, 1.0, 2.0, 1.0])
+DURATION = 3.0
+CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None)
+# namespace URIs inside three.js are names, not fetched resources
+ALLOWED_URLS = {"http://www.w3.org/1999/xhtml", "http://www.w3.org/2000/svg"}
+
+
+def plan(q0=JACO_A, q1=JACO_B, T=20):
+    t = np.linspace(0.0, DURATION, T)
+    s = 0.5 - 0.5 * np.cos(np.pi * t / DURATION)
+    return t, q0 + s[:, None] * (q1 - q0)
+
+
+def extras(robot, q):
+    ee = robot.fk(q)
+    demos = ee[None] + np.array([[0.0, 0.0, 0.03], [0.0, 0.03, 0.0], [0.03, 0.0, 0.0]])[:, None, :]
+    angle = np.linspace(0.0, 2 * np.pi, 17)
+    X = ee[:, 0, None] + 0.05 * np.cos(angle)
+    Y = ee[:, 1, None] + 0.05 * np.sin(angle)
+    Z = np.repeat(ee[:, 2, None], len(angle), axis=1)
+    scene = Scene([Box([0.45, -0.3, 0.1], [0.2, 0.2, 0.2]), Sphere([-0.3, 0.3, 0.3], 0.08),
+                   Cylinder([0.3, 0.4, 0.2], 0.05, 0.4, axis=[1.0, 0.0, 0.0])])
+    return dict(obstacles=scene, demonstrations=demos, mean_path=demos.mean(axis=0),
+                extra_surface=surface_from_grid(X, Y, Z))
+
+
+@pytest.fixture(scope="module")
+def page(jaco, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("animation")
+    t, q = plan()
+    path = write_animation(folder / "plan.html", jaco, t, q, **extras(jaco, q), title="test plan")
+    return folder, path
+
+
+def test_one_self_contained_file(page):
+    folder, path = page
+    assert [p.name for p in folder.iterdir()] == ["plan.html"]  # no side files, no temporary files
+    text = path.read_text(encoding="utf-8")
+    assert text.startswith("<!DOCTYPE html>") and "MeshCat.Viewer" in text
+    assert not re.search(r"<script[^>]*\bsrc\s*=", text, re.IGNORECASE)
+    assert not re.search(r"\b(?:src|href)\s*=\s*[\"']?\s*(?:https?:)?//", text, re.IGNORECASE)
+    assert not re.search(r"(?:fetch|import)\s*\(\s*[\"'`]https?:", text)
+    assert set(re.findall(r"https?://[^\s\"'<>()`\\]+", text)) <= ALLOWED_URLS
+    assert 0.5e6 < path.stat().st_size < 8e6
+
+
+def test_sawyer_without_visual_elements_draws_collision_geometry(tmp_path):
+    from robots import load_robot
+
+    sawyer = load_robot("sawyer")
+    q0 = np.array([0.0, -0.5, 0.0, 1.0, 0.0, 0.5, 0.0])
+    t, q = plan(q0, q0 + 0.5, T=10)
+    path = write_animation(tmp_path / "sawyer.html", sawyer, t, q, frame_rate=10.0)
+    assert "MeshCat.Viewer" in path.read_text(encoding="utf-8")
+
+
+def test_surface_from_grid():
+    X, Y = np.meshgrid(np.arange(4.0), np.arange(3.0), indexing="ij")
+    vertices, faces = surface_from_grid(X, Y, X + Y)
+    assert vertices.shape == (12, 3) and faces.shape == (2 * 3 * 2, 3)
+    assert faces.min() == 0 and faces.max() == 11
+
+
+def test_bad_input_raises_clamp_errors(jaco, tmp_path):
+    t, q = plan()
+    with pytest.raises(AnimationError, match="q: expected shape"):
+        write_animation(tmp_path / "a.html", jaco, t, q[:, :3])
+    with pytest.raises(AnimationError, match="time"):
+        write_animation(tmp_path / "a.html", jaco, t[::-1], q)
+    with pytest.raises(AnimationError, match="extra_surface faces"):
+        write_animation(tmp_path / "a.html", jaco, t, q, extra_surface=(np.zeros((3, 3)), np.array([[0, 1, 7]])))
+    with pytest.raises(AnimationError, match="demonstrations"):
+        write_animation(tmp_path / "a.html", jaco, t, q, demonstrations=np.zeros((4, 3)))
+    (tmp_path / "a.html").write_text("keep")
+    with pytest.raises(ClampError, match="overwrite"):
+        write_animation(tmp_path / "a.html", jaco, t, q, overwrite=False)
+    assert (tmp_path / "a.html").read_text() == "keep"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.html"]
+
+
+def screenshot(page: Path, time: float, out: Path) -> np.ndarray:
+    """Headless Chromium screenshot of the page frozen at `time` s (URL fragment #t=...)."""
+    from PIL import Image
+
+    command = [CHROMIUM, "--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+               "--window-size=800,600", "--virtual-time-budget=8000", f"--screenshot={out}",
+               f"file://{page}#t={time}"]
+    subprocess.run(command, capture_output=True, timeout=300, check=False)
+    assert out.is_file(), f"chromium wrote no screenshot: {' '.join(command)}"
+    return np.asarray(Image.open(out).convert("RGB"), dtype=int)
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium not found (Debian: apt-get install chromium)")
+def test_headless_chromium_shows_the_arm_moving(page, tmp_path):
+    _, path = page
+    first = screenshot(path, 0.0, tmp_path / "t0.png")
+    last = screenshot(path, DURATION, tmp_path / "t1.png")
+    assert first.shape == last.shape == (600, 800, 3)
+    # the background is a light gradient (>= 200 in every channel); the arm's links are dark grey
+    dark = [(image.max(axis=2) < 110) for image in (first, last)]
+    assert dark[0].sum() > 2000 and dark[1].sum() > 2000, "no arm pixels in the screenshots"
+    moved = np.abs(first - last).max(axis=2) > 60
+    assert moved.sum() > 2000, "the two animation times look the same"
+    # what changed is the arm: many changed pixels are arm pixels in one frame or the other
+    assert (moved & (dark[0] | dark[1])).sum() > 0.5 * moved.sum()
+
+
+@pytest.mark.parametrize("name", ["jaco", "sawyer"])
+def test_arm_is_drawn_in_the_planning_frame(name):
+    """The viewer places Pinocchio's world poses under the base-frame inverse: the end effector
+    drawn there must be where robot.fk (the planner's frame) puts it."""
+    import pinocchio as pin
+
+    from clamp.animation import _base_inverse
+    from robots import load_robot
+
+    robot = load_robot(name)
+    q = robot.random_configuration(np.random.default_rng(0))
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.to_pinocchio(q))
+    world_ee = data.oMf[robot.model.getFrameId(robot.end_effector, pin.FrameType.BODY)].homogeneous
+    np.testing.assert_allclose((_base_inverse(robot, pin) @ world_ee)[:3, 3], robot.fk(q), atol=1e-9)
