@@ -5,13 +5,13 @@ from .demonstrations import NOMINAL_DURATION, Demonstrations
 from .errors import (DemonstrationFileError, InvalidArgumentError, InvalidDemonstrationsError,
                      InvalidObstacleError, SceneFileError, ScenesError, UnknownSkillError)
 from .io import load_demonstrations, save_csv
-from .obstacles import Box, Cylinder, Obstacle, Sphere
+from .obstacles import Box, Capsule, Cylinder, Obstacle, Sphere
 from .scene import DEFAULT_WORKSPACE, Scene, available_scenes, builtin_scene
 from .sdf import SignedDistanceField
 from .synthetic import SKILLS, make_demonstrations
 
 __all__ = [
-    "Box", "Cylinder", "Obstacle", "Sphere", "Scene", "SignedDistanceField", "DEFAULT_WORKSPACE",
+    "Box", "Capsule", "Cylinder", "Obstacle", "Sphere", "Scene", "SignedDistanceField", "DEFAULT_WORKSPACE",
     "available_scenes", "builtin_scene",
     "Demonstrations", "NOMINAL_DURATION", "load_demonstrations", "save_csv", "shared_dataset",
     "make_demonstrations", "SKILLS",

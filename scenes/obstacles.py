@@ -1,13 +1,39 @@
-"""Primitive obstacles with exact, vectorized signed distance (metres, negative inside).
+"""Primitive obstacles with exact, vectorised signed distance and gradient (metres, negative inside).
 
-Each obstacle offers ``distance(points (...,3)) -> (...)``, its axis-aligned bounding box
-``aabb() -> (2,3)``, ``translated(offset)`` and a JSON-ready ``to_dict()``;
+Each obstacle offers ``query(points (...,3)) -> (distance (...), gradient (...,3))``,
+``distance(points (...,3)) -> (...)`` (the same kernel without the gradient), its axis-aligned
+bounding box ``aabb() -> (2,3)``, ``translated(offset)`` and a JSON-ready ``to_dict()``;
 :func:`obstacle_from_dict` is the inverse.
+
+Gradient: the unit outward normal of the nearest surface point (|gradient| = 1 everywhere).
+Where the distance is not differentiable a fixed unit subgradient is used, never NaN:
+
+- inside a box, on a tie between faces, the face of the lowest local axis (x, then y, then z)
+  wins; a point on a centre plane takes the face on the positive side;
+- inside a cylinder, on a tie between the mantle and a cap, the mantle wins; on the axis the
+  radial direction is the cylinder's local x axis (see :func:`axis_frame`); at mid-height the
+  +axis cap is taken;
+- at a sphere's centre +x; on a capsule's segment its local x axis.
+
+"On" a centre plane, axis, centre or segment means within :data:`ON_MEDIAL` (1e-12 m): the
+change to local coordinates of a tilted obstacle leaves rounding noise of that order, which
+must not pick the direction.
+
+Obstacles are immutable values: their arrays are read-only copies, so a scene may cache
+anything derived from them.
+
+Package-internal kernel: ``obstacle._evaluate(coords (3,P), gradient)`` works on points that
+were already validated, in coordinate-major layout (a row per axis), and returns the distance
+(P,) and the gradient (P,3) (often a transposed view of a (3,P) array; None when ``gradient``
+is False). :class:`scenes.Scene` and the grid builder validate once and call it directly; use
+:meth:`Obstacle.query` from outside. The kernels work in place on a few buffers: on this
+project's machines a fresh 7500 x 3 temporary costs more (memory mapping) than its arithmetic.
 """
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -15,14 +41,48 @@ from .errors import InvalidObstacleError
 from .validation import as_array, as_points, as_positive, as_vector
 
 
-class Obstacle(ABC):
-    """An obstacle: a solid whose exact signed distance can be evaluated."""
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    """A read-only copy of ``arr``."""
+    out = np.array(arr, dtype=float)
+    out.setflags(write=False)
+    return out
 
-    kind: str = ""
+
+#: Distance (m) from a centre plane, axis, centre or segment below which a point counts as on it
+#: when picking the subgradient (see the module docstring).
+ON_MEDIAL = 1e-12
+
+
+def as_coords(points: Any, name: str = "points") -> tuple[np.ndarray, tuple[int, ...]]:
+    """Validate points (...,3) [m]; return them coordinate-major (3,P) (a transposed view when
+    possible: the kernels' first operation writes a C-ordered copy anyway) and the leading shape."""
+    pts = as_points(points, name)
+    return pts.reshape(-1, 3).T, pts.shape[:-1]
+
+
+def axis_frame(axis: np.ndarray) -> np.ndarray:
+    """Right-handed orthonormal frame (3,3) whose columns are (e1, e2, axis) for a unit axis (3,).
+
+    e1 is world x (or world y when the axis is within ~26 degrees of x) made orthogonal to the
+    axis; for the +z axis the frame is exactly the identity.
+    """
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = helper - (helper @ axis) * axis
+    e1 /= np.linalg.norm(e1)
+    return np.column_stack([e1, np.cross(axis, e1), axis])
+
+
+class Obstacle(ABC):
+    """An obstacle: a solid whose exact signed distance and its gradient can be evaluated."""
+
+    kind: ClassVar[str] = ""
+    #: True when :meth:`query` is exact and cheap (a closed form), so a scene made only of such
+    #: obstacles needs no grid; False for shapes (meshes, voxels) that should go through a grid.
+    primitive: ClassVar[bool] = False
 
     @abstractmethod
-    def distance(self, points: np.ndarray) -> np.ndarray:
-        """Exact signed distance (...,) in metres of points (...,3); negative inside."""
+    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """Kernel on validated points coords (3,P) [m]: distance (P,) and gradient (P,3) or None."""
 
     @abstractmethod
     def aabb(self) -> np.ndarray:
@@ -36,7 +96,29 @@ class Obstacle(ABC):
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description with a ``"type"`` field."""
 
-    def contains(self, points: np.ndarray) -> np.ndarray:
+    def _balls(self) -> tuple[np.ndarray, float, float]:
+        """Centre (3,) [m] and radii [m] of a ball inside the obstacle and a ball containing it
+        (both about that centre), used to cull obstacles far from a point. This default (any
+        shape) has no inner ball (-inf) and the ball around the bounding box."""
+        box = self.aabb()
+        return 0.5 * (box[0] + box[1]), -np.inf, 0.5 * float(np.linalg.norm(box[1] - box[0]))
+
+    def query(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Exact signed distance (...,) [m] and its unit gradient (...,3) at points (...,3).
+
+        Negative inside. Non-differentiable points get a fixed unit subgradient (module
+        docstring). Raises InvalidArgumentError naming ``points`` on a bad shape or NaN/inf.
+        """
+        coords, lead = as_coords(points)
+        d, g = self._evaluate(coords, True)
+        return d.reshape(lead), g.reshape(*lead, 3)
+
+    def distance(self, points: Any) -> np.ndarray:
+        """Exact signed distance (...,) in metres of points (...,3); negative inside."""
+        coords, lead = as_coords(points)
+        return self._evaluate(coords, False)[0].reshape(lead)
+
+    def contains(self, points: Any) -> np.ndarray:
         """Boolean (...,): points inside or on the surface."""
         return self.distance(points) <= 0.0
 
@@ -52,18 +134,50 @@ class Obstacle(ABC):
         return f"{type(self).__name__}({fields})"
 
 
-class Box(Obstacle):
-    """Box of full edge lengths ``size`` (3,) centred at ``center`` (3,).
+class _FramedObstacle(Obstacle):
+    """An obstacle evaluated in a local frame: local = frame^T (world - center).
+
+    ``_frame`` (3,3) has the local axes as columns, or is None for the identity (no matmul).
+    """
+
+    center: np.ndarray
+    _frame: np.ndarray | None
+
+    def _set_frame(self, frame: np.ndarray | None) -> None:
+        if frame is not None and np.array_equal(frame, np.eye(3)):
+            frame = None
+        self._frame = None if frame is None else _frozen(frame)
+        self._frame_t = None if frame is None else np.ascontiguousarray(frame.T)
+        self._local_center = (self.center if frame is None else frame.T @ self.center)[:, None]
+
+    def _local(self, coords: np.ndarray) -> np.ndarray:
+        """Local coordinates (3,P) of world points coords (3,P)."""
+        if self._frame_t is None:
+            return np.subtract(coords, self._local_center, order="C")
+        local = self._frame_t @ coords
+        local -= self._local_center
+        return local
+
+    def _world(self, local_vectors: np.ndarray) -> np.ndarray:
+        """World vectors (P,3) (a transposed view of a (3,P) array) of local vectors (3,P)."""
+        if self._frame is None:
+            return local_vectors.T
+        return (self._frame @ local_vectors).T
+
+
+class Box(_FramedObstacle):
+    """Box of full edge lengths ``size`` (3,) [m] centred at ``center`` (3,) [m].
 
     ``rotation`` (3,3) maps box-local axes to world axes (world = center + rotation @ local);
     None means axis aligned.
     """
 
     kind = "box"
+    primitive = True
 
     def __init__(self, center: Any, size: Any, rotation: Any | None = None):
-        self.center = as_vector(center, "Box center", 3, InvalidObstacleError)
-        self.size = as_vector(size, "Box size", 3, InvalidObstacleError)
+        self.center = _frozen(as_vector(center, "Box center", 3, InvalidObstacleError))
+        self.size = _frozen(as_vector(size, "Box size", 3, InvalidObstacleError))
         if np.any(self.size <= 0):
             raise InvalidObstacleError(f"Box size: expected three positive edge lengths, got {self.size}")
         if rotation is None:
@@ -75,7 +189,13 @@ class Box(Obstacle):
             if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
                 raise InvalidObstacleError("Box rotation: expected a proper rotation matrix "
                                            "(orthonormal, determinant +1)")
-            self.rotation = r
+            self.rotation = _frozen(r)
+        self._half = (0.5 * self.size)[:, None]
+        if self.rotation is None:
+            self._set_frame(None)
+        else:  # the nearest exact rotation (polar factor), so gradients are unit to round-off
+            u, _, vt = np.linalg.svd(self.rotation)
+            self._set_frame(u @ vt)
 
     @classmethod
     def from_reference(cls, row: Any) -> "Box":
@@ -83,15 +203,34 @@ class Box(Obstacle):
         row = as_vector(row, "Box reference row [cx,cy,cz,sx,sy,sz]", 6, InvalidObstacleError)
         return cls(row[:3], row[3:])
 
-    def _local(self, points: np.ndarray) -> np.ndarray:
-        rel = as_points(points, "points") - self.center
-        return rel if self.rotation is None else rel @ self.rotation
+    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        # in place on one (3,P) buffer (see the module docstring)
+        work = self._local(coords)                 # (3,P) local coordinates, reused below
+        negative = work < -ON_MEDIAL if gradient else None
+        np.abs(work, out=work)
+        work -= self._half                         # excess over each face plane (> 0 beyond it)
+        d = work.max(axis=0)
+        inner = np.flatnonzero(d <= 0.0)           # inside or on the surface: nearest face
+        faces = work[:, inner] if gradient and inner.size else None
+        np.maximum(work, 0.0, out=work)            # the part of the offset outside the box
+        outside = np.einsum("ij,ij->j", work, work)
+        np.sqrt(outside, out=outside)
+        np.minimum(d, 0.0, out=d)
+        d += outside
+        if not gradient:
+            return d, None
+        outside[inner] = 1.0
+        work /= outside
+        if faces is not None:
+            ex, ey, ez = faces
+            face = np.where((ex >= ey) & (ex >= ez), 0, np.where(ey >= ez, 1, 2))
+            work[:, inner] = 0.0
+            work[face, inner] = 1.0
+        np.negative(work, out=work, where=negative)
+        return d, self._world(work)
 
-    def distance(self, points: np.ndarray) -> np.ndarray:
-        q = np.abs(self._local(points)) - 0.5 * self.size
-        outside = np.linalg.norm(np.maximum(q, 0.0), axis=-1)
-        inside = np.minimum(q.max(axis=-1), 0.0)
-        return outside + inside
+    def _balls(self) -> tuple[np.ndarray, float, float]:
+        return self.center, 0.5 * float(self.size.min()), 0.5 * float(np.linalg.norm(self.size))
 
     def aabb(self) -> np.ndarray:
         half = 0.5 * self.size if self.rotation is None else 0.5 * np.abs(self.rotation) @ self.size
@@ -116,16 +255,32 @@ class Box(Obstacle):
 
 
 class Sphere(Obstacle):
-    """Ball of ``radius`` metres centred at ``center`` (3,)."""
+    """Ball of ``radius`` metres centred at ``center`` (3,) [m]."""
 
     kind = "sphere"
+    primitive = True
 
     def __init__(self, center: Any, radius: Any):
-        self.center = as_vector(center, "Sphere center", 3, InvalidObstacleError)
+        self.center = _frozen(as_vector(center, "Sphere center", 3, InvalidObstacleError))
         self.radius = as_positive(radius, "Sphere radius", InvalidObstacleError)
+        self._column = self.center[:, None]
 
-    def distance(self, points: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(as_points(points, "points") - self.center, axis=-1) - self.radius
+    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        rel = np.subtract(coords, self._column, order="C")
+        r = np.einsum("ij,ij->j", rel, rel)
+        np.sqrt(r, out=r)
+        d = r - self.radius
+        if not gradient:
+            return d, None
+        centre = r <= ON_MEDIAL
+        r[centre] = 1.0
+        rel /= r
+        rel[:, centre] = 0.0
+        rel[0, centre] = 1.0                       # at the centre: +x
+        return d, rel.T
+
+    def _balls(self) -> tuple[np.ndarray, float, float]:
+        return self.center, self.radius, self.radius
 
     def aabb(self) -> np.ndarray:
         return np.stack([self.center - self.radius, self.center + self.radius])
@@ -137,30 +292,67 @@ class Sphere(Obstacle):
         return {"type": self.kind, "center": self.center.tolist(), "radius": self.radius}
 
 
-class Cylinder(Obstacle):
-    """Solid circular cylinder: centre (3,) at mid-height, radius, full height, axis (3,).
+def _unit_axis(axis: Any, name: str) -> np.ndarray:
+    axis = as_vector(axis, f"{name} axis", 3, InvalidObstacleError)
+    norm = np.linalg.norm(axis)
+    if norm < 1e-12:
+        raise InvalidObstacleError(f"{name} axis: expected a non-zero vector, got {axis.tolist()}")
+    return axis / norm
+
+
+class Cylinder(_FramedObstacle):
+    """Solid circular cylinder: centre (3,) at mid-height [m], radius [m], full height [m], axis (3,).
 
     The axis is normalised; default +z.
     """
 
     kind = "cylinder"
+    primitive = True
 
     def __init__(self, center: Any, radius: Any, height: Any, axis: Any = (0.0, 0.0, 1.0)):
-        self.center = as_vector(center, "Cylinder center", 3, InvalidObstacleError)
+        self.center = _frozen(as_vector(center, "Cylinder center", 3, InvalidObstacleError))
         self.radius = as_positive(radius, "Cylinder radius", InvalidObstacleError)
         self.height = as_positive(height, "Cylinder height", InvalidObstacleError)
-        axis = as_vector(axis, "Cylinder axis", 3, InvalidObstacleError)
-        norm = np.linalg.norm(axis)
-        if norm < 1e-12:
-            raise InvalidObstacleError("Cylinder axis: expected a non-zero vector, got [0, 0, 0]")
-        self.axis = axis / norm
+        self.axis = _frozen(_unit_axis(axis, "Cylinder"))
+        self._set_frame(axis_frame(self.axis))
 
-    def distance(self, points: np.ndarray) -> np.ndarray:
-        rel = as_points(points, "points") - self.center
-        along = rel @ self.axis
-        radial = np.linalg.norm(rel - along[..., None] * self.axis, axis=-1)
-        q = np.stack([radial - self.radius, np.abs(along) - 0.5 * self.height], axis=-1)
-        return np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0)
+    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        work = self._local(coords)                 # (3,P) local coordinates, becomes the gradient
+        x, y, z = work
+        rho = np.einsum("ij,ij->j", work[:2], work[:2])
+        np.sqrt(rho, out=rho)
+        radial = rho - self.radius                 # > 0 outside the mantle
+        axial = np.abs(z)
+        axial -= 0.5 * self.height                 # > 0 beyond a cap
+        d = np.maximum(radial, axial)
+        inner = np.flatnonzero(d <= 0.0)           # inside or on the surface: mantle or cap
+        mantle = radial[inner] >= axial[inner] if gradient else None
+        np.maximum(radial, 0.0, out=radial)
+        np.maximum(axial, 0.0, out=axial)
+        outside = np.hypot(radial, axial)
+        np.minimum(d, 0.0, out=d)
+        d += outside
+        if not gradient:
+            return d, None
+        outside[inner] = 1.0
+        radial /= outside                          # weights of the radial and axial directions
+        axial /= outside
+        radial[inner] = mantle
+        axial[inner] = ~mantle
+        np.negative(axial, out=axial, where=z < -ON_MEDIAL)
+        on_axis = rho <= ON_MEDIAL
+        rho[on_axis] = 1.0
+        radial /= rho
+        x *= radial
+        y *= radial
+        x[on_axis] = radial[on_axis]               # on the axis: local x (rho is 1 there)
+        y[on_axis] = 0.0
+        z[:] = axial
+        return d, self._world(work)
+
+    def _balls(self) -> tuple[np.ndarray, float, float]:
+        half = 0.5 * self.height
+        return self.center, min(self.radius, half), float(np.hypot(self.radius, half))
 
     def aabb(self) -> np.ndarray:
         # Extent of the two end discs along each world axis.
@@ -176,7 +368,154 @@ class Cylinder(Obstacle):
                 "height": self.height, "axis": self.axis.tolist()}
 
 
-OBSTACLE_TYPES: dict[str, type[Obstacle]] = {"box": Box, "sphere": Sphere, "cylinder": Cylinder}
+class Capsule(_FramedObstacle):
+    """Capsule: every point within ``radius`` [m] of a segment.
+
+    The segment has its midpoint at ``center`` (3,) [m], direction ``axis`` (3,) (normalised;
+    default +z) and length ``height`` [m] >= 0 (the cylindrical part, as in coal's
+    ``Capsule(radius, lz)``; overall length height + 2 radius; 0 gives a sphere).
+    """
+
+    kind = "capsule"
+    primitive = True
+
+    def __init__(self, center: Any, radius: Any, height: Any, axis: Any = (0.0, 0.0, 1.0)):
+        self.center = _frozen(as_vector(center, "Capsule center", 3, InvalidObstacleError))
+        self.radius = as_positive(radius, "Capsule radius", InvalidObstacleError)
+        h = as_array(height, "Capsule height", InvalidObstacleError)
+        if h.shape != () or not h >= 0:
+            raise InvalidObstacleError(f"Capsule height: expected a non-negative number "
+                                       f"(segment length, m), got {height!r}")
+        self.height = float(h)
+        self.axis = _frozen(_unit_axis(axis, "Capsule"))
+        self._set_frame(axis_frame(self.axis))
+
+    @property
+    def endpoints(self) -> np.ndarray:
+        """The segment's two ends (2,3) [m]: center -/+ height/2 * axis."""
+        half = 0.5 * self.height * self.axis
+        return np.stack([self.center - half, self.center + half])
+
+    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        work = self._local(coords)
+        half = 0.5 * self.height
+        work[2] -= np.clip(work[2], -half, half)   # offset from the nearest segment point
+        r = np.einsum("ij,ij->j", work, work)
+        np.sqrt(r, out=r)
+        d = r - self.radius
+        if not gradient:
+            return d, None
+        on_segment = r <= ON_MEDIAL
+        r[on_segment] = 1.0
+        work /= r
+        work[:, on_segment] = 0.0
+        work[0, on_segment] = 1.0                  # on the segment: local x
+        return d, self._world(work)
+
+    def _balls(self) -> tuple[np.ndarray, float, float]:
+        return self.center, self.radius, 0.5 * self.height + self.radius
+
+    def aabb(self) -> np.ndarray:
+        half = 0.5 * self.height * np.abs(self.axis) + self.radius
+        return np.stack([self.center - half, self.center + half])
+
+    def translated(self, offset: np.ndarray) -> "Capsule":
+        return Capsule(self.center + as_vector(offset, "offset", 3), self.radius, self.height, self.axis)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": self.kind, "center": self.center.tolist(), "radius": self.radius,
+                "height": self.height, "axis": self.axis.tolist()}
+
+
+class Nearest:
+    """Package kernel: min signed distance over obstacles and the nearest one's gradient.
+
+    ``nearest(coords (3,P), gradient) -> (distance (P,), gradient (P,3) or None)`` on validated
+    points [m]: the first obstacle listed wins ties; +inf and zero gradient with no obstacles.
+    With :data:`CULL_FROM` or more obstacles and the gradient asked for, each point only
+    evaluates the obstacles that can be its nearest: obstacle k lies between the balls
+    (c_k, inner_k) and (c_k, outer_k) (:meth:`Obstacle._balls`), so |p - c_k| - outer_k <= d_k(p) <= |p - c_k| - inner_k, and k is
+    skipped where its lower bound exceeds the smallest upper bound (plus a margin covering the
+    broad phase's float32 rounding). The result is the same as evaluating every obstacle.
+    """
+
+    def __init__(self, obstacles: Sequence[Obstacle]):
+        self.obstacles = tuple(obstacles)
+        self._cull = len(self.obstacles) >= CULL_FROM
+        if self._cull:
+            balls = [ob._balls() for ob in self.obstacles]
+            centres = np.array([b[0] for b in balls])                      # (K,3)
+            self._origin = centres.mean(axis=0)[:, None]                    # (3,1)
+            centres = centres - self._origin.T
+            self._centres_m2 = (-2.0 * centres).astype(np.float32)          # (K,3)
+            centres_sq = np.einsum("ij,ij->i", centres, centres)
+            self._centres_sq = centres_sq.astype(np.float32)[:, None]         # (K,1)
+            self._centres_sq_max = float(centres_sq.max())
+            self._inner = np.array([b[1] for b in balls], dtype=np.float32)[:, None]   # (K,1)
+            self._outer = np.array([b[2] for b in balls], dtype=np.float32)[:, None]
+
+    def _candidates(self, coords: np.ndarray) -> np.ndarray:
+        """Boolean (K,P): obstacle k may be the nearest to point p (see the class docstring).
+
+        Broad phase in float32 (a (K,P) float64 pass costs several times more here): |p - c|^2
+        by the expansion |p|^2 - 2 p.c + |c|^2 about the centres' mean, whose rounding error is
+        below 40 eps32 (|p|^2 + |c|^2); the bound is widened by the square root of that.
+        """
+        rel = coords.astype(np.float32)
+        rel -= self._origin
+        rel_sq = np.einsum("ij,ij->j", rel, rel)
+        margin = 2e-3 * np.sqrt(float(rel_sq.max(initial=0.0)) + self._centres_sq_max) + 1e-6
+        if not margin < 1e15:                      # float32 overflow (absurdly far points)
+            return np.ones((len(self.obstacles), coords.shape[1]), dtype=bool)
+        dist = self._centres_m2 @ rel
+        dist += rel_sq
+        dist += self._centres_sq
+        np.maximum(dist, 0.0, out=dist)
+        np.sqrt(dist, out=dist)                                             # |p - c_k|, (K,P)
+        bound = (dist - self._inner).min(axis=0)                            # >= nearest distance
+        bound += np.float32(margin)
+        dist -= self._outer                                                 # <= each distance
+        return dist <= bound
+
+    def __call__(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        count = coords.shape[1]
+        if not self.obstacles:
+            return np.full(count, np.inf), (np.zeros((count, 3)) if gradient else None)
+        if not (self._cull and gradient):         # distances alone are cheaper than the culling
+            d, g = self.obstacles[0]._evaluate(coords, gradient)
+            rows = None if g is None else g.T      # (3,P): the kernels return a fresh array's .T
+            for ob in self.obstacles[1:]:
+                dk, gk = ob._evaluate(coords, gradient)
+                if gradient:                       # row-wise index copies: a masked copyto is slow
+                    closer = np.flatnonzero(dk < d)
+                    rows[:, closer] = gk.T[:, closer]
+                np.minimum(d, dk, out=d)
+            return d, (None if rows is None else rows.T)
+        d, rows = np.full(count, np.inf), np.zeros((3, count))
+        for ob, mask in zip(self.obstacles, self._candidates(coords)):
+            idx = np.flatnonzero(mask)
+            if idx.size == count:
+                dk, gk = ob._evaluate(coords, True)
+                closer = np.flatnonzero(dk < d)
+                rows[:, closer] = gk.T[:, closer]
+                np.minimum(d, dk, out=d)
+            elif idx.size:
+                dk, gk = ob._evaluate(coords[:, idx], True)
+                closer = np.flatnonzero(dk < d[idx])
+                d[idx[closer]] = dk[closer]
+                rows[:, idx[closer]] = gk.T[:, closer]
+        return d, rows.T
+
+
+#: Obstacle count from which :class:`Nearest` culls by bounding balls when the gradient is asked
+#: for (below, and for distances alone, the bookkeeping costs more than it saves).
+CULL_FROM = 3
+
+OBSTACLE_TYPES: dict[str, type[Obstacle]] = {"box": Box, "sphere": Sphere, "cylinder": Cylinder,
+                                             "capsule": Capsule}
+_REQUIRED = {"box": {"center", "size"}, "sphere": {"center", "radius"},
+             "cylinder": {"center", "radius", "height"}, "capsule": {"center", "radius", "height"}}
+_OPTIONAL = {"box": {"rotation"}, "sphere": set(), "cylinder": {"axis"}, "capsule": {"axis"}}
 
 
 def obstacle_from_dict(data: Any, where: str = "obstacle") -> Obstacle:
@@ -199,9 +538,7 @@ def obstacle_from_dict(data: Any, where: str = "obstacle") -> Obstacle:
             return Box.from_reference(fields["reference"])
         except InvalidObstacleError as exc:
             raise InvalidObstacleError(f"{where}.reference: {exc}") from None
-    required = {"box": {"center", "size"}, "sphere": {"center", "radius"},
-                "cylinder": {"center", "radius", "height"}}[kind]
-    optional = {"box": {"rotation"}, "sphere": set(), "cylinder": {"axis"}}[kind]
+    required, optional = _REQUIRED[kind], _OPTIONAL[kind]
     missing = required - fields.keys()
     if missing:
         raise InvalidObstacleError(f"{where}: {kind} is missing field(s) {sorted(missing)}")

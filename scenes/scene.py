@@ -6,24 +6,32 @@ Scene files are JSON::
      "obstacles": [{"type": "box", "center": [..], "size": [..], "rotation": [[..]x3]},
                    {"type": "box", "reference": [cx, cy, cz, sx, sy, sz]},
                    {"type": "sphere", "center": [..], "radius": r},
-                   {"type": "cylinder", "center": [..], "radius": r, "height": h, "axis": [..]}]}
+                   {"type": "cylinder", "center": [..], "radius": r, "height": h, "axis": [..]},
+                   {"type": "capsule", "center": [..], "radius": r, "height": h, "axis": [..]}]}
 
-``rotation`` and ``axis`` are optional (default: axis aligned, +z).
+``rotation`` and ``axis`` are optional (default: axis aligned, +z); a capsule's ``height`` is the
+length of its segment (overall length height + 2 radius).
+
+A Scene is immutable: ``obstacles`` is a tuple of immutable obstacles and ``bounds`` a read-only
+array, both read-only properties. That is what lets a scene cache the grid fields it builds
+(:meth:`Scene.sdf`): to change a scene, make a new one.
 """
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from .errors import InvalidArgumentError, InvalidObstacleError, SceneFileError
-from .obstacles import Obstacle, obstacle_from_dict
-from .validation import as_bounds, as_points
+from .obstacles import Nearest, Obstacle, as_coords, obstacle_from_dict
+from .sdf import DEFAULT_CELL_SIZE, SignedDistanceField, check_cell_size
+from .validation import as_bounds
 
-if TYPE_CHECKING:
-    from .sdf import SignedDistanceField
+#: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3))
+DistanceQuery = Callable[[Any], tuple[np.ndarray, np.ndarray]]
 
 #: Default workspace (2,3), metres: a box around a table-top arm with its base at the origin
 #: (z up), |x|, |y| <= 0.75 and -0.1 <= z <= 0.7 (1.8 m^3).
@@ -35,44 +43,99 @@ _DATA = Path(__file__).resolve().parent / "data"
 
 
 class Scene:
-    """Obstacles and workspace bounds (2,3).
+    """Obstacles and workspace bounds (2,3) [m]; immutable (see the module docstring).
 
     Default bounds (``bounds=None``): :data:`DEFAULT_WORKSPACE`, grown where needed to contain
     every obstacle's bounding box plus :data:`OBSTACLE_MARGIN`.
     """
 
     def __init__(self, obstacles: Sequence[Obstacle] = (), bounds: Any | None = None):
-        obstacles = list(obstacles)
+        obstacles = tuple(obstacles)
         for i, ob in enumerate(obstacles):
             if not isinstance(ob, Obstacle):
-                raise InvalidObstacleError(f"obstacles[{i}]: expected a Box, Sphere or Cylinder, "
-                                           f"got {type(ob).__name__}")
-        self.obstacles: list[Obstacle] = obstacles
+                raise InvalidObstacleError(f"obstacles[{i}]: expected a scenes Obstacle (Box, Sphere, "
+                                           f"Cylinder, Capsule), got {type(ob).__name__}")
+        self._obstacles: tuple[Obstacle, ...] = obstacles
+        self._nearest = Nearest(obstacles)
         if bounds is None:
             bounds = DEFAULT_WORKSPACE.copy()
             for ob in obstacles:
                 box = ob.aabb()
                 bounds[0] = np.minimum(bounds[0], box[0] - OBSTACLE_MARGIN)
                 bounds[1] = np.maximum(bounds[1], box[1] + OBSTACLE_MARGIN)
-        self.bounds: np.ndarray = as_bounds(bounds, "bounds")
+        bounds = np.array(as_bounds(bounds, "bounds"))
+        bounds.setflags(write=False)
+        self._bounds = bounds
+        self._grids: dict[tuple[float, bool], SignedDistanceField] = {}
+
+    @property
+    def obstacles(self) -> tuple[Obstacle, ...]:
+        """The obstacles (a tuple; read-only)."""
+        return self._obstacles
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Workspace bounds (2,3) [m] [[xmin,ymin,zmin],[xmax,ymax,zmax]] (read-only)."""
+        return self._bounds
+
+    @property
+    def analytic(self) -> bool:
+        """True when every obstacle is a primitive with an exact closed-form query (or there
+        are none): :meth:`distance_query` then needs no grid."""
+        return all(ob.primitive for ob in self._obstacles)
 
     def distance(self, points: Any) -> np.ndarray:
-        """Exact signed distance (...,) of points (...,3): min over obstacles, +inf with none."""
-        points = as_points(points, "points")
-        result = np.full(points.shape[:-1], np.inf)
-        for ob in self.obstacles:
-            result = np.minimum(result, ob.distance(points))
-        return result
+        """Exact signed distance (...,) [m] of points (...,3): min over obstacles, +inf with none."""
+        coords, lead = as_coords(points)
+        return self._nearest(coords, False)[0].reshape(lead)
 
-    def sdf(self, cell_size: float = 0.01, exact: bool = False) -> "SignedDistanceField":
-        """Signed distance field on a grid over ``bounds`` (see SignedDistanceField.from_scene)."""
-        from .sdf import SignedDistanceField
+    def query(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Exact signed distance (...,) [m] and its gradient (...,3) at points (...,3) [m].
 
-        return SignedDistanceField.from_scene(self, cell_size=cell_size, exact=exact)
+        The distance is the min over obstacles (negative inside); the gradient is the unit
+        gradient of the nearest obstacle (the first one listed on ties; see
+        :mod:`scenes.obstacles` for the subgradient at non-differentiable points). Without
+        obstacles: +inf with zero gradient. Points are validated once (InvalidArgumentError
+        naming ``points``).
+        """
+        coords, lead = as_coords(points)
+        d, g = self._nearest(coords, True)
+        return d.reshape(lead), g.reshape(*lead, 3)
+
+    def sdf(self, cell_size: float = DEFAULT_CELL_SIZE, exact: bool = False) -> SignedDistanceField:
+        """Signed distance field on a grid over ``bounds`` (see
+        :meth:`SignedDistanceField.from_obstacles`), built once per (cell_size [m], exact) and
+        cached by this scene: later calls return the same object (its values are read-only).
+        The cache lives as long as the scene (one entry per distinct key).
+
+        Raises InvalidArgumentError naming cell_size when it is not in (0, 0.01] m or when the
+        grid would need more than :data:`scenes.sdf.MAX_GRID_BYTES` to build.
+        """
+        key = (check_cell_size(cell_size), bool(exact))
+        grid = self._grids.get(key)
+        if grid is None:
+            grid = SignedDistanceField.from_obstacles(self._obstacles, self._bounds, key[0], key[1])
+            self._grids[key] = grid
+        return grid
+
+    def distance_query(self, cell_size: float | None = None, *, grid: bool = False,
+                       exact: bool = False) -> DistanceQuery:
+        """The signed-distance query a planner should use: points (...,3) [m] ->
+        (distance (...,) [m], gradient (...,3)).
+
+        :meth:`query` (exact, no grid) when every obstacle is a primitive (:attr:`analytic`)
+        and ``grid`` is False; otherwise the ``query`` of the cached grid :meth:`sdf` with
+        ``cell_size`` (default 0.01 m) and ``exact``. ``cell_size`` is validated even when no
+        grid is needed.
+        """
+        cell_size = DEFAULT_CELL_SIZE if cell_size is None else check_cell_size(cell_size)
+        if self.analytic and not grid:
+            return self.query
+        return self.sdf(cell_size, exact).query
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description."""
-        return {"bounds": self.bounds.tolist(), "obstacles": [ob.to_dict() for ob in self.obstacles]}
+        return {"bounds": self._bounds.tolist(), "obstacles": [ob.to_dict() for ob in self._obstacles]}
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "scene") -> "Scene":
@@ -115,7 +178,7 @@ class Scene:
         Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
 
     def __repr__(self) -> str:
-        return f"Scene(obstacles={self.obstacles!r}, bounds={self.bounds.tolist()})"
+        return f"Scene(obstacles={list(self._obstacles)!r}, bounds={self._bounds.tolist()})"
 
 
 def available_scenes() -> tuple[str, ...]:

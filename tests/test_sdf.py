@@ -1,8 +1,13 @@
-"""Grid signed distance field: accuracy, gradient, outside-grid behaviour."""
+"""Grid signed distance field: accuracy, gradient, outside-grid behaviour, construction."""
+import ast
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from scenes import Box, Cylinder, InvalidArgumentError, Scene, SignedDistanceField, Sphere
+import scenes.sdf
+from scenes import (Box, Capsule, Cylinder, InvalidArgumentError, InvalidObstacleError, Scene,
+                    SignedDistanceField, Sphere)
 
 BOUNDS = [[0.0, -0.6, -0.1], [0.6, 0.0, 0.5]]
 H = 0.01
@@ -10,6 +15,7 @@ OBSTACLES = {
     "box": Box([0.32, -0.32, 0.13], [0.09, 0.06, 0.28]),
     "sphere": Sphere([0.25, -0.3, 0.25], 0.1),
     "cylinder": Cylinder([0.3, -0.3, 0.2], 0.06, 0.2),
+    "capsule": Capsule([0.3, -0.3, 0.2], 0.05, 0.15, axis=[1.0, 0.0, 1.0]),
 }
 
 
@@ -180,3 +186,51 @@ def test_save_load_round_trip(tmp_path):
     loaded = SignedDistanceField.load_npz(tmp_path / "sdf.npz")
     pts = np.random.default_rng(7).uniform(BOUNDS[0], BOUNDS[1], (100, 3))
     assert np.allclose(loaded.distance(pts), sdf.distance(pts))
+
+
+def test_sdf_module_does_not_import_scene():
+    tree = ast.parse(Path(scenes.sdf.__file__).read_text())
+    imported = [node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)]
+    imported += [alias.name for node in ast.walk(tree) if isinstance(node, ast.Import)
+                 for alias in node.names]
+    assert not any(name and name.split(".")[-1] == "scene" for name in imported), imported
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_from_obstacles_is_what_the_scene_builds(exact):
+    obstacles = list(OBSTACLES.values())
+    direct = SignedDistanceField.from_obstacles(obstacles, BOUNDS, H, exact=exact)
+    cached = Scene(obstacles, bounds=BOUNDS).sdf(H, exact=exact)
+    assert direct.shape == cached.shape and np.array_equal(direct.values, cached.values)
+    assert not direct.values.flags.writeable
+    assert np.allclose(direct.origin, BOUNDS[0]) and direct.cell_size == H
+
+
+def test_grid_agrees_with_the_analytic_query():
+    scene = Scene(list(OBSTACLES.values()), bounds=BOUNDS)
+    pts = np.random.default_rng(9).uniform(BOUNDS[0], BOUNDS[1], (3000, 3))
+    d, g = scene.query(pts)
+    # the EDT mode's staircase on overlapping curved obstacles errs by up to ~1.3 cells here
+    for exact, tol in ((False, 1.5 * H), (True, 0.5 * H)):
+        dg, gg = scene.sdf(H, exact=exact).query(pts)
+        assert np.abs(dg - d).max() <= tol
+    # away from the surface and medial surfaces the exact grid's gradient is close to the true one
+    far = np.abs(d) > 3 * H
+    cos = np.einsum("ij,ij->i", gg[far] / np.linalg.norm(gg[far], axis=1, keepdims=True), g[far])
+    assert np.median(cos) > 0.999
+
+
+def test_from_obstacles_checks_its_arguments_and_memory_before_allocating():
+    with pytest.raises(InvalidObstacleError, match=r"obstacles\[1\]: expected a scenes Obstacle"):
+        SignedDistanceField.from_obstacles([OBSTACLES["box"], "box"], BOUNDS)
+    with pytest.raises(InvalidArgumentError, match="bounds: expected min < max"):
+        SignedDistanceField.from_obstacles([], [[0, 0, 0], [1, 0, 1]])
+    with pytest.raises(InvalidArgumentError, match=r"cell_size: 0\.01 m over bounds .* gives a grid of "
+                                                   r"\(61, 61, 61\) = 226,981 nodes .*expected at most"):
+        SignedDistanceField.from_obstacles([OBSTACLES["box"]], BOUNDS, H, max_bytes=1_000_000)
+    shape, need = SignedDistanceField.estimate_build_bytes(BOUNDS, H, exact=True)
+    assert shape == (61, 61, 61) and need == 61**3 * scenes.sdf.BUILD_BYTES_PER_NODE[True]
+    SignedDistanceField.from_obstacles([OBSTACLES["box"]], BOUNDS, H, exact=True, max_bytes=need)
+    # a workspace of 20 m on a side at 1 cm would need ~450 GiB: refused at once
+    with pytest.raises(InvalidArgumentError, match=r"cell_size: .*\(2001, 2001, 2001\).*GiB"):
+        SignedDistanceField.from_obstacles([OBSTACLES["box"]], [[-10, -10, -10], [10, 10, 10]], H)
