@@ -57,12 +57,22 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
 
 def _figures(out: Path, prior: Any, demos: Any, robot: Any,
              plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
-    from clamp.plan_plots import plot_plan_3d
+    """Prior figures; per plan: 3-D figure, uncertainty figure, executable trajectory (JSON)
+    and the browser animation (HTML)."""
+    from clamp.animation import write_animation
+    from clamp.plan_plots import plot_plan_3d, plot_plan_uncertainty
     from clamp.prior_plots import plot_prior_3d, plot_prior_time
     plot_prior_3d(prior, demos, path=out / "prior_3d.png")
     plot_prior_time(prior, demos, path=out / "prior_time.png")
     for name, result, scene in plans:
         plot_plan_3d(result, robot, scene, prior=prior, demos=demos, path=out / f"plan_{name}.png")
+        if result.ee_covariance is not None:
+            plot_plan_uncertainty(result, path=out / f"plan_{name}_uncertainty.png")
+        result.to_joint_trajectory(robot).to_json(out / f"trajectory_{name}.json", overwrite=True)
+        write_animation(out / f"animation_{name}.html", robot, result.time, result.q,
+                        obstacles=scene, demonstrations=demos.positions,
+                        mean_path=np.asarray(prior.mean)[:, :3],
+                        title=f"CLAMP plan {name} on {robot.name}")
 
 
 def _load_robot(name: str) -> Any:

@@ -65,10 +65,30 @@ class PlanResult:
             return None
         return np.sqrt(np.clip(np.einsum("tii->ti", self.ee_covariance), 0.0, None))
 
+    def verdict(self) -> dict[str, Any]:
+        """The verdict as JSON-ready data: success, reasons and the figures they rest on."""
+        def number(value: float | None) -> float | None:
+            return None if value is None or not np.isfinite(value) else float(value)
+        return {"success": bool(self.success), "reasons": list(self.reasons),
+                "min_clearance_m": number(self.min_clearance),
+                "start_error": number(self.start_error), "goal_error": number(self.goal_error),
+                "via_errors": [float(e) for e in self.via_errors],
+                "within_limits": bool(self.within_limits)}
+
+    def to_joint_trajectory(self, robot: Any) -> Any:
+        """The plan as a ``robots.JointTrajectory`` of ``robot`` (the arm it was planned for):
+        joint names, time from start, positions, velocities, accelerations, and the verdict in
+        its header; ``.to_json(path)`` / ``.to_csv(path)`` write it for a robot driver."""
+        from robots.trajectory import JointTrajectory
+        return JointTrajectory.from_plan(robot, self.time, self.q, self.qdot, self.verdict())
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (arrays as nested lists, non-finite floats as None)."""
+        """JSON-ready dictionary (arrays as nested lists, non-finite floats as None); the joint
+        state covariance (T, 2n, 2n) is left out (the end-effector one is kept)."""
         out: dict[str, Any] = {}
         for key, value in asdict(self).items():
+            if key == "state_covariance":
+                continue
             if isinstance(value, np.ndarray):
                 value = value.tolist()
             elif isinstance(value, float) and not np.isfinite(value):
