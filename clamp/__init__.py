@@ -9,7 +9,8 @@ from clamp.config import CheckConfig, ModelConfig, OptimizerConfig, PlannerConfi
 from clamp.errors import (ClampError, ClampWarning, InsufficientDemonstrationsError,
                           InvalidParameterError, NonFiniteError, PriorFileError, ShapeError)
 from clamp.learning import learn_joint_prior, learn_prior
-from clamp.planner import build, optimize, plan
+from clamp.optimizers import optimize
+from clamp.planner import build, plan
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
 from clamp.problem import PlanningProblem
 from clamp.result import PlanResult

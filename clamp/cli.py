@@ -15,8 +15,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from clamp.config import OPTIMIZERS, PlannerConfig
+from clamp.config import PlannerConfig
 from clamp.initialisation import INITIALISATIONS
+from clamp.optimizers import OPTIMIZERS
 from clamp.planner import plan
 from clamp.result import PlanResult
 

@@ -13,9 +13,6 @@ from clamp.errors import InvalidParameterError
 from clamp.initialisation import INITIALISATIONS
 from clamp.validation import as_count, as_scalar
 
-#: "fast": our Levenberg-Marquardt on the state array (:mod:`clamp.solver`); the others run
-#: GTSAM's optimizers on :meth:`clamp.problem.PlanningProblem.graph`.
-OPTIMIZERS = ("fast", "gtsam", "gtsam_dogleg", "gtsam_gauss_newton")
 
 
 @dataclass(frozen=True)
@@ -58,7 +55,8 @@ class ModelConfig:
 class OptimizerConfig:
     """How the graph is optimised (see :mod:`clamp.solver` for the fast solver's rules)."""
 
-    #: one of :data:`OPTIMIZERS`
+    #: one of :data:`clamp.optimizers.OPTIMIZERS` ("fast": our Levenberg-Marquardt on the
+    #: state array; the others GTSAM's optimizers on ``problem.graph()``)
     optimizer: str = "fast"
     #: "prior_mean" (IK of the prior mean moved to the start) or "straight_line" (joint space)
     initialisation: str = "prior_mean"
@@ -159,6 +157,7 @@ class PlannerConfig:
         as_count(o.max_iterations, "config.optimizer.max_iterations", minimum=0)
         as_count(o.workspace_correction, "config.optimizer.workspace_correction", minimum=0)
         as_count(o.convergence_patience, "config.optimizer.convergence_patience", minimum=1)
+        from clamp.optimizers import OPTIMIZERS
         for name, valid in (("optimizer", OPTIMIZERS), ("initialisation", INITIALISATIONS)):
             if getattr(o, name) not in valid:
                 raise InvalidParameterError(f"config.optimizer.{name}: unknown "

@@ -11,7 +11,6 @@ checks the result.
 """
 from __future__ import annotations
 
-import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -28,14 +27,12 @@ from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFa
                            WorkspaceStartFamily, shifted_start_mean)
 from clamp.initialisation import (Initialisation, joint_velocities, prior_mean_initialisation,
                                   straight_line_initialisation)
-from clamp.keys import state_key, values_to_states
+from clamp.keys import state_key
+from clamp.optimizers import Optimized, optimize
 from clamp.problem import PlanningProblem
 from clamp.result import PlanResult
-from clamp.solver import levenberg_marquardt
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array, as_count
-
-log = logging.getLogger(__name__)
 
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
 #: what ``extra_factors`` may hold: a family (fast path), any GTSAM factor on the planner's
@@ -304,75 +301,6 @@ def _build(prior, robot, scene, start, goal, via_points, extra_factors, config, 
             else warm_start(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
     return problem, request, init
-
-
-# ---------------------------------------------------------------------------------- solving
-def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig):
-    opt = config.optimizer
-    graph, values = problem.graph(), problem.values()
-    if opt.optimizer == "gtsam":
-        params = gtsam.LevenbergMarquardtParams()
-        params.setlambdaInitial(opt.lambda_initial)
-        params.setlambdaUpperBound(opt.lambda_upper_bound)
-        make = gtsam.LevenbergMarquardtOptimizer
-    elif opt.optimizer == "gtsam_dogleg":
-        params, make = gtsam.DoglegParams(), gtsam.DoglegOptimizer
-    else:
-        params, make = gtsam.GaussNewtonParams(), gtsam.GaussNewtonOptimizer
-    # QR: the stiff learned prior makes the undamped normal equations too ill-conditioned
-    # for Cholesky (GTSAM reports an indeterminate system)
-    params.setLinearSolverType("MULTIFRONTAL_QR")
-    params.setMaxIterations(opt.max_iterations)
-    params.setRelativeErrorTol(opt.relative_error_tol)
-    params.setAbsoluteErrorTol(opt.absolute_error_tol)
-    return make(graph, values, params)
-
-
-@dataclass(frozen=True)
-class Optimized:
-    """theta (T, 2n) at the optimum, iterations, trials, errors, stop reason, phase seconds."""
-
-    theta: np.ndarray
-    iterations: int
-    trials: int
-    initial_error: float
-    final_error: float
-    stop_reason: str
-    timings: dict[str, float]
-    optimizer: str
-
-
-def optimize(problem: PlanningProblem, config: PlannerConfig | None = None) -> Optimized:
-    """Optimise ``problem`` from its initial trajectory with ``config.optimizer``.
-
-    The fast solver needs every factor on one or two neighbouring states; otherwise GTSAM's
-    Levenberg-Marquardt runs on the graph (logged).
-    """
-    config = _as_config(config)
-    opt = config.optimizer
-    name = opt.optimizer
-    if name == "fast" and not problem.banded:
-        log.warning("extra factors connect non-neighbouring states: using GTSAM's "
-                    "Levenberg-Marquardt instead of the fast solver")
-        name = "gtsam"
-        config = config.with_(optimizer="gtsam")
-    if name == "fast":
-        out = levenberg_marquardt(problem, problem.initial, lambda_initial=opt.lambda_initial,
-                                  lambda_max=opt.lambda_upper_bound,
-                                  max_iterations=opt.max_iterations,
-                                  relative_tol=opt.relative_error_tol,
-                                  absolute_tol=opt.absolute_error_tol,
-                                  patience=opt.convergence_patience,
-                                  workspace_correction=opt.workspace_correction)
-        return Optimized(out.theta, out.iterations, out.trials, out.initial_error,
-                         out.final_error, out.stop_reason, out.timings, name)
-    optimizer = _gtsam_optimizer(problem, config)
-    initial_error = float(optimizer.error())
-    values = optimizer.optimize()
-    iterations = int(optimizer.iterations())
-    stop = "max_iterations" if iterations >= opt.max_iterations else "converged"
-    return Optimized(values_to_states(values, problem.keys), iterations, 0, initial_error,
-                     float(optimizer.error()), stop, {}, name)
 
 
 # ---------------------------------------------------------------------------------- checking
