@@ -1,22 +1,16 @@
-"""CLAMP benchmarks: learning, build and optimisation times, iterations, errors, clearance.
+"""CLAMP planning benchmark: whole plan() calls, medians, against the reference C++ CLAMP.
 
-Prints tables (medians over --repeats runs) for box_closing (../shared/datasets, else the
-built-in synthetic skill): Jaco in an empty scene and with the reference's new box obstacle,
-both initialisations and both optimisers; the Sawyer; scaling with the number of support
-states T (resampled demonstrations) and with the number of obstacles. Ratios are against the
-reference C++ (GTSAM + GPMP2) figures on box_closing: empty 1.68 s / 127 iterations, with the
-obstacle 1.06 s / 79 iterations, about 13 ms per iteration for 250 support states.
+Every timing is one complete ``plan()`` call (inverse-kinematics initialisation, the scene's
+distance query, optimisation, posterior covariance, checks) with a scene object new to the
+planner each time. Anchor: the reference C++ CLAMP (GTSAM + GPMP2) on box_closing, same
+machine type: empty scene 1.68 s / 127 iterations, with the box 1.06 s / 79 iterations, about
+13 ms per iteration (the issue measured ~27 ms side by side).
 
-Columns trials .. err (lean optimizer): solved trial steps (accepted + rejected) and the
-milliseconds spent linearizing, solving (banded Cholesky of the damped normal equations, QR
-fallback), correcting trial points and
-evaluating the error (see clamp.levenberg_marquardt.LMOutcome.timings).
+Tables: box_closing on the Jaco and the Sawyer (empty, box, goal); the TLGC boundary family's
+overhead; scaling with T (per-iteration time and time per state); BLAS threads unset vs 1;
+optionally (--gtsam) GTSAM's own optimizers on the same graph from the same start.
 
-Rows "reference" use PlannerConfig.reference() (the reference's optimizer: plain LM, Cholesky,
-lambda0 1e3, relative tolerance 1e-5; sigma_obs 0.05), "defaults" PlannerConfig() (workspace
-correction, banded solver, gain-ratio damping); "straight_line" is the reference's initialisation.
-
-    python benchmarks/bench_clamp.py [--repeats 3] [--quick]
+    python benchmarks/bench_clamp.py [--repeats 5] [--quick] [--gtsam]
 """
 from __future__ import annotations
 
@@ -26,150 +20,145 @@ import time
 import warnings
 
 import numpy as np
+from threadpoolctl import threadpool_info, threadpool_limits
 
-from clamp.learning import learn_prior
-from clamp.planner import PlannerConfig, plan
-from harness import median_seconds, print_environment, shared_demonstrations
+from harness import print_environment, shared_demonstrations
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
-CPP = {"empty": (1.68, 127), "obstacle": (1.06, 79)}
+CPP = {"empty": (1.68, 127), "box": (1.06, 79)}
 CPP_MS_PER_ITERATION = 13.0
 SAWYER_OFFSET = np.array([0.3, 0.0, 0.2])
 
 
-def load_skill():
-    from scenes import make_demonstrations
-    demos = shared_demonstrations("box_closing")
-    if demos is None:
-        print("# using the synthetic box_closing skill instead")
-        demos = make_demonstrations("box_closing")
-        return demos, demos.positions[:, 0].mean(axis=0)
-    return demos, REFERENCE_START
+def median_plan(make_call, repeats: int):
+    """Run make_call()() ``repeats`` times (after one warm-up); last result, median timings."""
+    make_call()()
+    results = [make_call()() for _ in range(repeats)]
+    keys = set().union(*(r.timings for r in results))
+    return results[-1], {k: statistics.median(r.timings.get(k, 0.0) for r in results)
+                         for k in keys}
 
 
-def median_runs(fn, repeats: int):
-    """Run fn() repeats times; return the last result and the median of its timings."""
-    results = [fn() for _ in range(repeats)]
-    keys = results[-1].timings.keys()
-    med = {k: statistics.median(r.timings.get(k, 0.0) for r in results) for k in keys}
-    return results[-1], med
+HEADER = (f"{'case':<30} {'ok':<3} {'total ms':>9} {'x C++':>6} {'iters':>5} {'trials':>6} "
+          f"{'ms/iter':>7} {'x13ms':>6} {'build':>6} {'optim':>6} {'cov':>5} {'cov %':>5} "
+          f"{'final err':>10} {'clear mm':>8}  phases ms (lin/solve/corr/err)")
 
 
-def row(label: str, r, t: dict, cpp: tuple[float, int] | None = None,
-        final: np.ndarray | None = None) -> str:
-    """One table line; final (3,) = the demonstrations' mean final position for 'end mm'."""
+def row(label: str, r, t: dict, cpp: tuple[float, int] | None = None) -> str:
     per_iteration = 1e3 * t["optimize"] / max(r.iterations, 1)
-    planning = t["build"] + t["optimize"]
     clearance = "inf" if not np.isfinite(r.min_clearance) else f"{1e3 * r.min_clearance:.1f}"
-    end = "" if final is None else f"{1e3 * np.linalg.norm(r.ee_path[-1] - final):.1f}"
-    text = (f"{label:<34} {'yes' if r.success else 'no':<4} {1e3 * t['build']:>8.1f} "
-            f"{1e3 * t['optimize']:>9.1f} {1e3 * planning:>9.1f} {r.iterations:>6d} "
-            f"{per_iteration:>8.1f} {per_iteration / CPP_MS_PER_ITERATION:>6.2f} "
-            f"{r.final_error:>10.4g} {clearance:>8} {1e3 * r.start_error:>8.3f} {end:>7}")
-    text += f" {planning / cpp[0]:>8.2f} {r.iterations / cpp[1]:>7.2f}" if cpp is not None \
-        else f" {'':>8} {'':>7}"
-    if "linearize" in t:  # lean optimizer: trials and ms per phase
-        text += (f" {r.trials:>6d} {1e3 * t['linearize']:>5.0f} {1e3 * t['solve']:>5.0f} "
-                 f"{1e3 * t['correction']:>5.0f} {1e3 * t['error']:>5.0f}")
-    return text
-
-
-HEADER = (f"{'case':<34} {'ok':<4} {'build ms':>8} {'optim ms':>9} {'total ms':>9} {'iters':>6} "
-          f"{'ms/iter':>8} {'x13ms':>6} {'final err':>10} {'clear mm':>8} {'start mm':>8} "
-          f"{'end mm':>7} {'t/C++':>8} {'it/C++':>7} {'trials':>6} {'lin':>5} {'solve':>5} "
-          f"{'corr':>5} {'err':>5}")
+    ratio = f"{t['total'] / cpp[0]:.3f}" if cpp else ""
+    phases = "/".join(f"{1e3 * t.get(k, 0.0):.0f}" for k in ("linearize", "solve", "correction",
+                                                              "error"))
+    return (f"{label:<30} {'yes' if r.success else 'no':<3} {1e3 * t['total']:>9.1f} {ratio:>6} "
+            f"{r.iterations:>5d} {r.trials:>6d} {per_iteration:>7.2f} "
+            f"{per_iteration / CPP_MS_PER_ITERATION:>6.2f} {1e3 * t['build']:>6.1f} "
+            f"{1e3 * t['optimize']:>6.1f} {1e3 * t.get('marginals', 0):>5.1f} "
+            f"{100 * t.get('marginals', 0) / t['total']:>5.1f} {r.final_error:>10.4g} "
+            f"{clearance:>8}  {phases}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--quick", action="store_true", help="fewer scaling points")
+    parser.add_argument("--gtsam", action="store_true", help="also GTSAM's optimizers (slow)")
     args = parser.parse_args()
     print_environment()
+    print("# BLAS:", ", ".join(f"{i['internal_api']} {i['num_threads']} threads"
+                               for i in threadpool_info() if i["user_api"] == "blas"))
     warnings.simplefilter("ignore")
+    from clamp import PlannerConfig, learn_prior, plan
     from robots import load_robot
-    from scenes import Box, Scene, Sphere
+    from scenes import Box, Scene, make_demonstrations
 
-    demos, start = load_skill()
-    jaco = load_robot("jaco")
-    jaco.sphere_centres(np.zeros((1, jaco.n)))  # build the sphere model outside the timings
-
-    learn_seconds = median_seconds(lambda: learn_prior(demos), max(args.repeats, 3))
+    demos = shared_demonstrations("box_closing")
+    start = REFERENCE_START
+    if demos is None:
+        demos = make_demonstrations("box_closing")
+        start = demos.positions[:, 0].mean(axis=0)
     prior = learn_prior(demos)
-    print(f"learning box_closing (M={demos.M}, T={demos.T}): median "
-          f"{1e3 * learn_seconds:.1f} ms")
+    jaco, sawyer = load_robot("jaco"), load_robot("sawyer")
+    prior_s = learn_prior(demos.translated(SAWYER_OFFSET))
 
-    scene = Scene([Box.from_reference(REFERENCE_BOX)])
-    t0 = time.perf_counter()
-    sdf = scene.sdf(0.01)
-    print(f"SDF of the obstacle scene (1 cm cells, {sdf.shape}): {1e3 * (time.perf_counter() - t0):.0f} ms"
-          " (built once, outside the planning timings)")
-    final = demos.positions[:, -1].mean(axis=0)
+    def box(offset=np.zeros(3)):
+        ref = np.array(REFERENCE_BOX)
+        ref[:3] += offset
+        return Scene([Box.from_reference(ref.tolist())])
 
-    print("\nJaco, box_closing (planning = build incl. initialisation + optimisation; medians; "
-          "end mm = final position vs the demonstrations' mean)")
+    print(f"\nbox_closing (M={demos.M}, T={demos.T}), default PlannerConfig(), medians of "
+          f"{args.repeats}; x C++ = our total / the C++ total")
     print(HEADER)
-    cases = [("reference", init, "lean") for init in ("straight_line", "prior_mean")]
-    cases += [("reference", "prior_mean", "gtsam")]
-    cases += [("defaults", init, "lean") for init in ("prior_mean", "straight_line")]
-    for scene_name, sc in (("empty", None), ("obstacle", scene)):
-        for settings, init, optimizer in cases:
-            if optimizer == "gtsam" and sc is not None and args.quick:
-                continue
-            make = PlannerConfig.reference if settings == "reference" else PlannerConfig
-            config = make(initialisation=init, optimizer=optimizer)
-            slow = settings == "reference" and sc is not None  # ~500 iterations, ~10 s
-            r, t = median_runs(lambda: plan(prior, jaco, sc, start, config=config,
-                                            sdf=sdf if sc is not None else None),
-                               1 if slow else args.repeats)
-            print(row(f"{scene_name} {settings} {init} {optimizer}", r, t, CPP[scene_name], final))
-    for init in ("prior_mean", "straight_line"):
-        for sc_name, sc in (("empty", None), ("obstacle", scene)):
-            config = PlannerConfig.fast(initialisation=init)
-            r, t = median_runs(lambda: plan(prior, jaco, sc, start, config=config,
-                                            sdf=sdf if sc is not None else None), args.repeats)
-            print(row(f"{sc_name} {init} FAST", r, t, CPP[sc_name], final))
-    r = plan(prior, jaco, scene, start, config=PlannerConfig(obstacle_factors=False))
-    print(f"{'obstacle scene, no obstacle factors':<34} min clearance {1e3 * r.min_clearance:.1f} mm "
-          f"({'collides' if r.min_clearance < 0 else 'free'})")
-    print("straight_line init: the two configurations are IK of the start and of the prior's "
-          "mean final position (= the demonstrations' mean final position); the reference's DH "
-          "joint configurations do not transfer to the URDF.")
+    goal = np.asarray(prior.mean)[-1, :3] + np.array([0.0, 0.03, 0.0])
+    cases = [
+        ("jaco empty", jaco, prior, lambda: None, start, None, CPP["empty"]),
+        ("jaco box", jaco, prior, lambda: box(), start, None, CPP["box"]),
+        ("jaco goal +3 cm y", jaco, prior, lambda: None, start, goal, None),
+        ("sawyer empty", sawyer, prior_s, lambda: None, start + SAWYER_OFFSET, None, None),
+        ("sawyer box", sawyer, prior_s, lambda: box(SAWYER_OFFSET), start + SAWYER_OFFSET,
+         None, None),
+    ]
+    for label, robot, pr, scene, s, g, cpp in cases:
+        r, t = median_plan(lambda: (lambda sc=scene(): plan(pr, robot, sc, s, goal=g)),
+                           args.repeats)
+        print(row(label, r, t, cpp))
 
-    print("\nSawyer, box_closing translated by", SAWYER_OFFSET.tolist(), "m")
-    sawyer = load_robot("sawyer")
-    sawyer.sphere_centres(np.zeros((1, sawyer.n)))
-    moved = demos.translated(SAWYER_OFFSET)
-    prior_s = learn_prior(moved)
+    print("\nTLGC boundary family (python -m tlgc.demo_clamp_cylinder's plan, Jaco, 40 states)")
+    from tlgc.boundary_factor import BoundaryFamily
+    from tlgc.cylinder import fit_cylinder
+    small = make_demonstrations("reach_from_above", num_demos=6, num_points=40, dt=1.0, seed=0)
+    soft = learn_prior(small, jitter=1e-4)
+    cylinder = fit_cylinder(small, "spline")
+    s0 = cylinder.directrix[0] + 0.3 * cylinder.radius(0, 0.0) * cylinder.normals[0]
+    end_radius = float(cylinder.radius(cylinder.num_sections - 1, 0.0))
+    g0 = cylinder.directrix[-1] + (end_radius + 0.05) * cylinder.normals[-1]
     print(HEADER)
-    for sc_name, sc in (("empty", None),):
-        r, t = median_runs(lambda: plan(prior_s, sawyer, sc, start + SAWYER_OFFSET), args.repeats)
-        print(row(f"sawyer {sc_name} prior_mean lean", r, t))
+    plain, tp = median_plan(lambda: lambda: plan(soft, jaco, None, s0, goal=g0), args.repeats)
+    print(row("without boundary", plain, tp))
+    bounded, tb = median_plan(lambda: lambda: plan(
+        soft, jaco, None, s0, goal=g0, extra_factors=[BoundaryFamily(cylinder, 40, sigma=0.005)]),
+        args.repeats)
+    print(row("with boundary", bounded, tb))
+    print(f"boundary overhead: total x{tb['total'] / tp['total']:.2f}, per iteration "
+          f"x{(tb['optimize'] / max(bounded.iterations, 1)) / (tp['optimize'] / max(plain.iterations, 1)):.2f}")
 
-    print("\nScaling with T (Jaco, empty scene, prior_mean init, resampled demonstrations)")
-    print(HEADER)
-    sizes = (50, 250, 1000) if args.quick else (50, 100, 250, 500, 1000)
-    for T in sizes:
-        resampled = demos.resample(T)
-        prior_t = learn_prior(resampled)
-        r, t = median_runs(lambda: plan(prior_t, jaco, None, start), args.repeats)
-        print(row(f"T = {T}", r, t))
+    print("\nScaling with T (Jaco, empty scene, resampled demonstrations); per state = ms per "
+          "iteration / T, ratio against T = 250")
+    print(HEADER + "  us/state/iter  ratio")
+    base = None
+    for T in ((250, 1000, 2000) if args.quick else (100, 250, 500, 1000, 2000)):
+        prior_t = learn_prior(demos.resample(T))
+        r, t = median_plan(lambda: lambda: plan(prior_t, jaco, None, start), max(2, args.repeats // 2))
+        per_state = 1e6 * t["optimize"] / max(r.iterations, 1) / T
+        base = per_state if T == 250 else base
+        ratio = f"{per_state / base:.2f}" if base else ""
+        print(row(f"T = {T}", r, t) + f"  {per_state:>12.1f}  {ratio:>5}")
 
-    print("\nScaling with the number of obstacles (Jaco, T = 250, prior_mean init, "
-          "PlannerConfig.fast(); the reference box plus spheres of 4 cm behind the robot: "
-          "the SDF makes the cost per iteration independent of the obstacle count)")
+    print("\nBLAS threads (Jaco box): default setting vs limited to 1 around the whole call")
     print(HEADER)
-    rng = np.random.default_rng(0)
-    far = [Sphere(c, 0.04) for c in rng.uniform([-0.6, 0.2, 0.0], [-0.2, 0.6, 0.5], size=(16, 3))]
-    for count in ((0, 1, 4) if args.quick else (0, 1, 2, 4, 8, 16)):
-        obstacles = [Box.from_reference(REFERENCE_BOX)] + far[:count]
-        sc = Scene(obstacles, bounds=scene.bounds)
-        t0 = time.perf_counter()
-        sdf_k = sc.sdf(0.01)
-        sdf_seconds = time.perf_counter() - t0
-        r = plan(prior, jaco, sc, start, config=PlannerConfig.fast(), sdf=sdf_k)
-        print(row(f"{count + 1} obstacles (sdf {1e3 * sdf_seconds:.0f} ms)", r, r.timings))
+    r, t = median_plan(lambda: (lambda sc=box(): plan(prior, jaco, sc, start)), args.repeats)
+    print(row("BLAS threads unset", r, t, CPP["box"]))
+
+    def one_thread(sc=None):
+        with threadpool_limits(limits=1, user_api="blas"):
+            return plan(prior, jaco, sc if sc is not None else box(), start)
+    r1, t1 = median_plan(lambda: one_thread, args.repeats)
+    print(row("BLAS threads = 1", r1, t1, CPP["box"]))
+    print(f"unset / 1 thread: x{t['total'] / t1['total']:.2f}")
+
+    if args.gtsam:
+        print("\nGTSAM's optimizers on problem.graph() from the same initial trajectory "
+              "(default tolerances; one run each)")
+        print(HEADER + "  EE vs fast [mm]")
+        for label, sc in (("empty", None), ("box", box())):
+            fast = plan(prior, jaco, sc, start)
+            for name in ("gtsam", "gtsam_dogleg"):
+                t0 = time.perf_counter()
+                r = plan(prior, jaco, sc, start, config=PlannerConfig().with_(optimizer=name))
+                gap = 1e3 * np.max(np.linalg.norm(r.ee_path - fast.ee_path, axis=1))
+                print(row(f"{label} {name}", r, r.timings, CPP[label]) + f"  {gap:.2f}")
+                del t0
 
 
 if __name__ == "__main__":

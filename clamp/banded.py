@@ -25,6 +25,9 @@ class BandLayout:
         off = (d + a - b) < 2 * d
         self.off_target = (((d + a - b)[off])[None] * (T * d) + t1 * d + b[off][None]).ravel()
         self.off_source = (t1 * d * d + (b[off] * d + a[off])[None]).ravel()
+        N = T * d
+        #: row index (2d, T d) of every band entry (clipped at the last row past the end)
+        self.rows = np.minimum(np.arange(N)[None, :] + np.arange(2 * d)[:, None], N - 1)
 
     def band(self, D: np.ndarray, E: np.ndarray) -> np.ndarray:
         """Lower band storage (2d, T d) of the symmetric block-tridiagonal (D, E)."""

@@ -33,6 +33,7 @@ from clamp.problem import PlanningProblem
 from clamp.result import PlanResult
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array, as_count
+from scenes.threads import single_blas_thread
 
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
 #: what ``extra_factors`` may hold: a family (fast path), any GTSAM factor on the planner's
@@ -355,6 +356,13 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
     or in collision gives ``success=False`` with a reason (no exception); bad input raises
     ClampError subclasses.
     """
+    with single_blas_thread():  # small products only: one BLAS thread (see scenes.threads)
+        return _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf,
+                     initial, covariance)
+
+
+def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf, initial,
+          covariance) -> PlanResult:
     t0 = time.perf_counter()
     config = _as_config(config)
     _check_prior(prior)

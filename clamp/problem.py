@@ -214,15 +214,25 @@ def _scatter(D: np.ndarray, E: np.ndarray, g: np.ndarray, first: np.ndarray, ari
              H: np.ndarray | None, gf: np.ndarray, distinct: bool) -> None:
     """Add factor blocks H (F, k d, k d) (None: already in D, E) and gradients gf (F, k d) of
     factors on states first .. first + k - 1 (k = arity) into the block-tridiagonal system."""
-    add = (lambda a, i, v: a.__setitem__(i, a[i] + v)) if distinct else np.add.at
+    if distinct and len(first) and first[-1] - first[0] == len(first) - 1:
+        first = slice(int(first[0]), int(first[-1]) + 1)      # consecutive states: a view
+        shifted = slice(first.start + 1, first.stop + 1)
+    else:
+        shifted = first + 1
+
+    def add(a: np.ndarray, i, v: np.ndarray) -> None:
+        if distinct:
+            a[i] += v
+        else:
+            np.add.at(a, i, v)
     if arity == 1:
         add(g, first, gf)
         if H is not None:
             add(D, first, H)
         return
     add(g, first, gf[:, :d])
-    add(g, first + 1, gf[:, d:])
+    add(g, shifted, gf[:, d:])
     if H is not None:
         add(D, first, H[:, :d, :d])
-        add(D, first + 1, H[:, d:, d:])
+        add(D, shifted, H[:, d:, d:])
         add(E, first, H[:, :d, d:])

@@ -31,11 +31,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg.lapack import dpbtrf, dpbtrs
-from threadpoolctl import threadpool_limits
 
 from clamp.banded import BandLayout
 from clamp.factors.states import StateWindow
 from clamp.problem import NormalEquations, PlanningProblem
+from scenes.threads import single_blas_thread
 
 
 @dataclass(frozen=True)
@@ -55,20 +55,19 @@ class SolverOutcome:
 
 class DampedBandSolver:
     """Solves (H + lambda I) delta = g for many lambda, H symmetric positive semi-definite in
-    LAPACK lower band storage (w, N) (H[r, c] at band[r - c, c]), g (N,).
+    LAPACK lower band storage (w, N) (H[r, c] at band[r - c, c]), g (N,); rows (w, N) the row
+    index of every band entry (:attr:`clamp.banded.BandLayout.rows`).
 
     The system is scaled to unit diagonal once (Jacobi, S = diag(H)^-1/2): the scaled matrix
     S H S + lambda S^2 keeps stiff and soft states from deciding the pivots; each lambda then
     costs one copy, one banded Cholesky (LAPACK dpbtrf) and two triangular solves (dpbtrs).
     """
 
-    def __init__(self, band: np.ndarray, gradient: np.ndarray):
+    def __init__(self, band: np.ndarray, gradient: np.ndarray, rows: np.ndarray):
         diagonal = band[0]
         self.finite = bool(np.all(np.isfinite(band)) and np.all(np.isfinite(gradient)))
         positive = np.where(diagonal > 0.0, diagonal, 1.0)
         self.scale = 1.0 / np.sqrt(positive)
-        N = band.shape[1]
-        rows = np.minimum(np.arange(N)[None, :] + np.arange(band.shape[0])[:, None], N - 1)
         self.scaled = band * self.scale[rows] * self.scale[None, :]
         self.rhs = self.scale * gradient
         self.damping_weights = self.scale ** 2
@@ -123,7 +122,7 @@ def levenberg_marquardt(problem: PlanningProblem, theta0: np.ndarray, *,
                         absolute_tol: float = 1e-2, patience: int = 2,
                         workspace_correction: int = 2) -> SolverOutcome:
     """Minimise the problem's graph error from theta0 (T, 2n) (see the module docstring)."""
-    with threadpool_limits(limits=1, user_api="blas"):
+    with single_blas_thread():
         return _levenberg_marquardt(problem, np.array(theta0, dtype=float), lambda_initial,
                                     lambda_max, max_iterations, relative_tol, absolute_tol,
                                     patience, workspace_correction)
@@ -155,7 +154,7 @@ def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float
             break
         system: NormalEquations = problem.normal_equations(theta)
         g = system.g.reshape(-1)
-        solver = DampedBandSolver(layout.band(system.D, system.E), g)
+        solver = DampedBandSolver(layout.band(system.D, system.E), g, layout.rows)
         corrector = (WorkspaceCorrection(problem.robot, *problem.window(theta).workspace(),
                                          correction) if correction else None)
         lap("linearize")

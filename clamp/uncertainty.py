@@ -21,12 +21,12 @@ import logging
 
 import numpy as np
 from scipy.linalg.lapack import dpbtrf
-from threadpoolctl import threadpool_limits
 
 from clamp.banded import BandLayout
 from clamp.errors import InvalidParameterError
 
 from clamp.problem import PlanningProblem
+from scenes.threads import single_blas_thread
 
 log = logging.getLogger(__name__)
 
@@ -39,7 +39,7 @@ def plan_covariances(problem: PlanningProblem, theta: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, float]:
     """Covariances of the joint states (T, 2n, 2n) and end-effector positions (T, 3, 3) [m^2]
     at theta (T, 2n), and the information floor that was needed (0.0: none)."""
-    with threadpool_limits(limits=1, user_api="blas"):
+    with single_blas_thread():
         system = problem.normal_equations(theta)
         floor = 0.0
         try:
