@@ -69,7 +69,7 @@ class PlanningProblem:
         self._foreign_states = self._check_foreign()
         self.initial = initial
         self._window: StateWindow | None = None
-        self._constant: tuple[np.ndarray, np.ndarray] | None = None
+        self._constant: tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None = None
         self._by_cost = sorted(self.families, key=lambda f: f.cost)
 
     # ------------------------------------------------------------------------------ structure
@@ -168,15 +168,17 @@ class PlanningProblem:
         window = self.window(theta)
         if self._constant is None:
             self._constant = self._linear_hessian(window)
-        D, E = self._constant[0].copy(), self._constant[1].copy()
+        D, E, linear_jacobians = self._constant
+        D, E = D.copy(), E.copy()
         g = np.zeros((T, d))
         error = 0.0
         for family in self.families:
-            lin = family.residual(window, np.arange(len(family)), True)
+            lin = family.residual(window, np.arange(len(family)), not family.linear)
             if not len(lin.rows):
                 continue
             e = family.whiten(lin.rows, lin.error)
-            J = family.whiten(lin.rows, lin.jacobian)
+            J = linear_jacobians[family.name] if family.linear else \
+                family.whiten(lin.rows, lin.jacobian)
             error += 0.5 * float(np.sum(e * e))
             Jt = np.swapaxes(J, 1, 2)
             gf = -(Jt @ e[:, :, None])[:, :, 0]
@@ -193,21 +195,25 @@ class PlanningProblem:
                      (A.T @ b)[None], True)
         return NormalEquations(D, E, g, error)
 
-    def _linear_hessian(self, window: StateWindow) -> tuple[np.ndarray, np.ndarray]:
-        """Constant blocks of J^T J of the linear families (computed once)."""
+    def _linear_hessian(self, window: StateWindow
+                        ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Constant blocks of J^T J of the linear families and their whitened Jacobians
+        (F, m, arity d) by family name (computed once; a linear kernel returns every row)."""
         T, d = self.num_states, self.dim
         D, E = np.zeros((T, d, d)), np.zeros((T - 1, d, d))
         g = np.zeros((T, d))
+        jacobians = {}
         for family in self.families:
             if not family.linear:
                 continue
             rows = np.arange(len(family))
             lin = family.residual(window, rows, True)
-            J = family.whiten(lin.rows, lin.jacobian)
+            J = np.ascontiguousarray(family.whiten(lin.rows, lin.jacobian))
+            jacobians[family.name] = J
             H = np.swapaxes(J, 1, 2) @ J
             _scatter(D, E, g, family.first[lin.rows], family.arity, d, H,
                      np.zeros(H.shape[:2]), family.distinct)
-        return D, E
+        return D, E, jacobians
 
 
 def _scatter(D: np.ndarray, E: np.ndarray, g: np.ndarray, first: np.ndarray, arity: int, d: int,

@@ -58,7 +58,8 @@ class Family:
     sqrt_information (F, m, m) / (m, m) for correlated noise (exactly one of the two).
     Subclasses set ``name``, ``arity`` and ``cost`` (0: no kinematics, 1: end-effector
     kinematics, 2: collision spheres) and implement :meth:`residual`; ``linear = True`` declares
-    a residual affine in theta (constant Jacobian), which the fast solver then assembles once.
+    a residual affine in theta (constant Jacobian, every requested row returned), whose
+    Jacobian and J^T J the fast solver then assembles once.
     """
 
     name: str = "family"
