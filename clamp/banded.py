@@ -6,6 +6,8 @@ lower band storage (2d, T d): H[r, c] at band[r - c, c] for r >= c (bandwidth 2d
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 
@@ -46,3 +48,14 @@ class BandLayout:
         E = np.zeros((T - 1) * d * d)
         E[self.off_source] = flat[self.off_target]
         return D.reshape(T, d, d), np.swapaxes(E.reshape(T - 1, d, d), 1, 2)
+
+
+@lru_cache(maxsize=2)
+def band_layout(T: int, d: int) -> BandLayout:
+    """The (shared, read-only) layout for T blocks of d x d; the two most recent shapes are
+    kept (a few MB at T = 2000), so repeated plans of one skill do not rebuild it."""
+    layout = BandLayout(T, d)
+    for array in (layout.diag_target, layout.diag_source, layout.off_target, layout.off_source,
+                  layout.rows):
+        array.flags.writeable = False
+    return layout

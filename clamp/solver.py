@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
-from clamp.banded import BandLayout
+from clamp.banded import band_layout
 from clamp.problem import NormalEquations, PlanningProblem
 from scenes.threads import single_blas_thread
 
@@ -139,7 +139,7 @@ def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float
                          absolute_tol: float, patience: int,
                          correction: int) -> SolverOutcome:
     T, d = problem.num_states, problem.dim
-    layout = BandLayout(T, d)
+    layout = band_layout(T, d)
     timings = dict.fromkeys(("linearize", "solve", "correction", "error"), 0.0)
     clock = time.perf_counter()
 

@@ -22,9 +22,10 @@ import logging
 import numpy as np
 from scipy.linalg.lapack import dpbtrf
 
-from clamp.banded import BandLayout
+from clamp.banded import band_layout
 from clamp.errors import InvalidParameterError
 
+from clamp.prior import prefix_compose
 from clamp.problem import PlanningProblem
 from scenes.threads import single_blas_thread
 
@@ -63,7 +64,8 @@ def block_tridiagonal_inverse(D: np.ndarray, E: np.ndarray) -> np.ndarray:
     bidiagonal (diagonal blocks L_i, sub-diagonal blocks B_i), and L^T H^-1 = L^-1 gives the
     selected inverse backwards (Takahashi): S_{T-1} = W^T W and
     S_i = W_i^T W_i + P_i S_{i+1} P_i^T with W_i = L_i^-1, P_i = W_i^T B_i^T (all W_i, P_i in
-    batched products; the neighbours' cross-covariance is -P_i S_{i+1}).
+    batched products, the recursion as a log-depth scan: :func:`clamp.prior.prefix_compose`;
+    the neighbours' cross-covariance is -P_i S_{i+1}).
     O(T d^3), no dense (T d)^2 matrix. Raises InvalidParameterError naming the first state
     where H is not positive definite.
     """
@@ -72,7 +74,7 @@ def block_tridiagonal_inverse(D: np.ndarray, E: np.ndarray) -> np.ndarray:
     if np.any(~np.isfinite(D)) or np.any(~np.isfinite(E)) or np.any(diagonal <= 0.0):
         raise InvalidParameterError("information matrix: non-finite or non-positive diagonal")
     s = 1.0 / np.sqrt(diagonal)                                         # (T, d)
-    layout = BandLayout(T, d)
+    layout = band_layout(T, d)
     band = layout.band(D * s[:, :, None] * s[:, None, :], E * s[:-1, :, None] * s[1:, None, :])
     factor, info = dpbtrf(band, lower=1, overwrite_ab=1)
     if info != 0:
@@ -81,9 +83,13 @@ def block_tridiagonal_inverse(D: np.ndarray, E: np.ndarray) -> np.ndarray:
     L, B = layout.blocks(factor)
     W = np.linalg.inv(L)                                                # (T, d, d), batched
     Wt = np.swapaxes(W, 1, 2)
-    S = Wt @ W                                                          # (L_i L_i^T)^-1
+    local = Wt @ W                                                      # (L_i L_i^T)^-1
     P = Wt[:-1] @ np.swapaxes(B, 1, 2)                                  # W_i^T B_i^T
-    for i in range(T - 2, -1, -1):                                      # S_i += P_i S_i+1 P_i^T
-        S[i] += P[i] @ S[i + 1] @ P[i].T
+    # S_i = P_i S_{i+1} P_i^T + local_i backwards from S_{T-1} = local_{T-1}: the covariance
+    # recursion of a linear Gaussian chain, run as a log-depth prefix scan
+    A, _, acc = prefix_compose(P[::-1], np.zeros((T - 1, d)), local[-2::-1])
+    S = np.empty_like(D)
+    S[-1] = local[-1]
+    S[-2::-1] = A @ local[-1] @ np.swapaxes(A, 1, 2) + acc
     S *= s[:, :, None] * s[:, None, :]
     return 0.5 * (S + np.swapaxes(S, 1, 2))
