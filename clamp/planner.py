@@ -13,149 +13,33 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Union
 
 import gtsam
 import numpy as np
 
 from clamp.config import PlannerConfig
-from clamp.errors import InvalidParameterError, ShapeError
+from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
                            JointTargetFamily, ObstacleFamily, WorkspaceGPFamily,
                            WorkspaceStartFamily, shifted_start_mean)
 from clamp.initialisation import (Initialisation, joint_velocities, prior_mean_initialisation,
                                   straight_line_initialisation)
 from clamp.keys import state_key
-from clamp.optimizers import Optimized, optimize
+from clamp.optimizers import optimize
 from clamp.problem import PlanningProblem
+from clamp.request import (Request, Target, as_config, as_scene, check_prior, check_robot,
+                           has_obstacles, make_request)
 from clamp.result import PlanResult
 from clamp.uncertainty import plan_covariances
-from clamp.validation import as_array, as_count
+from clamp.validation import as_array
+from clamp.verdict import evaluate, failed_result, start_problems
 from scenes.threads import single_blas_thread
 
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
 #: what ``extra_factors`` may hold: a family (fast path), any GTSAM factor on the planner's
 #: state keys, or a maker(index, num_states, key) -> factor | None called for every state
 ExtraFactor = Union[Family, gtsam.NonlinearFactor, PerStateFactorMaker]
-
-
-@dataclass(frozen=True)
-class Target:
-    """A start / goal / via point: kind "joint" (value (n,) rad) or "position" (value (3,) m)."""
-
-    kind: str
-    value: np.ndarray
-
-
-@dataclass(frozen=True)
-class Request:
-    """A validated planning request (what :func:`build` was asked), with the start resolved:
-    q_start (n,) [rad], start_position (3,) [m], vias [(index, Target)]."""
-
-    start: Target
-    goal: Target | None
-    vias: tuple[tuple[int, Target], ...]
-    q_start: np.ndarray
-    start_position: np.ndarray
-    start_ik_error: float
-
-
-# ---------------------------------------------------------------------------------- inputs
-def _check_prior(prior: Any) -> None:
-    for attr in ("Phi", "u", "Q", "mean0", "cov0", "mean", "dt"):
-        if not hasattr(prior, attr):
-            raise InvalidParameterError(f"prior: expected a clamp.WorkspacePrior, "
-                                        f"got {type(prior).__name__} without '{attr}'")
-    if np.shape(prior.Phi)[1:] != (6, 6):
-        raise ShapeError(f"prior: expected a workspace prior over x = [p, v] (D = 6), "
-                         f"got Phi of shape {np.shape(prior.Phi)}")
-
-
-def _check_robot(robot: Any) -> None:
-    for attr in ("n", "ee_kinematics", "sphere_centres", "fk", "ik", "ik_trajectory"):
-        if not hasattr(robot, attr):
-            raise InvalidParameterError(f"robot: expected a robots.Robot, got "
-                                        f"{type(robot).__name__} without '{attr}'")
-
-
-def _as_config(config: Any) -> PlannerConfig:
-    if config is None:
-        return PlannerConfig()
-    if not isinstance(config, PlannerConfig):
-        raise InvalidParameterError(f"config: expected a clamp.PlannerConfig (e.g. "
-                                    f"PlannerConfig().with_(sigma_obs=0.005)), got "
-                                    f"{type(config).__name__}")
-    return config.validate()
-
-
-def as_scene(scene: Any) -> Any:
-    """A scenes.Scene from None, a Scene, an obstacle, a list of obstacles or a scene file path."""
-    from scenes import Scene
-    from scenes.obstacles import Obstacle
-    if scene is None or isinstance(scene, Scene):
-        return scene
-    if isinstance(scene, Obstacle):
-        return Scene([scene])
-    if isinstance(scene, (str, Path)):
-        return Scene.load(scene)
-    if isinstance(scene, (list, tuple)) and all(isinstance(o, Obstacle) for o in scene):
-        return Scene(list(scene))
-    raise InvalidParameterError(f"scene: expected a scenes.Scene, an obstacle, a list of "
-                                f"obstacles, a scene file path or None, got {type(scene).__name__}")
-
-
-def as_target(value: Any, name: str, n: int) -> Target:
-    """A joint configuration (n,) or an end-effector position (3,) (joint wins when n == 3)."""
-    size = np.size(value) if np.ndim(value) == 1 else -1
-    if size == n:
-        return Target("joint", as_array(value, name, (n,)))
-    if size == 3:
-        return Target("position", as_array(value, name, (3,)))
-    raise ShapeError(f"{name}: expected a joint configuration ({n},) or an end-effector "
-                     f"position (3,), got shape {np.shape(value)}")
-
-
-def _via_targets(via_points: Sequence[tuple[int, Any]], T: int,
-                 n: int) -> tuple[tuple[int, Target], ...]:
-    out = []
-    for k, item in enumerate(via_points):
-        if not isinstance(item, (tuple, list)) or len(item) != 2:
-            raise ShapeError(f"via_points[{k}]: expected a pair (index, position (3,) or "
-                             f"configuration ({n},)), got {item!r}")
-        index = as_count(item[0], f"via_points[{k}] index", minimum=0)
-        if index >= T:
-            raise InvalidParameterError(f"via_points[{k}] index: expected 0 <= index < {T}, "
-                                        f"got {index}")
-        out.append((index, as_target(item[1], f"via_points[{k}] target", n)))
-    return tuple(out)
-
-
-def _has_obstacles(scene: Any) -> bool:
-    return scene is not None and len(getattr(scene, "obstacles", ())) > 0
-
-
-def _request(prior: Any, robot: Any, start: Any, goal: Any, via_points: Sequence,
-             config: PlannerConfig, q_start: np.ndarray | None = None) -> Request:
-    n, T = robot.n, prior.Phi.shape[0] + 1
-    if start is None:
-        raise InvalidParameterError(f"start: expected a joint configuration ({n},) or an "
-                                    "end-effector position (3,), got None")
-    start_target = as_target(start, "start", n)
-    goal_target = None if goal is None else as_target(goal, "goal", n)
-    vias = _via_targets(via_points, T, n)
-    ik_error = 0.0
-    if q_start is not None:
-        q_start = as_array(q_start, "q_start", (n,))
-    elif start_target.kind == "joint":
-        q_start = start_target.value
-    else:
-        checks = config.checks
-        ik = robot.ik(start_target.value, tol=min(checks.ik_tolerance, checks.start_tolerance))
-        q_start, ik_error = np.asarray(ik.q, dtype=float), float(ik.error)
-    position = start_target.value if start_target.kind == "position" else robot.fk(q_start)
-    return Request(start_target, goal_target, vias, q_start, position, ik_error)
 
 
 # ---------------------------------------------------------------------------------- building
@@ -200,7 +84,7 @@ def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None) -> Callab
     """The signed-distance query the obstacle family uses: ``sdf.query`` when given, else the
     scene's (exact for primitives, a grid cached by the scene otherwise); None without
     obstacles or with obstacle factors off."""
-    if not config.model.obstacle_factors or not _has_obstacles(scene):
+    if not config.model.obstacle_factors or not has_obstacles(scene):
         return None
     if sdf is not None:
         return sdf.query
@@ -286,63 +170,22 @@ def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: An
     subclasses on bad input.
     """
     problem, _, _ = _build(prior, robot, as_scene(scene), start, goal, via_points,
-                           extra_factors, _as_config(config), sdf, initial)
+                           extra_factors, as_config(config), sdf, initial)
     return problem
 
 
 def _build(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf, initial,
            request: Request | None = None) -> tuple[PlanningProblem, Request, Initialisation]:
-    _check_prior(prior)
-    _check_robot(robot)
+    check_prior(prior)
+    check_robot(robot)
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
-    request = request or _request(prior, robot, start, goal, via_points, config)
+    request = request or make_request(prior, robot, start, goal, via_points, config)
     extra_families, foreign = _extras(extra_factors, T)
     families = _families(prior, robot, request, config, distance_query(scene, config, sdf))
     init = (_initialise(prior, robot, request, config) if initial is None
             else warm_start(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
     return problem, request, init
-
-
-# ---------------------------------------------------------------------------------- checking
-def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
-    """Exact clearance (T, S) [m] of every collision sphere at q (T, n); +inf without obstacles."""
-    centres, _ = robot.sphere_centres(q)
-    if not _has_obstacles(scene):
-        return np.full(centres.shape[:2], np.inf)
-    return scene.distance(centres) - np.asarray(robot.spheres.radii)
-
-
-def _failed(prior: Any, robot: Any, q: np.ndarray, reasons: list[str], t0: float,
-            start_error: float, config: PlannerConfig) -> PlanResult:
-    kin = robot.ee_kinematics(q, np.zeros_like(q), jacobians=False)
-    return PlanResult(q=q, qdot=np.zeros_like(q), ee_path=kin.position,
-                      ee_velocity=kin.velocity, time=np.asarray(prior.time, dtype=float),
-                      timings={"build": 0.0, "optimize": 0.0, "marginals": 0.0,
-                               "total": time.perf_counter() - t0},
-                      iterations=0, initial_error=float("nan"), final_error=float("nan"),
-                      family_errors={}, collision_cost=float("nan"),
-                      min_clearance=float("nan"), start_error=start_error, goal_error=None,
-                      log_likelihood=float("nan"), success_probability=0.0,
-                      within_limits=bool(np.all(robot.within_limits(q))), success=False,
-                      reasons=reasons, initialisation=config.optimizer.initialisation,
-                      optimizer=config.optimizer.optimizer, stop_reason="not started")
-
-
-def _start_problems(robot: Any, scene: Any, request: Request, config: PlannerConfig) -> list[str]:
-    start = request.start
-    if start.kind == "position" and request.start_ik_error > config.checks.start_tolerance:
-        return [f"start position {np.round(start.value, 4).tolist()} is out of reach (IK "
-                f"error {request.start_ik_error * 1000:.1f} mm)"]
-    reasons = []
-    if _has_obstacles(scene):
-        if start.kind == "position" and float(scene.distance(start.value)) < 0:
-            reasons.append("start position is inside an obstacle")
-        clearance = sphere_clearance(robot, scene, request.q_start[None])
-        if np.min(clearance) < 0:
-            reasons.append(f"start configuration is in collision (clearance "
-                           f"{np.min(clearance) * 1000:.1f} mm)")
-    return reasons
 
 
 def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
@@ -364,15 +207,15 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
 def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf, initial,
           covariance) -> PlanResult:
     t0 = time.perf_counter()
-    config = _as_config(config)
-    _check_prior(prior)
-    _check_robot(robot)
+    config = as_config(config)
+    check_prior(prior)
+    check_robot(robot)
     scene = as_scene(scene)
-    request = _request(prior, robot, start, goal, via_points, config)
+    request = make_request(prior, robot, start, goal, via_points, config)
     T = prior.Phi.shape[0] + 1
-    reasons = _start_problems(robot, scene, request, config)
+    reasons = start_problems(robot, scene, request, config)
     if reasons:
-        return _failed(prior, robot, np.repeat(request.q_start[None], T, axis=0), reasons, t0,
+        return failed_result(prior, robot, np.repeat(request.q_start[None], T, axis=0), reasons, t0,
                        request.start_ik_error, config)
     problem, request, init = _build(prior, robot, scene, start, goal, via_points, extra_factors,
                                     config, sdf, initial, request)
@@ -386,61 +229,9 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     t_end = time.perf_counter()
     timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
                **out.timings}
-    result = _evaluate(prior, robot, scene, problem, request, out, config, timings)
+    result = evaluate(prior, robot, scene, problem, request, out, config, timings)
     result.initial_q = init.q
     result.state_covariance, result.ee_covariance = state_cov, ee_cov
     result.covariance_floor = floor
     result.timings["total"] = time.perf_counter() - t0
     return result
-
-
-def _evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
-              out: Optimized, config: PlannerConfig, timings: dict[str, float]) -> PlanResult:
-    """Metrics and success checks of an optimised plan."""
-    n, checks = robot.n, config.checks
-    q, qdot = out.theta[:, :n], out.theta[:, n:]
-    x, _ = problem.window(out.theta).workspace()
-    position = x[:, :3]
-    families = problem.family_errors(out.theta)
-    clearance = float(np.min(sphere_clearance(robot, scene, q)))
-    start = request.start
-    start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
-                                       - start.value))
-    goal_error = None
-    if request.goal is not None:
-        reached = position[-1] if request.goal.kind == "position" else q[-1]
-        goal_error = float(np.linalg.norm(reached - request.goal.value))
-    via_errors = [float(np.linalg.norm((position[i] if t.kind == "position" else q[i]) - t.value))
-                  for i, t in request.vias]
-    within = bool(np.all(robot.within_limits(q, checks.limit_tolerance)) and np.all(
-        np.abs(qdot) <= np.asarray(robot.velocity_limits) + checks.velocity_tolerance))
-    log_likelihood = float(prior.log_likelihood(x, initial=False))
-    probability = float(prior.success_probability(x)) if hasattr(prior, "success_probability") \
-        else float("nan")
-
-    reasons = []
-    if not np.isfinite(out.final_error):
-        reasons.append("optimisation diverged (non-finite error)")
-    if start_error > checks.start_tolerance:
-        reasons.append(f"start error {start_error:.4g} exceeds {checks.start_tolerance:.4g}")
-    if goal_error is not None and goal_error > checks.goal_tolerance:
-        reasons.append(f"goal error {goal_error:.4g} exceeds {checks.goal_tolerance:.4g}")
-    for (index, _), error in zip(request.vias, via_errors):
-        if error > checks.goal_tolerance:
-            reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
-                           f"{checks.goal_tolerance:.4g}")
-    if clearance < 0:
-        reasons.append(f"collision: minimum clearance {clearance * 1000:.1f} mm")
-    if not within:
-        reasons.append("joint position or velocity limits violated")
-    return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
-                      time=np.asarray(prior.time, dtype=float), timings=timings,
-                      iterations=out.iterations, initial_error=out.initial_error,
-                      final_error=out.final_error, family_errors=families,
-                      collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
-                      start_error=start_error, goal_error=goal_error,
-                      log_likelihood=log_likelihood, success_probability=probability,
-                      within_limits=within, success=not reasons, reasons=reasons,
-                      initialisation=config.optimizer.initialisation, trials=out.trials,
-                      optimizer=out.optimizer, stop_reason=out.stop_reason,
-                      via_errors=via_errors)

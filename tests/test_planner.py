@@ -10,7 +10,7 @@ import pytest
 from clamp.errors import ClampError
 from clamp.learning import learn_prior
 from clamp import PlannerConfig, build, plan
-from clamp.planner import sphere_clearance
+from clamp.verdict import sphere_clearance
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]

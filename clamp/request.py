@@ -1,0 +1,131 @@
+"""A planning request checked at the boundary: the prior, robot, scene, configuration, start,
+goal and via points a caller passed, validated once (ClampError naming the argument) and
+resolved (an end-effector start solved by inverse kinematics)."""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from clamp.config import PlannerConfig
+from clamp.errors import InvalidParameterError, ShapeError
+from clamp.validation import as_array, as_count
+
+
+@dataclass(frozen=True)
+class Target:
+    """A start / goal / via point: kind "joint" (value (n,) rad) or "position" (value (3,) m)."""
+
+    kind: str
+    value: np.ndarray
+
+
+@dataclass(frozen=True)
+class Request:
+    """A validated planning request (what :func:`build` was asked), with the start resolved:
+    q_start (n,) [rad], start_position (3,) [m], vias [(index, Target)]."""
+
+    start: Target
+    goal: Target | None
+    vias: tuple[tuple[int, Target], ...]
+    q_start: np.ndarray
+    start_position: np.ndarray
+    start_ik_error: float
+
+
+def check_prior(prior: Any) -> None:
+    for attr in ("Phi", "u", "Q", "mean0", "cov0", "mean", "dt"):
+        if not hasattr(prior, attr):
+            raise InvalidParameterError(f"prior: expected a clamp.WorkspacePrior, "
+                                        f"got {type(prior).__name__} without '{attr}'")
+    if np.shape(prior.Phi)[1:] != (6, 6):
+        raise ShapeError(f"prior: expected a workspace prior over x = [p, v] (D = 6), "
+                         f"got Phi of shape {np.shape(prior.Phi)}")
+
+
+def check_robot(robot: Any) -> None:
+    for attr in ("n", "ee_kinematics", "sphere_centres", "fk", "ik", "ik_trajectory"):
+        if not hasattr(robot, attr):
+            raise InvalidParameterError(f"robot: expected a robots.Robot, got "
+                                        f"{type(robot).__name__} without '{attr}'")
+
+
+def as_config(config: Any) -> PlannerConfig:
+    if config is None:
+        return PlannerConfig()
+    if not isinstance(config, PlannerConfig):
+        raise InvalidParameterError(f"config: expected a clamp.PlannerConfig (e.g. "
+                                    f"PlannerConfig().with_(sigma_obs=0.005)), got "
+                                    f"{type(config).__name__}")
+    return config.validate()
+
+
+def as_scene(scene: Any) -> Any:
+    """A scenes.Scene from None, a Scene, an obstacle, a list of obstacles or a scene file path."""
+    from scenes import Scene
+    from scenes.obstacles import Obstacle
+    if scene is None or isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, Obstacle):
+        return Scene([scene])
+    if isinstance(scene, (str, Path)):
+        return Scene.load(scene)
+    if isinstance(scene, (list, tuple)) and all(isinstance(o, Obstacle) for o in scene):
+        return Scene(list(scene))
+    raise InvalidParameterError(f"scene: expected a scenes.Scene, an obstacle, a list of "
+                                f"obstacles, a scene file path or None, got {type(scene).__name__}")
+
+
+def as_target(value: Any, name: str, n: int) -> Target:
+    """A joint configuration (n,) or an end-effector position (3,) (joint wins when n == 3)."""
+    size = np.size(value) if np.ndim(value) == 1 else -1
+    if size == n:
+        return Target("joint", as_array(value, name, (n,)))
+    if size == 3:
+        return Target("position", as_array(value, name, (3,)))
+    raise ShapeError(f"{name}: expected a joint configuration ({n},) or an end-effector "
+                     f"position (3,), got shape {np.shape(value)}")
+
+
+def _via_targets(via_points: Sequence[tuple[int, Any]], T: int,
+                 n: int) -> tuple[tuple[int, Target], ...]:
+    out = []
+    for k, item in enumerate(via_points):
+        if not isinstance(item, (tuple, list)) or len(item) != 2:
+            raise ShapeError(f"via_points[{k}]: expected a pair (index, position (3,) or "
+                             f"configuration ({n},)), got {item!r}")
+        index = as_count(item[0], f"via_points[{k}] index", minimum=0)
+        if index >= T:
+            raise InvalidParameterError(f"via_points[{k}] index: expected 0 <= index < {T}, "
+                                        f"got {index}")
+        out.append((index, as_target(item[1], f"via_points[{k}] target", n)))
+    return tuple(out)
+
+
+def has_obstacles(scene: Any) -> bool:
+    return scene is not None and len(getattr(scene, "obstacles", ())) > 0
+
+
+def make_request(prior: Any, robot: Any, start: Any, goal: Any, via_points: Sequence,
+             config: PlannerConfig, q_start: np.ndarray | None = None) -> Request:
+    n, T = robot.n, prior.Phi.shape[0] + 1
+    if start is None:
+        raise InvalidParameterError(f"start: expected a joint configuration ({n},) or an "
+                                    "end-effector position (3,), got None")
+    start_target = as_target(start, "start", n)
+    goal_target = None if goal is None else as_target(goal, "goal", n)
+    vias = _via_targets(via_points, T, n)
+    ik_error = 0.0
+    if q_start is not None:
+        q_start = as_array(q_start, "q_start", (n,))
+    elif start_target.kind == "joint":
+        q_start = start_target.value
+    else:
+        checks = config.checks
+        ik = robot.ik(start_target.value, tol=min(checks.ik_tolerance, checks.start_tolerance))
+        q_start, ik_error = np.asarray(ik.q, dtype=float), float(ik.error)
+    position = start_target.value if start_target.kind == "position" else robot.fk(q_start)
+    return Request(start_target, goal_target, vias, q_start, position, ik_error)

@@ -1,0 +1,109 @@
+"""The verdict of a plan: what was asked of it (start, goal, via points, clearance, limits) checked
+on the optimised trajectory, with the figures behind every reason; and the early failures
+(start out of reach or in collision) that stop before planning.
+"""
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from clamp.config import PlannerConfig
+from clamp.optimizers import Optimized
+from clamp.problem import PlanningProblem
+from clamp.request import Request, has_obstacles
+from clamp.result import PlanResult
+
+
+def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
+    """Exact clearance (T, S) [m] of every collision sphere at q (T, n); +inf without obstacles."""
+    centres, _ = robot.sphere_centres(q)
+    if not has_obstacles(scene):
+        return np.full(centres.shape[:2], np.inf)
+    return scene.distance(centres) - np.asarray(robot.spheres.radii)
+
+
+def failed_result(prior: Any, robot: Any, q: np.ndarray, reasons: list[str], t0: float,
+            start_error: float, config: PlannerConfig) -> PlanResult:
+    kin = robot.ee_kinematics(q, np.zeros_like(q), jacobians=False)
+    return PlanResult(q=q, qdot=np.zeros_like(q), ee_path=kin.position,
+                      ee_velocity=kin.velocity, time=np.asarray(prior.time, dtype=float),
+                      timings={"build": 0.0, "optimize": 0.0, "marginals": 0.0,
+                               "total": time.perf_counter() - t0},
+                      iterations=0, initial_error=float("nan"), final_error=float("nan"),
+                      family_errors={}, collision_cost=float("nan"),
+                      min_clearance=float("nan"), start_error=start_error, goal_error=None,
+                      log_likelihood=float("nan"), success_probability=0.0,
+                      within_limits=bool(np.all(robot.within_limits(q))), success=False,
+                      reasons=reasons, initialisation=config.optimizer.initialisation,
+                      optimizer=config.optimizer.optimizer, stop_reason="not started")
+
+
+def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConfig) -> list[str]:
+    start = request.start
+    if start.kind == "position" and request.start_ik_error > config.checks.start_tolerance:
+        return [f"start position {np.round(start.value, 4).tolist()} is out of reach (IK "
+                f"error {request.start_ik_error * 1000:.1f} mm)"]
+    reasons = []
+    if has_obstacles(scene):
+        if start.kind == "position" and float(scene.distance(start.value)) < 0:
+            reasons.append("start position is inside an obstacle")
+        clearance = sphere_clearance(robot, scene, request.q_start[None])
+        if np.min(clearance) < 0:
+            reasons.append(f"start configuration is in collision (clearance "
+                           f"{np.min(clearance) * 1000:.1f} mm)")
+    return reasons
+
+
+
+def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
+              out: Optimized, config: PlannerConfig, timings: dict[str, float]) -> PlanResult:
+    """Metrics and success checks of an optimised plan."""
+    n, checks = robot.n, config.checks
+    q, qdot = out.theta[:, :n], out.theta[:, n:]
+    x, _ = problem.window(out.theta).workspace()
+    position = x[:, :3]
+    families = problem.family_errors(out.theta)
+    clearance = float(np.min(sphere_clearance(robot, scene, q)))
+    start = request.start
+    start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
+                                       - start.value))
+    goal_error = None
+    if request.goal is not None:
+        reached = position[-1] if request.goal.kind == "position" else q[-1]
+        goal_error = float(np.linalg.norm(reached - request.goal.value))
+    via_errors = [float(np.linalg.norm((position[i] if t.kind == "position" else q[i]) - t.value))
+                  for i, t in request.vias]
+    within = bool(np.all(robot.within_limits(q, checks.limit_tolerance)) and np.all(
+        np.abs(qdot) <= np.asarray(robot.velocity_limits) + checks.velocity_tolerance))
+    log_likelihood = float(prior.log_likelihood(x, initial=False))
+    probability = float(prior.success_probability(x)) if hasattr(prior, "success_probability") \
+        else float("nan")
+
+    reasons = []
+    if not np.isfinite(out.final_error):
+        reasons.append("optimisation diverged (non-finite error)")
+    if start_error > checks.start_tolerance:
+        reasons.append(f"start error {start_error:.4g} exceeds {checks.start_tolerance:.4g}")
+    if goal_error is not None and goal_error > checks.goal_tolerance:
+        reasons.append(f"goal error {goal_error:.4g} exceeds {checks.goal_tolerance:.4g}")
+    for (index, _), error in zip(request.vias, via_errors):
+        if error > checks.goal_tolerance:
+            reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
+                           f"{checks.goal_tolerance:.4g}")
+    if clearance < 0:
+        reasons.append(f"collision: minimum clearance {clearance * 1000:.1f} mm")
+    if not within:
+        reasons.append("joint position or velocity limits violated")
+    return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
+                      time=np.asarray(prior.time, dtype=float), timings=timings,
+                      iterations=out.iterations, initial_error=out.initial_error,
+                      final_error=out.final_error, family_errors=families,
+                      collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
+                      start_error=start_error, goal_error=goal_error,
+                      log_likelihood=log_likelihood, success_probability=probability,
+                      within_limits=within, success=not reasons, reasons=reasons,
+                      initialisation=config.optimizer.initialisation, trials=out.trials,
+                      optimizer=out.optimizer, stop_reason=out.stop_reason,
+                      via_errors=via_errors)
