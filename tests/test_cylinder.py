@@ -151,6 +151,7 @@ def test_points_beyond_the_ends_belong_to_the_end_sections(synthetic):
     np.testing.assert_array_equal(c.index, [0, cyl.num_sections - 1])
     np.testing.assert_allclose(c.offset, [-0.05, 0.05], atol=1e-12)
     np.testing.assert_allclose(c.distance, 0.0, atol=1e-12)
+    assert not c.inside.any()                      # end caps are closed
 
 
 def test_ratio_per_index_matches_the_effective_points(synthetic):

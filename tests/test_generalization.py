@@ -142,12 +142,25 @@ def test_tps_with_enough_landmarks_maps_the_directrix_affinely(synthetic_cylinde
 def test_lte_scales_cross_sections_with_the_path(synthetic_cylinder):
     cyl = synthetic_cylinder
     start, end = cyl.directrix[0], cyl.directrix[-1]
-    new = lte_generalize(cyl, {0: start, -1: start + 2.0 * (end - start)})
+    doubled = {0: start, -1: start + 2.0 * (end - start)}
     a = np.linspace(0, 2 * np.pi, 16, endpoint=False)
     k = np.arange(cyl.num_sections)[:, None]
-    np.testing.assert_allclose(new.radius(k, a), 2.0 * cyl.radius(k, a), rtol=1e-6)
-    fixed = lte_generalize(cyl, {0: start, -1: start + 2.0 * (end - start)}, scale_cross_sections=False)
-    np.testing.assert_allclose(fixed.radius(k, a), cyl.radius(k, a), rtol=1e-9)
+    # Start free: the whole skill is scaled by 2, sections included.
+    free = lte_generalize(cyl, doubled, mode="similarity", keep_start=False)
+    np.testing.assert_allclose(free.radius(k, a), 2.0 * cyl.radius(k, a), rtol=1e-6)
+    np.testing.assert_allclose(free.directrix, start + 2.0 * (cyl.directrix - start), atol=1e-9)
+    # Start kept: the first section stays, the scale fades in and is 2 after the fade.
+    kept = lte_generalize(cyl, doubled, mode="similarity")
+    np.testing.assert_allclose(kept.radius(k[:3], a), cyl.radius(k[:3], a), rtol=1e-12)
+    after = cyl.arc_length >= cyl.arc_length[2] + 0.1
+    np.testing.assert_allclose(kept.radius(k[after], a), 2.0 * cyl.radius(k[after], a), rtol=1e-6)
+    ratio = kept.radius(k, a) / cyl.radius(k, a)
+    assert np.all(np.diff(ratio[:, 0]) >= -1e-9)                      # monotone fade-in
+    unscaled = lte_generalize(cyl, doubled, mode="similarity", scale_cross_sections=False)
+    np.testing.assert_allclose(unscaled.radius(k, a), cyl.radius(k, a), rtol=1e-9)
+    # The default mode with a kept start is the local edit: sections keep their size.
+    default = lte_generalize(cyl, doubled)
+    np.testing.assert_allclose(default.radius(k, a), cyl.radius(k, a), rtol=1e-9)
 
 
 # ---------------------------------------------------------------------------- paper 5.2

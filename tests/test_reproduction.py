@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from scenes import load_demonstrations, make_demonstrations
-from tlgc import (CROSS_SECTION_TYPES, InvalidArgumentError, StartOutsideError, fit_cylinder,
-                  random_starts, ratio_schedule, reproduce, start_coordinates)
+from tlgc import (CROSS_SECTION_TYPES, InvalidArgumentError, StartOffPlaneError, StartOutsideError,
+                  fit_cylinder, random_starts, ratio_schedule, reproduce, start_coordinates)
 
 KINDS = sorted(CROSS_SECTION_TYPES)
 
@@ -81,14 +81,36 @@ def test_reproduction_keeps_the_local_angle(cylinders):
                                atol=1e-9)
 
 
-def test_single_start_and_off_plane_start_is_projected(cylinders):
+def test_single_start_and_starts_off_the_first_plane(cylinders):
     cyl = cylinders["circle"]
     start = random_starts(cyl, 1, rng=9)[0]
     single = reproduce(cyl, start)
     assert single.shape == (cyl.num_sections, 3)
-    lifted = reproduce(cyl, start + 0.05 * cyl.tangents[0])
-    np.testing.assert_allclose(lifted, single, atol=1e-12)
     np.testing.assert_allclose(reproduce(cyl, cyl.directrix[0]), cyl.directrix, atol=1e-12)
+    # Within the stated tolerance (1 mm) a start is taken in the plane ...
+    near = reproduce(cyl, start + 0.5e-3 * cyl.tangents[0])
+    np.testing.assert_allclose(near, single, atol=1e-12)
+    # ... farther ones are refused with their distance, before or past the plane.
+    with pytest.raises(StartOffPlaneError, match=r"starts\[1\] at 0\.05 m past"):
+        reproduce(cyl, np.stack([start, start + 0.05 * cyl.tangents[0]]))
+    with pytest.raises(StartOffPlaneError, match=r"0\.2 m before"):
+        reproduce(cyl, start - 0.2 * cyl.tangents[0])
+    assert issubclass(StartOffPlaneError, StartOutsideError)
+    # A caller who wants the old projection asks for it explicitly.
+    lifted = reproduce(cyl, start + 0.05 * cyl.tangents[0], plane_tolerance=np.inf)
+    np.testing.assert_allclose(lifted, single, atol=1e-12)
+    looser = reproduce(cyl, start + 0.05 * cyl.tangents[0], plane_tolerance=0.06)
+    np.testing.assert_allclose(looser, single, atol=1e-12)
+    with pytest.raises(InvalidArgumentError, match="plane_tolerance"):
+        reproduce(cyl, start, plane_tolerance=-1.0)
+
+
+def test_reproduced_points_are_inside_the_cylinder_by_containment(cylinders):
+    for kind, cyl in cylinders.items():
+        reps = reproduce(cyl, random_starts(cyl, 20, rng=4), eta_final=1.0)
+        c = cyl.containment(reps.reshape(-1, 3))
+        assert c.inside.all(), kind
+        np.testing.assert_array_equal(c.offset, 0.0)
 
 
 def test_start_outside_is_refused_unless_allowed(cylinders):

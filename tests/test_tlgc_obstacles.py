@@ -59,22 +59,30 @@ def test_adaptive_ratio_parameters_match_the_plane_geometry(straight_cylinder):
     cyl = straight_cylinder
     k0 = 0
     start = cyl.directrix[k0] + 0.5 * RADIUS * cyl.normals[k0]
-    # Sphere on the start's ray at 0.6 R from the axis, radius 0.2 R: passing inside needs
-    # eta_f = 0.4 (nearer eta0 = 0.5 than passing outside at 0.8).
+    # Sphere on the start's ray at 0.6 R from the axis, radius 0.2 R: passing inside touches it
+    # at ratio 0.4 (the paper's eta_f, nearer eta0 = 0.5 than passing outside at 0.8); eta_f
+    # lies the critical fraction below it, so every sample the sphere blocks stays below 0.4.
     mid = len(cyl.directrix) // 2
     centre = cyl.directrix[mid] + 0.6 * RADIUS * cyl.normals[mid]
     params = adaptive_ratio_parameters(cyl, start, (centre, 0.2 * RADIUS), critical_fraction=0.03)
     assert params.passes == "inside"
     assert params.eta0 == pytest.approx(0.5)
-    assert params.eta_final == pytest.approx(0.4, abs=1e-9)
+    assert params.edge == pytest.approx(0.4, abs=1e-9)
+    assert params.eta_final == pytest.approx(0.4 * 0.97, abs=1e-9)
     u_c = (0.5 * LENGTH - 0.2 * RADIUS) / LENGTH          # normalised arc length where it begins
     assert u_c <= params.critical_arc_length <= u_c + 1.0 / 200 + 1e-12   # first section it cuts
-    eta_c = params.eta_final + (params.eta0 - params.eta_final) * np.exp(
-        -params.gamma * params.critical_arc_length)
-    assert eta_c == pytest.approx(params.eta_final * 1.03, rel=1e-9)      # eq. 10 at u_c
+    eta = params.eta_final + (params.eta0 - params.eta_final) * np.exp(-params.gamma * cyl.arc_length)
+    assert eta[params.section] <= 0.4 + 1e-12                  # at the section that sets the edge
+    # gamma is the smallest decay that does it: the schedule touches some blocked section's edge.
+    x = cyl.directrix[:, 0]
+    blocked = np.abs(x - 0.5 * LENGTH) < 0.2 * RADIUS
+    entry = (0.6 * RADIUS - np.sqrt((0.2 * RADIUS) ** 2 - (x[blocked] - 0.5 * LENGTH) ** 2)) / RADIUS
+    assert np.all(eta[blocked] <= entry + 1e-12)
+    assert np.min(entry - eta[blocked]) < 1e-9
     outside = adaptive_ratio_parameters(cyl, cyl.directrix[0] + 0.75 * RADIUS * cyl.normals[0],
                                         (centre, 0.2 * RADIUS))
-    assert outside.passes == "outside" and outside.eta_final == pytest.approx(0.8, abs=1e-9)
+    assert outside.passes == "outside" and outside.edge == pytest.approx(0.8, abs=1e-9)
+    assert outside.eta_final == pytest.approx(0.8 * 1.03, abs=1e-9)
 
 
 def test_adaptive_ratio_errors(straight_cylinder):

@@ -9,18 +9,22 @@ from typing import Any
 
 from .cross_sections import (CROSS_SECTION_TYPES, CircleSections, CrossSections, EllipseSections,
                              SplineSections, fit_cross_sections)
-from .cylinder import Containment, GeneralizedCylinder, fit_cylinder, resample_demonstrations
-from .errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
+from .cylinder import (INSIDE_TOLERANCE, Containment, GeneralizedCylinder, fit_cylinder,
+                       resample_demonstrations)
+from .errors import (CylinderFileError, GeneralizationError, InvalidArgumentError,
+                     InvalidDemonstrationsError, ObstacleAvoidanceError, StartOffPlaneError,
                      StartOutsideError, TLGCError, TooFewDemonstrationsError,
                      UnknownCrossSectionError)
 from .frames import bishop_frames
-from .generalization import (fit_similarity, fit_tps, landmark_constraints, lte_deform,
-                             lte_generalize, shape_distortion, tps_generalize)
-from .obstacles import (ObstacleAvoidanceError, adaptive_ratio_parameters,
-                        avoid_with_adaptive_ratio, avoid_with_deformation, cylinder_clearance,
-                        cylinder_intersects)
+from .generalization import (LTEResult, constraint_similarity, fit_similarity, fit_tps,
+                             landmark_constraints, lte_deform, lte_generalize, lte_solve,
+                             shape_distortion, tps_generalize)
+from .obstacles import (adaptive_ratio_parameters, avoid_with_adaptive_ratio,
+                        avoid_with_deformation, cylinder_clearance, cylinder_intersects,
+                        path_clearance, section_clearance)
 from .refinement import RefinementConstraint, RefinementSet, refine_incrementally
-from .reproduction import random_starts, ratio_schedule, reproduce, start_coordinates
+from .reproduction import (check_starts, random_starts, ratio_schedule, reproduce,
+                           start_coordinates)
 
 _LAZY = {"BoundaryFamily": "boundary_factor", "boundary_distance": "boundary_factor",
          "boundary_residuals": "boundary_factor"}
@@ -34,15 +38,17 @@ def __getattr__(name: str) -> Any:
 
 __all__ = [
     "CROSS_SECTION_TYPES", "CircleSections", "Containment", "CrossSections", "CylinderFileError",
-    "EllipseSections", "GeneralizedCylinder", "InvalidArgumentError", "InvalidDemonstrationsError",
-    "SplineSections", "StartOutsideError", "TLGCError", "TooFewDemonstrationsError",
-    "UnknownCrossSectionError", "bishop_frames", "fit_cross_sections", "fit_cylinder",
-    "random_starts", "ratio_schedule", "reproduce", "resample_demonstrations",
+    "EllipseSections", "GeneralizationError", "GeneralizedCylinder", "INSIDE_TOLERANCE",
+    "InvalidArgumentError", "InvalidDemonstrationsError", "SplineSections",
+    "StartOffPlaneError", "StartOutsideError", "TLGCError", "TooFewDemonstrationsError",
+    "UnknownCrossSectionError", "bishop_frames", "check_starts", "fit_cross_sections",
+    "fit_cylinder", "random_starts", "ratio_schedule", "reproduce", "resample_demonstrations",
     "start_coordinates",
-    "fit_similarity", "fit_tps", "landmark_constraints", "lte_deform", "lte_generalize",
-    "shape_distortion", "tps_generalize",
+    "LTEResult", "constraint_similarity", "fit_similarity", "fit_tps", "landmark_constraints",
+    "lte_deform", "lte_generalize", "lte_solve", "shape_distortion", "tps_generalize",
     "ObstacleAvoidanceError", "adaptive_ratio_parameters", "avoid_with_adaptive_ratio",
-    "avoid_with_deformation", "cylinder_clearance", "cylinder_intersects",
+    "avoid_with_deformation", "cylinder_clearance", "cylinder_intersects", "path_clearance",
+    "section_clearance",
     "RefinementConstraint", "RefinementSet", "refine_incrementally",
     *_LAZY,
 ]

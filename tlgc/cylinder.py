@@ -4,6 +4,12 @@
 directrix, builds rotation-minimising frames along it and expresses the k-th point of every
 demonstration in frame k's normal plane (the effective points of section k, whose centroid is
 the directrix point). The cross-section boundaries enclose those points (see cross_sections).
+
+Containment of arbitrary points interpolates the sections linearly between consecutive frames
+and asks which section plane passes through the point (see
+:meth:`GeneralizedCylinder.containment`): the boundary test is inclusive (ratio <= 1 +
+INSIDE_TOLERANCE), points beyond the end caps are outside, and every effective point is inside
+its own section by construction.
 """
 from __future__ import annotations
 
@@ -20,11 +26,13 @@ from .cross_sections import CROSS_SECTION_TYPES, CrossSections, cross_section_ty
 from .errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
                      TooFewDemonstrationsError)
 from .frames import bishop_frames, unit_tangents
+from scenes.threads import single_blas_thread
 from .validation import as_array, as_count, as_points
 
 MIN_DEMONSTRATIONS = 2
 CONTAINMENT_WINDOW = 4     # sections either side of the nearest directrix point searched first
 CONTAINMENT_BLOCK = 512    # points per block in the full search (block x N offsets at a time)
+INSIDE_TOLERANCE = 1e-9    # inclusive boundary test: inside when ratio <= 1 + this (round-off)
 
 
 def resample_demonstrations(trajectories: Sequence[np.ndarray] | np.ndarray,
@@ -81,12 +89,19 @@ def as_demonstration_array(demos: Any, num_points: int | None = None) -> np.ndar
 
 @dataclass(frozen=True)
 class Containment:
-    """Where points (P,) lie relative to a cylinder.
+    """Where points (P,) lie relative to a cylinder (see :meth:`GeneralizedCylinder.containment`).
 
-    index: section whose plane holds the point; angle [rad] in that plane (from the normal
-    towards the binormal); distance [m] from the directrix point within the plane; radius [m]
-    of the boundary at that angle; ratio = distance / radius (inside: <= 1); offset [m] along
-    the section's tangent (non-zero only beyond the ends or far from the directrix).
+    section (P,): continuous section parameter s = k + lambda in [0, N-1] of the (interpolated)
+    cross-section whose plane passes through the point; index (P,): the nearest whole section
+    round(s); angle [rad] in that section's plane (from the normal towards the binormal);
+    distance [m] from the section's centre within the plane; radius [m] of the (interpolated)
+    boundary at that angle; ratio = distance / radius; offset [m]: 0 when the reported
+    section's plane passes through the point, otherwise the signed distance beyond an end cap
+    (negative before the first plane, positive past the last), with angle, distance, radius
+    and ratio then taken in that end section's plane. A point is reported beyond a cap when no
+    section plane passes through it, or when it is outside, its nearest directrix point is
+    that end and it lies past that end's plane. ``section`` is None only for hand-built
+    results.
     """
 
     index: np.ndarray
@@ -95,11 +110,53 @@ class Containment:
     radius: np.ndarray
     ratio: np.ndarray
     offset: np.ndarray
+    section: np.ndarray | None = None
 
     @property
     def inside(self) -> np.ndarray:
-        """Boolean (P,): ratio <= 1."""
-        return self.ratio <= 1.0
+        """Boolean (P,): a section plane passes through the point (offset 0) and the point is
+        within its boundary, inclusive: ratio <= 1 + INSIDE_TOLERANCE."""
+        return (self.offset == 0.0) & (self.ratio <= 1.0 + INSIDE_TOLERANCE)
+
+    @property
+    def beyond(self) -> np.ndarray:
+        """Distance (P,) [m] beyond the nearer end cap (0 for points between the caps)."""
+        return np.abs(self.offset)
+
+
+@dataclass
+class _Chosen:
+    """Per-point evaluation in a chosen section (internal to containment)."""
+
+    found: np.ndarray
+    section: np.ndarray
+    angle: np.ndarray
+    distance: np.ndarray
+    radius: np.ndarray
+    ratio: np.ndarray
+
+    @classmethod
+    def empty(cls, count: int) -> "_Chosen":
+        return cls(np.zeros(count, dtype=bool), *(np.full(count, np.nan) for _ in range(5)))
+
+    @property
+    def inside(self) -> np.ndarray:
+        return self.found & (self.ratio <= 1.0 + INSIDE_TOLERANCE)
+
+    def take(self, rows: np.ndarray) -> "_Chosen":
+        return _Chosen(*(getattr(self, f)[rows] for f in self.__dataclass_fields__))
+
+    def assign(self, rows: np.ndarray, other: "_Chosen") -> None:
+        """Overwrite ``rows`` (R,) with the points of ``other`` (R,) that were found."""
+        use = other.found
+        for name in self.__dataclass_fields__:
+            getattr(self, name)[rows[use]] = getattr(other, name)[use]
+
+    def containment(self, offset: np.ndarray) -> Containment:
+        index = np.rint(self.section).astype(np.intp)
+        return Containment(index=index, angle=self.angle, distance=self.distance,
+                           radius=self.radius, ratio=self.ratio, offset=offset,
+                           section=self.section)
 
 
 class GeneralizedCylinder:
@@ -194,68 +251,120 @@ class GeneralizedCylinder:
         """
         return self.cross_sections.ratio(index, self.to_local(points, index))
 
+    def plane_offset(self, points: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Signed distance (...) [m] of points (..., 3) from the planes of sections ``index``
+        (...), positive along the section's tangent."""
+        idx = self.cross_sections.check_index(index)
+        return self._plane_offsets(as_points(points, "points"), idx)
+
     def containment(self, points: np.ndarray) -> Containment:
         """Section, angle and boundary ratio of many points (P, 3) at once (see Containment).
 
-        The candidate sections of a point are those whose planes pass through it (sign changes
-        of the plane offsets t_k . (p - c_k) between consecutive sections; the nearer section of
-        each pair). Where several planes pass through it (fat or strongly curved cylinders) a
-        section that holds it inside wins, then the one nearest to it; a point beyond the ends
-        may also take the end section, and a point with no candidate the smallest |offset|.
-        The search first looks at a few sections around the nearest directrix point (KD-tree)
-        and scans all N sections (one matrix product per block) only for points not found
-        inside there.
+        Geometry: between frames k and k+1 the section is interpolated linearly in
+        lambda in [0, 1]: plane offset, in-plane coordinates and boundary radius at a given
+        angle are (1 - lambda) times those of section k plus lambda times those of section
+        k+1. The plane of section s = k + lambda passes through a point where its interpolated
+        plane offset vanishes, lambda = f_k / (f_k - f_{k+1}) with f_k = t_k . (p - c_k); a
+        point on a frame's own plane (|f_k| <= round-off) belongs to that frame exactly, so
+        every effective point and every reproduced point is evaluated in its own section.
+
+        Choice: a point is inside when some section plane through it holds it within the
+        boundary, inclusive (ratio <= 1 + INSIDE_TOLERANCE). Among the sections through the
+        point, one holding it inside wins, then the one nearest (in section index) to the
+        point's nearest directrix point, then the smaller ratio. A point that no section plane
+        passes through lies beyond an end cap: it is outside, ``offset`` says how far beyond.
+        The search looks at the sections around the nearest directrix point first (KD-tree)
+        and scans all N sections only for points not found inside there; both give the same
+        answer because any section outside the window is farther in index than any inside it.
         """
         p = as_points(points, "points")
         if p.ndim != 2:
             raise InvalidArgumentError(f"points: expected shape (P, 3), got {p.shape}")
-        n = self.num_sections
-        nearest = self._tree.query(p)[1] if len(p) else np.zeros(0, dtype=np.intp)
-        window = np.clip(nearest[:, None] + np.arange(-CONTAINMENT_WINDOW, CONTAINMENT_WINDOW + 1),
-                         0, n - 1)                                                   # (P, W)
-        index, inside = self._pick_section(p, window, self._plane_offsets(p[:, None, :], window))
-        rest = np.flatnonzero(~inside)
+        with single_blas_thread():
+            return self._containment(p)
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """Boolean (P,): whether points (P, 3) lie inside the cylinder (see :meth:`containment`)."""
+        return self.containment(points).inside
+
+    def _containment(self, p: np.ndarray) -> Containment:
+        """:meth:`containment` of checked points (P, 3)."""
+        n, count = self.num_sections, len(p)
+        result = _Chosen.empty(count)
+        if count == 0:
+            return result.containment(np.zeros(0))
+        nearest = self._tree.query(p)[1]
+        width = min(2 * CONTAINMENT_WINDOW + 1, n)
+        first = np.clip(nearest - CONTAINMENT_WINDOW, 0, n - width)
+        window = first[:, None] + np.arange(width)                                   # (P, W)
+        t = self._tangent_matrix                                                     # (3, N)
+        offsets = -self._plane_constants[window]
+        for i in range(3):                    # t_k . p - t_k . c_k, no (P, W, 3) temporary
+            offsets += p[:, i, None] * t[i][window]
+        found = self._choose(p, window, offsets, nearest)
+        result.assign(np.arange(count), found)
+        offset = np.zeros(count)
+        rest = np.flatnonzero(~result.inside)
+        sections = np.arange(n)
         for block in range(0, len(rest), CONTAINMENT_BLOCK):
             rows = rest[block:block + CONTAINMENT_BLOCK]
             offsets = p[rows] @ self._tangent_matrix
             offsets -= self._plane_constants                                          # (B, N)
-            index[rows] = self._pick_section(p[rows], np.arange(n), offsets)[0]
-        offset = self._plane_offsets(p, index)
-        distance, angle = polar(self.to_local(p, index))
-        radius = self.radius(index, angle)
-        return Containment(index=index, angle=angle, distance=distance, radius=radius,
-                           ratio=distance / radius, offset=offset)
+            found = self._choose(p[rows], sections, offsets, nearest[rows])
+            result.assign(rows, found)
+            # Beyond an end cap: no plane passes through the point (all offsets share one
+            # sign), or it is outside, nearest to an end point and past that end's plane.
+            tol = self._plane_tolerance
+            before = (offsets[:, 0] < -tol) & (~found.found | (nearest[rows] == 0))
+            after = (offsets[:, -1] > tol) & (~found.found | (nearest[rows] == n - 1))
+            cap = (before | after) & ~found.inside          # (never both: N >= 2)
+            if cap.any():
+                beyond = rows[cap]
+                end = np.where(after[cap], n - 1, 0)
+                offset[beyond] = np.where(after[cap], offsets[cap, -1], offsets[cap, 0])
+                result.assign(beyond, self._evaluate(p[beyond], end, np.zeros(len(beyond))))
+        return result.containment(offset)
+
+    def _evaluate(self, q: np.ndarray, k: np.ndarray, lam: np.ndarray) -> "_Chosen":
+        """Points q (C, 3) in interpolated sections s = k + lam (C,), lam in [0, 1]."""
+        k1 = np.minimum(k + 1, self.num_sections - 1)
+        w0 = 1.0 - lam
+        here, there = self.frames[k], self.frames[k1]                               # (C, 3, 3)
+        local = (w0[:, None] * np.einsum("cji,ci->cj", here[:, 1:], q - self.directrix[k])
+                 + lam[:, None] * np.einsum("cji,ci->cj", there[:, 1:], q - self.directrix[k1]))
+        distance, angle = polar(local)                         # interpolated (a, b) (C, 2)
+        radius = w0 * self.radius(k, angle) + lam * self.radius(k1, angle)
+        ratio = distance / radius
+        return _Chosen(np.ones(len(q), dtype=bool), k + lam, angle, distance, radius, ratio)
+
+    def _choose(self, p: np.ndarray, sections: np.ndarray, offsets: np.ndarray,
+                anchor: np.ndarray) -> "_Chosen":
+        """Best section of points p (B, 3) among consecutive ``sections`` (B, K) or (K,) with
+        plane offsets (B, K); ``anchor`` (B,) the nearest directrix point (see containment)."""
+        sections = np.broadcast_to(sections, offsets.shape)
+        tol = self._plane_tolerance
+        above, below = offsets > tol, offsets < -tol
+        on_point, on_col = np.nonzero(~(above | below))
+        crossing = (above[:, :-1] & below[:, 1:]) | (below[:, :-1] & above[:, 1:])
+        cross_point, cross_col = np.nonzero(crossing)
+        f0, f1 = offsets[cross_point, cross_col], offsets[cross_point, cross_col + 1]
+        point = np.concatenate([on_point, cross_point])
+        k = np.concatenate([sections[on_point, on_col], sections[cross_point, cross_col]])
+        lam = np.concatenate([np.zeros(len(on_point)), f0 / (f0 - f1)])
+        chosen = _Chosen.empty(len(p))
+        if len(point) == 0:
+            return chosen
+        cand = self._evaluate(p[point], k, lam)
+        inside = cand.ratio <= 1.0 + INSIDE_TOLERANCE
+        along = np.abs(cand.section - anchor[point])
+        order = np.lexsort((cand.ratio, along, ~inside, point))  # per point: inside, near, small
+        best = order[np.r_[True, point[order][1:] != point[order][:-1]]]
+        chosen.assign(point[best], cand.take(best))
+        return chosen
 
     def _plane_offsets(self, points: np.ndarray, index: np.ndarray) -> np.ndarray:
         """Signed distances (...) [m] of points (..., 3) from the planes of sections ``index``."""
         return np.einsum("...i,...i->...", points - self.directrix[index], self.tangents[index])
-
-    def _pick_section(self, p: np.ndarray, sections: np.ndarray,
-                      offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Best section (B,) of points (B, 3) among consecutive ``sections`` (B, K) or (K,)
-        with plane offsets (B, K), and whether the point is inside it (B,)."""
-        sections = np.broadcast_to(sections, offsets.shape)
-        absolute = np.abs(offsets)
-        point, j = np.nonzero(np.signbit(offsets[:, :-1]) != np.signbit(offsets[:, 1:]))
-        j = j + (absolute[point, j + 1] < absolute[point, j])
-        on_plane = np.nonzero(absolute <= self._plane_tolerance)
-        first, last = sections[:, 0] == 0, sections[:, -1] == self.num_sections - 1
-        before = np.flatnonzero(first & (offsets[:, 0] < 0.0))
-        after = np.flatnonzero(last & (offsets[:, -1] > 0.0))
-        point = np.concatenate([point, on_plane[0], before, after])
-        k = np.concatenate([sections[point[:len(j)], j], sections[on_plane],
-                            np.zeros(len(before), np.intp), np.full(len(after), self.num_sections - 1)])
-        index = sections[np.arange(len(p)), np.argmin(absolute, axis=1)]
-        inside = np.zeros(len(p), dtype=bool)
-        if len(point):
-            distance, angle = polar(self.to_local(p[point], k))
-            outside = distance > self.radius(k, angle)
-            span = np.linalg.norm(p[point] - self.directrix[k], axis=1)
-            order = np.lexsort((span, outside, point))      # per point: inside first, then nearest
-            best = order[np.r_[True, np.diff(point[order]) != 0]]
-            index[point[best]] = k[best]
-            inside[point[best]] = ~outside[best]
-        return index, inside
 
     @cached_property
     def _tree(self) -> cKDTree:

@@ -30,5 +30,20 @@ class StartOutsideError(TLGCError):
     """A reproduction start lies outside the first cross-section (ratio > 1)."""
 
 
+class StartOffPlaneError(StartOutsideError):
+    """A reproduction start lies farther than the stated tolerance from the first section's
+    plane (before or past it); it is refused rather than projected onto the plane."""
+
+
+class GeneralizationError(TLGCError):
+    """A generalization cannot be done as asked (e.g. it would deform the skill beyond the
+    stated bound, or move a start that is to be kept)."""
+
+
+class ObstacleAvoidanceError(TLGCError):
+    """The obstacle cannot be avoided by the requested strategy (e.g. it blocks the cylinder
+    along a start's direction); the message names the start when there is one."""
+
+
 class CylinderFileError(TLGCError):
     """A saved generalized-cylinder file cannot be read or has the wrong content."""
