@@ -153,8 +153,9 @@ def test_gtsam_adapters_equal_the_kernel(setup):
                 np.testing.assert_allclose(b_f, b[f], rtol=1e-9, atol=1e-12)
 
 
-def user_factor(robot, index: int, height: float) -> gtsam.CustomFactor:
-    """A caller's own factor: the end effector at least ``height`` [m] high at state ``index``."""
+def user_factor(robot, index: int, height: float, sigma: float = 1e-3) -> gtsam.CustomFactor:
+    """A caller's own factor: the end effector at least ``height`` [m] high at state ``index``
+    (hinge noise ``sigma`` [m])."""
     n = robot.n
 
     def error(this, values, H):
@@ -167,7 +168,7 @@ def user_factor(robot, index: int, height: float) -> gtsam.CustomFactor:
                 H[0][0, :n] = -kin.jacobian[0, 2]
         return np.array([max(gap, 0.0)])
 
-    return gtsam.CustomFactor(gtsam.noiseModel.Isotropic.Sigma(1, 1e-3),
+    return gtsam.CustomFactor(gtsam.noiseModel.Isotropic.Sigma(1, sigma),
                               gtsam.KeyVector([state_key(index)]), error)
 
 

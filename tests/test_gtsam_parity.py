@@ -18,6 +18,7 @@ import pytest
 from clamp import PlannerConfig, build, learn_prior, optimize, plan
 from clamp.keys import state_key, values_to_states
 from tests.regression.cases import REFERENCE_BOX, REFERENCE_START
+from tests.test_families import user_factor
 
 TIGHT = PlannerConfig().with_(relative_error_tol=1e-10, absolute_error_tol=1e-10,
                               convergence_patience=10, max_iterations=5000)
@@ -55,24 +56,6 @@ def test_fast_optimum_is_an_optimum_of_gtsams_optimizers(jaco, box_closing_prior
         assert moved.max() <= 1e-3
 
 
-def lift_factor(robot, index: int, height: float) -> gtsam.CustomFactor:
-    """A caller's factor: the end effector at least ``height`` [m] high at state ``index``."""
-    n = robot.n
-
-    def error(this, values, H):
-        theta = values.atVector(this.keys()[0])
-        kin = robot.ee_kinematics(theta[None, :n], None, jacobians=True)
-        gap = height - kin.position[0, 2]
-        if H is not None:
-            H[0] = np.zeros((1, 2 * n))
-            if gap > 0:
-                H[0][0, :n] = -kin.jacobian[0, 2]
-        return np.array([max(gap, 0.0)])
-
-    return gtsam.CustomFactor(gtsam.noiseModel.Isotropic.Sigma(1, 1e-4),
-                              gtsam.KeyVector([state_key(index)]), error)
-
-
 @pytest.fixture(scope="module")
 def soft_prior():
     from scenes import make_demonstrations
@@ -86,7 +69,7 @@ def test_user_custom_factor_is_honoured_by_every_optimizer(jaco, soft_prior, opt
     start = soft_prior.mean[0, :3]
     free = plan(soft_prior, jaco, None, start, covariance=False)
     height = float(free.ee_path[30, 2]) + 0.02                 # 2 cm above the free plan
-    result = plan(soft_prior, jaco, None, start, extra_factors=[lift_factor(jaco, 30, height)],
+    result = plan(soft_prior, jaco, None, start, extra_factors=[user_factor(jaco, 30, height, sigma=1e-4)],
                   config=PlannerConfig().with_(optimizer=optimizer, max_iterations=200),
                   covariance=False)
     assert result.optimizer == optimizer
