@@ -254,6 +254,21 @@ class Box(_FramedObstacle):
                 and np.allclose(ra, rb))
 
 
+def _radial(offset: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Lengths (P,) of offsets (3, P) (modified in place) and, with ``gradient``, their unit
+    directions (P, 3); a zero offset (within ON_MEDIAL) gets the first axis."""
+    r = np.einsum("ij,ij->j", offset, offset)
+    np.sqrt(r, out=r)
+    if not gradient:
+        return r, None
+    medial = r <= ON_MEDIAL
+    safe = np.where(medial, 1.0, r)
+    offset /= safe
+    offset[:, medial] = 0.0
+    offset[0, medial] = 1.0
+    return r, offset.T
+
+
 class Sphere(Obstacle):
     """Ball of ``radius`` metres centred at ``center`` (3,) [m]."""
 
@@ -267,17 +282,8 @@ class Sphere(Obstacle):
 
     def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
         rel = np.subtract(coords, self._column, order="C")
-        r = np.einsum("ij,ij->j", rel, rel)
-        np.sqrt(r, out=r)
-        d = r - self.radius
-        if not gradient:
-            return d, None
-        centre = r <= ON_MEDIAL
-        r[centre] = 1.0
-        rel /= r
-        rel[:, centre] = 0.0
-        rel[0, centre] = 1.0                       # at the centre: +x
-        return d, rel.T
+        r, unit = _radial(rel, gradient)           # at the centre: +x
+        return r - self.radius, unit
 
     def _balls(self) -> tuple[np.ndarray, float, float]:
         return self.center, self.radius, self.radius
@@ -400,17 +406,9 @@ class Capsule(_FramedObstacle):
         work = self._local(coords)
         half = 0.5 * self.height
         work[2] -= np.clip(work[2], -half, half)   # offset from the nearest segment point
-        r = np.einsum("ij,ij->j", work, work)
-        np.sqrt(r, out=r)
+        r, unit = _radial(work, gradient)          # on the segment: local x
         d = r - self.radius
-        if not gradient:
-            return d, None
-        on_segment = r <= ON_MEDIAL
-        r[on_segment] = 1.0
-        work /= r
-        work[:, on_segment] = 0.0
-        work[0, on_segment] = 1.0                  # on the segment: local x
-        return d, self._world(work)
+        return (d, None) if not gradient else (d, self._world(unit.T))
 
     def _balls(self) -> tuple[np.ndarray, float, float]:
         return self.center, self.radius, 0.5 * self.height + self.radius
