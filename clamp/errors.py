@@ -1,13 +1,16 @@
 """Error hierarchy of the ``clamp`` package.
 
-Every error raised on bad user input derives from :class:`ClampError`, itself a
-``ValueError``, so callers can catch one class. Messages name the offending argument and
+Every error raised on bad user input derives from :class:`ClampError`, itself derived from
+the project's root input error ``scenes.errors.InvalidArgumentError`` (a ``ValueError``), so
+callers can catch one class. Messages name the offending argument and
 state what was expected. Add new classes here (additively); do not rename existing ones.
 """
 from __future__ import annotations
 
+from scenes.errors import InvalidArgumentError
 
-class ClampError(ValueError):
+
+class ClampError(InvalidArgumentError):
     """Base class of every error the ``clamp`` package raises on bad input."""
 
 

@@ -1,10 +1,13 @@
-"""Errors raised by the robots package; every one is a ValueError subclass."""
+"""Errors raised by the robots package; every one derives from the project's root input error
+``scenes.errors.InvalidArgumentError`` (a ValueError)."""
 from __future__ import annotations
 
 from collections.abc import Iterable
 
+from scenes.errors import InvalidArgumentError
 
-class RobotError(ValueError):
+
+class RobotError(InvalidArgumentError):
     """Base class for bad input to the robots package."""
 
 

@@ -1,13 +1,22 @@
-"""Errors raised by the scenes package (all subclasses of ValueError)."""
+"""Errors raised on bad input: the project's one hierarchy, rooted here.
+
+:class:`InvalidArgumentError` (a ValueError) is the root of every error the four packages
+raise on bad input; each package's base derives from it (``robots.errors.RobotError``,
+:class:`ScenesError`, ``clamp.errors.ClampError``, ``tlgc.errors.TLGCError``), so a caller
+can catch one class. ``scenes`` is the base the other packages build on, hence the root
+lives here.
+"""
 from __future__ import annotations
 
 
-class ScenesError(ValueError):
-    """Base class of every error raised by :mod:`scenes` on bad input."""
+class InvalidArgumentError(ValueError):
+    """Root of every input error of the project: an argument has the wrong type, shape or
+    value (the message names the argument, what was expected and what was given)."""
 
 
-class InvalidArgumentError(ScenesError):
-    """An argument has the wrong shape, type, or contains NaN/inf."""
+class ScenesError(InvalidArgumentError):
+    """Base class of the errors specific to :mod:`scenes` (obstacles, scene files,
+    demonstrations, skills)."""
 
 
 class InvalidObstacleError(ScenesError):

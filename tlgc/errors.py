@@ -1,12 +1,15 @@
-"""Errors raised by the tlgc package on bad input (all subclasses of ValueError).
+"""Errors raised by the tlgc package on bad input (all derive from the project's root input
+error ``scenes.errors.InvalidArgumentError``, a ValueError).
 
 Other tlgc modules may add subclasses here; every message names the offending argument and
 what was expected.
 """
 from __future__ import annotations
 
+from scenes import errors as _project
 
-class TLGCError(ValueError):
+
+class TLGCError(_project.InvalidArgumentError):
     """Base class of every error raised by :mod:`tlgc` on bad input."""
 
 
