@@ -44,14 +44,14 @@ def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
 def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
     """Plain-text table: one row per plan."""
     head = (f"{'plan':<22} {'ok':<4} {'iters':>5} {'build s':>8} {'opt s':>7} {'final err':>10} "
-            f"{'clear mm':>9} {'start mm':>9} {'log-lik':>10} {'p_succ':>7}  reasons")
+            f"{'clear mm':>9} {'start mm':>9} {'log-lik':>10} {'plaus':>7}  reasons")
     lines = [head, "-" * len(head)]
     for name, r in rows:
         clearance = "inf" if not np.isfinite(r.min_clearance) else f"{r.min_clearance * 1e3:.1f}"
         lines.append(f"{name:<22} {'yes' if r.success else 'no':<4} {r.iterations:>5} "
                      f"{r.timings['build']:>8.3f} {r.timings['optimize']:>7.3f} "
                      f"{r.final_error:>10.4g} {clearance:>9} {r.start_error * 1e3:>9.3f} "
-                     f"{r.log_likelihood:>10.4g} {r.success_probability:>7.3f}  "
+                     f"{r.log_likelihood:>10.4g} {r.plausibility:>7.3f}  "
                      f"{'; '.join(r.reasons)}")
     return "\n".join(lines)
 

@@ -20,8 +20,12 @@ class PlanResult:
     exact distance between any collision sphere and any obstacle over all states (+inf without
     obstacles); start_error, goal_error [m] (rad for joint targets; None without goal),
     via_errors [m or rad] one per via point;
-    log_likelihood and success_probability of the plan's workspace path under the prior
-    (initial-state term left out); within_limits; success and reasons (why it failed);
+    log_likelihood of the plan's workspace path under the prior (initial-state term left out);
+    plausibility: the probability that a path of the skill's prior (noise floored at 0.5 mm
+    per step), conditioned to start where the plan starts and to meet its goal and via points,
+    lies at least as far from the conditional mean as the plan (:mod:`clamp.plausibility`;
+    uniform on samples of that prior), plausibility_z its standardised distance (ranks plans
+    that all score ~1); within_limits; success and reasons (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
     computed); covariance_floor: information [1/rad^2] added to every coordinate because the
@@ -44,7 +48,8 @@ class PlanResult:
     start_error: float
     goal_error: float | None
     log_likelihood: float
-    success_probability: float
+    plausibility: float
+    plausibility_z: float
     within_limits: bool
     success: bool
     reasons: list[str] = field(default_factory=list)

@@ -11,6 +11,7 @@ import numpy as np
 
 from clamp.config import PlannerConfig
 from clamp.optimizers import Optimized
+from clamp.plausibility import plausibility_details
 from clamp.problem import PlanningProblem
 from clamp.request import Request, has_obstacles
 from clamp.result import PlanResult
@@ -34,7 +35,8 @@ def failed_result(prior: Any, robot: Any, q: np.ndarray, reasons: list[str], t0:
                       iterations=0, initial_error=float("nan"), final_error=float("nan"),
                       family_errors={}, collision_cost=float("nan"),
                       min_clearance=float("nan"), start_error=start_error, goal_error=None,
-                      log_likelihood=float("nan"), success_probability=0.0,
+                      log_likelihood=float("nan"), plausibility=float("nan"),
+                      plausibility_z=float("nan"),
                       within_limits=bool(np.all(robot.within_limits(q))), success=False,
                       reasons=reasons, initialisation=config.optimizer.initialisation,
                       optimizer=config.optimizer.optimizer, stop_reason="not started")
@@ -55,6 +57,13 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
                            f"{np.min(clearance) * 1000:.1f} mm)")
     return reasons
 
+
+
+def _target_position(robot: Any, target: Any) -> np.ndarray | None:
+    """The end-effector position (3,) [m] a start / goal / via target asks for (None: none)."""
+    if target is None:
+        return None
+    return target.value if target.kind == "position" else robot.fk(target.value)
 
 
 def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
@@ -78,8 +87,9 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     within = bool(np.all(robot.within_limits(q, checks.limit_tolerance)) and np.all(
         np.abs(qdot) <= np.asarray(robot.velocity_limits) + checks.velocity_tolerance))
     log_likelihood = float(prior.log_likelihood(x, initial=False))
-    probability = float(prior.success_probability(x)) if hasattr(prior, "success_probability") \
-        else float("nan")
+    score = plausibility_details(prior, x, start=request.start_position,
+                                 goal=_target_position(robot, request.goal),
+                                 via=[(i, _target_position(robot, t)) for i, t in request.vias])
 
     reasons = []
     if not np.isfinite(out.final_error):
@@ -102,7 +112,8 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       final_error=out.final_error, family_errors=families,
                       collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
                       start_error=start_error, goal_error=goal_error,
-                      log_likelihood=log_likelihood, success_probability=probability,
+                      log_likelihood=log_likelihood, plausibility=float(score.score),
+                      plausibility_z=float(score.z),
                       within_limits=within, success=not reasons, reasons=reasons,
                       initialisation=config.optimizer.initialisation, trials=out.trials,
                       optimizer=out.optimizer, stop_reason=out.stop_reason,

@@ -69,7 +69,7 @@ def test_box_closing_empty_scene(jaco, box_closing, empty_plan):
     assert empty_plan.q.shape == (demos.T, jaco.n)
     assert empty_plan.final_error < empty_plan.initial_error
     assert np.isinf(empty_plan.min_clearance)
-    assert 0.0 <= empty_plan.success_probability <= 1.0
+    assert 0.0 <= empty_plan.plausibility <= 1.0
 
 
 def test_box_closing_with_obstacle(jaco, box_closing, obstacle_scene, empty_plan):
