@@ -77,6 +77,7 @@ class Robot:
         self._spheres = _as_sphere_model(spheres)
         self._sphere_cache: tuple[object, np.ndarray, np.ndarray] | None = None
         self._collision_model = None
+        self._pin_data: pin.Data | None = None
 
     # ------------------------------------------------------------ construction
     @classmethod
@@ -205,6 +206,28 @@ class Robot:
         return EndEffectorKinematics(pos.reshape(shape3), velocity.reshape(shape3),
                                      columns.transpose(0, 2, 1).reshape(shape3n),
                                      velocity_jacobian.reshape(shape3n))
+
+    def ee_position_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """End-effector position (3,) [m] and d position / d q (3, n) of ONE validated
+        configuration q (n,), from Pinocchio's C++ kinematics (equal to :meth:`ee_kinematics`
+        to round-off; for the many small single-configuration calls of inverse kinematics,
+        where the vectorized chain's per-call overhead dominates)."""
+        model = self.model
+        if self._pin_data is None:
+            self._pin_data = model.createData()
+            self._ee_frame = frame_index(model, self.end_effector)
+        data = self._pin_data
+        q_pin = self.to_pinocchio(q)
+        pin.computeJointJacobians(model, data, q_pin)
+        pin.updateFramePlacements(model, data)
+        position = data.oMf[self._ee_frame].translation
+        jac = pin.getFrameJacobian(model, data, self._ee_frame,
+                                   pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
+        if self.base_frame is not None:
+            base = data.oMf[frame_index(model, self.base_frame)]
+            position = base.rotation.T @ (position - base.translation)
+            jac = base.rotation.T @ jac
+        return np.array(position), np.array(jac[:, :self.n])   # reduced model: v = the chain's joints
 
     def sphere_attachments(self) -> tuple[np.ndarray, np.ndarray]:
         """Chain joint (S,) and centre in that joint's frame (S, 3) of every collision sphere."""

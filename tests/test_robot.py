@@ -214,3 +214,15 @@ def test_spheres_from_a_sphere_file(tmp_path, sawyer):
         Robot.from_urdf(sawyer.urdf_path, end_effector="right_hand", spheres=[1, 2, 3])
     with pytest.raises(RobotError, match="model"):
         Robot("not a model", end_effector="right_hand")
+
+
+@pytest.mark.parametrize("name", ["jaco", "sawyer"])
+def test_single_configuration_pinocchio_path_equals_the_chain(name, request):
+    robot = request.getfixturevalue(name)
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        q = robot.random_configuration(rng)
+        position, jacobian = robot.ee_position_jacobian(q)
+        kin = robot.ee_kinematics(q[None])
+        np.testing.assert_allclose(position, kin.position[0], atol=1e-12)
+        np.testing.assert_allclose(jacobian, kin.jacobian[0], atol=1e-12)
