@@ -25,6 +25,8 @@ import pinocchio as pin
 from scipy.optimize import minimize
 from scipy.spatial import cKDTree
 
+from scenes import validation as _checks
+
 from .collision_geometry import LinkSurface, link_surfaces
 from .errors import CollisionGeometryError, UnknownFrameError
 from .kinematics import frame_names
@@ -61,16 +63,11 @@ class CoverageReport:
 
 
 def _check_nonnegative(value: float, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
-            or not math.isfinite(value) or value < 0:
-        raise CollisionGeometryError(f"{name}: expected a finite number >= 0, got {value!r}")
-    return float(value)
+    return _checks.as_scalar(value, name, minimum=0.0, error=CollisionGeometryError)
 
 
 def _check_count(value: int, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise CollisionGeometryError(f"{name}: expected an integer >= {minimum}, got {value!r}")
-    return int(value)
+    return _checks.as_count(value, name, minimum, CollisionGeometryError)
 
 
 def enclosing_ball(points: np.ndarray) -> tuple[np.ndarray, float]:

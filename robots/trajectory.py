@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from scenes import validation as _checks
+
 from .errors import TrajectoryError, TrajectoryExistsError, TrajectoryFileError
 
 #: ``format`` field of every trajectory file; files from a later major version are refused.
@@ -68,31 +70,11 @@ def finite_difference(values: Any, time: Any) -> np.ndarray:
 
 
 def _as_matrix(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TrajectoryError(f"{name}: expected a numeric array of shape {shape}, "
-                              f"got {type(value).__name__}") from exc
-    if array.shape != shape:
-        raise TrajectoryError(f"{name}: expected shape {shape}, got {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise TrajectoryError(f"{name}: contains NaN or inf values")
-    return array
+    return _checks.as_shaped(value, name, shape, TrajectoryError).copy()
 
 
 def _check_time(time: Any, name: str) -> np.ndarray:
-    try:
-        array = np.array(time, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TrajectoryError(f"{name}: expected a numeric array (T,), got {type(time).__name__}") from exc
-    if array.ndim != 1 or array.shape[0] < 2:
-        raise TrajectoryError(f"{name}: expected shape (T,) with T >= 2, got {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise TrajectoryError(f"{name}: contains NaN or inf values")
-    if np.any(np.diff(array) <= 0.0):
-        raise TrajectoryError(f"{name}: expected strictly increasing times, got a step of "
-                              f"{float(np.diff(array).min())!r} s")
-    return array
+    return _checks.as_time(time, name, error=TrajectoryError).copy()
 
 
 def _jsonable(value: Any, where: str) -> Any:

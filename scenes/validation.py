@@ -1,68 +1,192 @@
-"""Small shared input checks: convert to float arrays and raise clear errors.
+"""The project's one argument-validation helper: convert inputs and raise clear errors.
 
-``error`` may be any ValueError subclass, so packages that build on scenes (tlgc) reuse these
-checks with their own error classes.
+Every check names the argument, what was expected and what was given. ``error`` is the class
+to raise — any subclass of the project's root :class:`~scenes.errors.InvalidArgumentError`
+(each package passes its own) — or an :class:`ErrorKinds` triple when a package distinguishes
+wrong shapes, non-finite values and out-of-range values (``clamp``). ``robots``, ``clamp`` and
+``tlgc`` keep thin wrappers that fix their error classes; the checks themselves live here.
 """
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, NamedTuple, Union
 
 import numpy as np
 
 from .errors import InvalidArgumentError
 
 
-def as_array(x: Any, name: str, error: type[ValueError] = InvalidArgumentError) -> np.ndarray:
-    """Float64 array of ``x``; raise ``error`` naming ``name`` if not numeric or not finite."""
+class ErrorKinds(NamedTuple):
+    """The classes raised for a wrong shape / type, for NaN or inf, and for a bad value."""
+
+    shape: type[ValueError]
+    nonfinite: type[ValueError]
+    value: type[ValueError]
+
+
+Errors = Union[type[ValueError], ErrorKinds]
+
+
+def _kinds(error: Errors) -> ErrorKinds:
+    return error if isinstance(error, ErrorKinds) else ErrorKinds(error, error, error)
+
+
+def _numeric(x: Any, name: str, error: Errors, expected: str = "a numeric array") -> np.ndarray:
     try:
-        arr = np.asarray(x, dtype=float)
+        return np.asarray(x, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise error(f"{name}: expected a numeric array, got {type(x).__name__} ({exc})") from None
+        raise _kinds(error).shape(f"{name}: expected {expected}, got {type(x).__name__} "
+                                  f"({exc})") from None
+
+
+def _finite(arr: np.ndarray, name: str, error: Errors) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         bad = int(np.size(arr) - np.count_nonzero(np.isfinite(arr)))
-        raise error(f"{name}: contains {bad} NaN/inf value(s); expected finite numbers")
+        raise _kinds(error).nonfinite(f"{name}: contains {bad} NaN/inf value(s); expected "
+                                      "finite numbers")
     return arr
 
 
-def as_points(x: Any, name: str, error: type[ValueError] = InvalidArgumentError) -> np.ndarray:
+def as_array(x: Any, name: str, error: Errors = InvalidArgumentError) -> np.ndarray:
+    """Float64 array of ``x`` (any shape); raise ``error`` naming ``name`` if not numeric or
+    not finite."""
+    return _finite(_numeric(x, name, error), name, error)
+
+
+def _describe(shape: Sequence[int | str | None]) -> str:
+    return "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
+
+
+def as_shaped(x: Any, name: str, shape: Sequence[int | str | None],
+              error: Errors = InvalidArgumentError) -> np.ndarray:
+    """Finite float64 array of exactly the given shape.
+
+    ``shape`` entries are ints (exact size), None (any size) or strings (symbolic sizes that
+    must agree between the entries carrying the same string, e.g. ``("D", "D")``).
+    """
+    kinds = _kinds(error)
+    arr = _numeric(x, name, error, f"a numeric array of shape {_describe(shape)}")
+    if arr.ndim != len(shape):
+        raise kinds.shape(f"{name}: expected an array of shape {_describe(shape)}, "
+                          f"got shape {arr.shape}")
+    symbols: dict[str, int] = {}
+    for axis, (want, got) in enumerate(zip(shape, arr.shape)):
+        if isinstance(want, str):
+            if symbols.setdefault(want, got) != got:
+                raise kinds.shape(f"{name}: expected shape {_describe(shape)} with equal sizes "
+                                  f"for '{want}', got shape {arr.shape}")
+        elif want is not None and want != got:
+            raise kinds.shape(f"{name}: expected shape {_describe(shape)}, got shape "
+                              f"{arr.shape} (axis {axis} should be {want})")
+    return _finite(arr, name, error)
+
+
+def as_trailing(x: Any, name: str, last_dims: tuple[int, ...], max_leading: int | None = None,
+                error: Errors = InvalidArgumentError) -> np.ndarray:
+    """Finite float64 array whose trailing shape is ``last_dims``, with at most
+    ``max_leading`` leading (batch) dimensions (None: any number)."""
+    kinds = _kinds(error)
+    arr = _numeric(x, name, error)
+    dims = ", ".join(str(d) for d in last_dims)
+    if max_leading == 0:
+        expected = f"({dims},)" if len(last_dims) == 1 else f"({dims})"
+    elif max_leading == 1:
+        expected = f"({dims},) or (T, {dims})"
+    else:
+        expected = f"(..., {dims})"
+    k = len(last_dims)
+    if (arr.ndim < k or arr.shape[arr.ndim - k:] != tuple(last_dims)
+            or (max_leading is not None and arr.ndim - k > max_leading)):
+        raise kinds.shape(f"{name}: expected shape {expected}, got {arr.shape}")
+    return _finite(arr, name, error)
+
+
+def as_points(x: Any, name: str, error: Errors = InvalidArgumentError) -> np.ndarray:
     """Points of shape (..., 3) in metres as a finite float64 array."""
-    arr = as_array(x, name, error)
-    if arr.ndim == 0 or arr.shape[-1] != 3:
-        raise error(f"{name}: expected shape (..., 3), got {arr.shape}")
-    return arr
+    return as_trailing(x, name, (3,), None, error)
 
 
 def as_vector(x: Any, name: str, length: int,
-              error: type[ValueError] = InvalidArgumentError) -> np.ndarray:
+              error: Errors = InvalidArgumentError) -> np.ndarray:
     """A finite float64 vector of shape (length,)."""
-    arr = as_array(x, name, error)
-    if arr.shape != (length,):
-        raise error(f"{name}: expected shape ({length},), got {arr.shape}")
-    return arr
+    return as_shaped(x, name, (length,), error)
 
 
-def as_positive(x: Any, name: str, error: type[ValueError] = InvalidArgumentError) -> float:
+def as_scalar(x: Any, name: str, minimum: float | None = None, maximum: float | None = None,
+              strictly_positive: bool = False, error: Errors = InvalidArgumentError) -> float:
+    """A finite real number within [minimum, maximum] (either bound optional), > 0 with
+    ``strictly_positive``."""
+    kinds = _kinds(error)
+    if isinstance(x, bool):
+        raise kinds.value(f"{name}: expected a real number, got {x!r}")
+    try:
+        arr = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise kinds.value(f"{name}: expected a real number, got {x!r}") from None
+    if arr.shape != ():
+        raise kinds.value(f"{name}: expected a real number, got an array of shape {arr.shape}")
+    value = float(arr)
+    if not np.isfinite(value):
+        raise kinds.value(f"{name}: expected a finite number, got {value}")
+    if strictly_positive and value <= 0:
+        raise kinds.value(f"{name}: expected a positive number, got {value}")
+    if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
+        if maximum is None:
+            expected = f">= {minimum:g}"
+        elif minimum is None:
+            expected = f"<= {maximum:g}"
+        else:
+            expected = f"in [{minimum:g}, {maximum:g}]"
+        raise kinds.value(f"{name}: expected a number {expected}, got {value!r}")
+    return value
+
+
+def as_positive(x: Any, name: str, error: Errors = InvalidArgumentError) -> float:
     """A finite, strictly positive scalar."""
-    arr = as_array(x, name, error)
-    if arr.shape != () or not arr > 0:
-        raise error(f"{name}: expected a positive number, got {x!r}")
-    return float(arr)
+    return as_scalar(x, name, strictly_positive=True, error=error)
 
 
-def as_count(x: Any, name: str, minimum: int = 1,
-             error: type[ValueError] = InvalidArgumentError) -> int:
-    """An integer >= ``minimum`` (bools rejected)."""
-    if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or x < minimum:
-        raise error(f"{name}: expected an integer >= {minimum}, got {x!r}")
+def as_count(x: Any, name: str, minimum: int = 1, error: Errors = InvalidArgumentError) -> int:
+    """An integer >= ``minimum`` (bools and non-integral numbers rejected)."""
+    if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or int(x) < minimum:
+        raise _kinds(error).value(f"{name}: expected an integer >= {minimum}, got {x!r}")
     return int(x)
 
 
-def as_bounds(x: Any, name: str = "bounds",
-              error: type[ValueError] = InvalidArgumentError) -> np.ndarray:
+def as_time(x: Any, name: str, length: int | None = None,
+            error: Errors = InvalidArgumentError) -> np.ndarray:
+    """A strictly increasing finite time vector (T,) in seconds, T >= 2."""
+    kinds = _kinds(error)
+    t = as_shaped(x, name, (length,), error)
+    if t.size < 2:
+        raise kinds.shape(f"{name}: expected at least 2 time stamps, got {t.size}")
+    if np.any(np.diff(t) <= 0):
+        raise kinds.value(f"{name}: expected strictly increasing time stamps")
+    return t
+
+
+def as_generator(rng: Any, name: str = "rng", default_seed: int | None = None,
+                 error: Errors = InvalidArgumentError) -> np.random.Generator:
+    """A numpy Generator as is, an integer seed -> default_rng(seed), None ->
+    default_rng(default_seed) when a default seed is given (else an error)."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None and default_seed is not None:
+        return np.random.default_rng(default_seed)
+    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
+        return np.random.default_rng(int(rng))
+    allowed = "a numpy Generator, an int seed or None" if default_seed is not None else \
+        "a numpy.random.Generator or an integer seed"
+    raise _kinds(error).value(f"{name}: expected {allowed}, got {type(rng).__name__}")
+
+
+def as_bounds(x: Any, name: str = "bounds", error: Errors = InvalidArgumentError) -> np.ndarray:
     """Axis-aligned box (2,3) [[xmin,ymin,zmin],[xmax,ymax,zmax]] with min < max."""
     arr = as_array(x, name, error)
     if arr.shape != (2, 3):
-        raise error(f"{name}: expected shape (2, 3) [[xmin,ymin,zmin],[xmax,ymax,zmax]], got {arr.shape}")
+        raise _kinds(error).shape(f"{name}: expected shape (2, 3) [[xmin,ymin,zmin],"
+                                  f"[xmax,ymax,zmax]], got {arr.shape}")
     if not np.all(arr[0] < arr[1]):
-        raise error(f"{name}: expected min < max on every axis, got min {arr[0]} max {arr[1]}")
+        raise _kinds(error).value(f"{name}: expected min < max on every axis, got min {arr[0]} "
+                                  f"max {arr[1]}")
     return arr

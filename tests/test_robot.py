@@ -176,7 +176,7 @@ def test_bad_joint_arrays_raise_robot_error(sawyer, call):
 def test_bad_array_message_names_argument_and_shape(sawyer):
     with pytest.raises(InvalidArrayError, match=r"q: expected shape \(\.\.\., 7\), got \(6,\)"):
         sawyer.fk(np.zeros(6))
-    with pytest.raises(InvalidArrayError, match="qdot: contains NaN"):
+    with pytest.raises(InvalidArrayError, match="qdot: contains .*NaN"):
         sawyer.ee_kinematics(np.zeros(7), [np.nan] * 7)
 
 

@@ -102,7 +102,7 @@ def test_tip_geometry_gets_spheres_on_the_link():
 
 def test_bad_arguments_raise_clear_errors():
     model, geometry = _box_model()
-    for kwargs, message in [(dict(inflation=-0.01), "inflation: expected a finite number >= 0"),
+    for kwargs, message in [(dict(inflation=-0.01), "inflation: expected a number >= 0"),
                             (dict(inflation=float("nan")), "inflation"),
                             (dict(max_spheres=0), "max_spheres: expected an integer >= 1"),
                             (dict(rng="seed"), "rng: expected a numpy Generator")]:

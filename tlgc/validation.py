@@ -23,15 +23,7 @@ def as_points(x: Any, name: str, error: type[TLGCError] = InvalidArgumentError) 
 def as_scalar(x: Any, name: str, minimum: float | None = None, maximum: float | None = None,
               error: type[TLGCError] = InvalidArgumentError) -> float:
     """A finite scalar within [minimum, maximum] (either bound optional)."""
-    arr = as_array(x, name, error)
-    if arr.shape != ():
-        raise error(f"{name}: expected a number, got shape {arr.shape}")
-    value = float(arr)
-    if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
-        lo = "-inf" if minimum is None else f"{minimum:g}"
-        hi = "inf" if maximum is None else f"{maximum:g}"
-        raise error(f"{name}: expected a number in [{lo}, {hi}], got {value!r}")
-    return value
+    return _checks.as_scalar(x, name, minimum, maximum, error=error)
 
 
 def as_count(x: Any, name: str, minimum: int = 1,
@@ -42,9 +34,4 @@ def as_count(x: Any, name: str, minimum: int = 1,
 
 def as_generator(rng: Any, name: str = "rng") -> np.random.Generator:
     """A numpy Generator from a Generator or an integer seed."""
-    if isinstance(rng, np.random.Generator):
-        return rng
-    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
-        return np.random.default_rng(int(rng))
-    raise InvalidArgumentError(
-        f"{name}: expected a numpy.random.Generator or an integer seed, got {type(rng).__name__}")
+    return _checks.as_generator(rng, name, error=InvalidArgumentError)
