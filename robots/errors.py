@@ -63,3 +63,8 @@ class TrajectoryExistsError(TrajectoryFileError, FileExistsError):
 
 class RetimingError(RobotError):
     """Bad retiming input (limits, method, joint names) or a parameterisation that failed."""
+
+
+class CollisionCheckError(RobotError):
+    """Bad input to the trajectory collision checker (robots.collision_check): obstacles,
+    trajectory, time stamps, margin or motion bound."""
