@@ -1,0 +1,108 @@
+"""Verdict geometry: cost of checking a plan on the Jaco's URDF collision meshes
+(robots.collision_check) against the cost of making the plan.
+
+Run: python benchmarks/bench_collision_check.py  (medians over repeats; never asserts on time).
+The plan: box_closing demonstrations (../shared/datasets/box_closing.mat), Jaco, start
+[0.2054, -0.4722, 0.2625], the box [0.32, -0.32, 0.13, 0.09, 0.06, 0.28] (T = 250).
+Also: the same trajectory against five more obstacles (seeded), and what coal's own mesh
+distance (pin.computeDistances on every link-obstacle pair) costs per support state. Every
+distance the checker uses is a coal query: num_hull on the meshes' convex hulls (GJK, a few
+microseconds), num_exact on the meshes themselves (0.1-2 ms each).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from clamp import learn_prior, plan
+from harness import median_ms, print_environment, shared_demonstrations
+from robots import load_robot
+from robots.collision_check import CollisionChecker
+from scenes import Box, Capsule, Cylinder, Scene, Sphere
+from scenes.coal_shapes import coal_obstacles
+
+START = np.array([0.2054, -0.4722, 0.2625])
+BOX = Box.from_reference([0.32, -0.32, 0.13, 0.09, 0.06, 0.28])
+REPEATS = 21
+
+
+def extra_obstacles(path: np.ndarray, seed: int = 0) -> list:
+    """Four obstacles 6-12 cm off the end-effector path (a box, a sphere, a cylinder, a capsule)."""
+    rng = np.random.default_rng(seed)
+    points = path[rng.choice(len(path), 4, replace=False)]
+    offsets = rng.normal(size=(4, 3))
+    offsets *= rng.uniform(0.06, 0.12, (4, 1)) / np.linalg.norm(offsets, axis=1, keepdims=True)
+    c = points + offsets
+    return [Box(c[0], [0.04, 0.03, 0.05]), Sphere(c[1], 0.03), Cylinder(c[2], 0.02, 0.1, rng.normal(size=3)),
+            Capsule(c[3], 0.02, 0.08, rng.normal(size=3))]
+
+
+def main() -> None:
+    print_environment()
+    demos = shared_demonstrations("box_closing")
+    if demos is None:
+        return
+    prior = learn_prior(demos)
+    robot = load_robot("jaco")
+    scene = Scene([BOX])
+    result = plan(prior, robot, scene, start=START)
+    plan_ms = median_ms(lambda: plan(prior, robot, scene, start=START), 3, warmup=0)
+    free_ms = median_ms(lambda: plan(prior, robot, None, start=START), 5)
+    q, t = result.q, result.time
+    print(f"plan: T = {len(q)}, {plan_ms:.0f} ms with the box, {free_ms:.0f} ms without; "
+          f"optimiser's sphere clearance {1e3 * result.min_clearance:.1f} mm")
+
+    cold = load_robot("jaco")                       # a robot whose convex hulls are not built yet
+    start = time.perf_counter()
+    cold.collision_model
+    load_ms = 1e3 * (time.perf_counter() - start)
+    start = time.perf_counter()
+    CollisionChecker(cold, coal_obstacles(scene))
+    build_ms = 1e3 * (time.perf_counter() - start)
+    start = time.perf_counter()
+    checker = CollisionChecker(cold, coal_obstacles(scene))
+    rebuild_ms = 1e3 * (time.perf_counter() - start)
+    print(f"checker: URDF meshes loaded by Pinocchio {load_ms:.0f} ms, convex hulls (coal) {build_ms:.0f} ms "
+          f"(once per robot), a checker for new obstacles {rebuild_ms:.2f} ms")
+
+    reports = []
+    check_ms = median_ms(lambda: reports.append(checker.check(q, t)), REPEATS, warmup=2)
+    report = reports[-1]
+    phases = {key: np.median([r.timings[key] for r in reports]) * 1e3 for key in report.timings}
+    print(f"check (box): median {check_ms:.1f} ms = {100 * check_ms / plan_ms:.1f} % of the plan "
+          f"({100 * check_ms / free_ms:.0f} % of an obstacle-free plan); "
+          + ", ".join(f"{k} {v:.1f}" for k, v in phases.items()))
+    nearest = report.nearest
+    print(f"  {report.num_configurations} configurations ({len(q)} states), coal queries: {report.num_hull} on "
+          f"hulls, {report.num_exact} on meshes; min {1e3 * report.min_distance:.2f} mm at {nearest.link} / {nearest.obstacle}, "
+          f"index {nearest.index:.2f} (t = {nearest.time:.2f} s); whole motion >= {1e3 * report.lower_bound:.2f} mm; "
+          f"collision {report.collision}")
+    spheres = CollisionChecker(robot, coal_obstacles(scene), geometry="spheres").check(q, t)
+    print(f"  same trajectory on the collision spheres: min {1e3 * spheres.min_distance:.2f} mm "
+          f"(meshes - spheres: {1e3 * (report.min_distance - spheres.min_distance):+.2f} mm)")
+
+    crowded = Scene([BOX] + extra_obstacles(result.ee_path))
+    many = CollisionChecker(robot, coal_obstacles(crowded))
+    crowded_reports = []
+    many_ms = median_ms(lambda: crowded_reports.append(many.check(q, t)), 9, warmup=1)
+    crowded_report = crowded_reports[-1]
+    phases = {key: np.median([r.timings[key] for r in crowded_reports]) * 1e3 for key in crowded_report.timings}
+    print(f"check (box + 4 obstacles near the path): median {many_ms:.1f} ms, min "
+          f"{1e3 * crowded_report.min_distance:.2f} mm at {crowded_report.nearest.link} / "
+          f"{crowded_report.nearest.obstacle}; coal queries: {crowded_report.num_hull} on hulls, "
+          f"{crowded_report.num_exact} on meshes; " + ", ".join(f"{k} {v:.1f}" for k, v in phases.items()))
+    margin_reports = []
+    margin_ms = median_ms(lambda: margin_reports.append(many.check(q, t, margin=0.01)), 9, warmup=1)
+    print(f"  the same with margin 0.01: median {margin_ms:.1f} ms, collision {margin_reports[-1].collision}, "
+          f"{margin_reports[-1].num_exact} mesh queries, {int(margin_reports[-1].states_in_collision.sum())} "
+          "states closer than the margin")
+
+    states = np.linspace(0, len(q) - 1, 10).astype(int)
+    coal_ms = median_ms(lambda: checker.reference_distances(q[states]), 3, warmup=0) / len(states)
+    print(f"coal's own mesh distance (pin.computeDistances, {len(checker.geometry_names)} link pairs): "
+          f"{coal_ms:.1f} ms per state, ~{coal_ms * len(q):.0f} ms for the {len(q)} support states alone")
+
+
+if __name__ == "__main__":
+    main()
