@@ -67,7 +67,7 @@ class BoundaryDistance:
     """
 
     distance: np.ndarray
-    gradient: np.ndarray
+    gradient: np.ndarray | None
     rho: np.ndarray
     angle: np.ndarray
     section: np.ndarray
@@ -82,6 +82,12 @@ def boundary_distance(cylinder: Any, sections: Any, positions: Any) -> BoundaryD
     if p.ndim != 2 or k.shape != (len(p),):
         raise InvalidArgumentError(
             f"sections, positions: expected shapes (T,) and (T, 3), got {k.shape} and {p.shape}")
+    return _distance(cylinder, k, p, gradient=True)
+
+
+def _distance(cylinder: Any, k: np.ndarray, p: np.ndarray, gradient: bool) -> BoundaryDistance:
+    """:func:`boundary_distance` of checked sections k (T,) and positions p (T, 3); the
+    gradient (and the boundary's slope it needs) only when ``gradient``, else None."""
     frames = cylinder.frames[k]                                   # (T, 3, 3)
     normal, binormal = frames[:, 1], frames[:, 2]
     y = p - cylinder.directrix[k]
@@ -90,13 +96,15 @@ def boundary_distance(cylinder: Any, sections: Any, positions: Any) -> BoundaryD
     rho = np.hypot(a, b)
     angle = np.mod(np.arctan2(b, a), 2.0 * np.pi)
     radius = cylinder.radius(k, angle)
-    slope = _radius_slope(cylinder, k, angle)
-    safe = rho > _RHO_MIN
-    inv = np.where(safe, 1.0 / np.where(safe, rho, 1.0), 0.0)
-    d_rho = (a[:, None] * normal + b[:, None] * binormal) * inv[:, None]
-    d_angle = (a[:, None] * binormal - b[:, None] * normal) * (inv**2)[:, None]
-    gradient = d_rho - slope[:, None] * d_angle
-    return BoundaryDistance(rho - radius, gradient, rho, angle, k)
+    grad = None
+    if gradient:
+        slope = _radius_slope(cylinder, k, angle)
+        safe = rho > _RHO_MIN
+        inv = np.where(safe, 1.0 / np.where(safe, rho, 1.0), 0.0)
+        d_rho = (a[:, None] * normal + b[:, None] * binormal) * inv[:, None]
+        d_angle = (a[:, None] * binormal - b[:, None] * normal) * (inv**2)[:, None]
+        grad = d_rho - slope[:, None] * d_angle
+    return BoundaryDistance(rho - radius, grad, rho, angle, k)
 
 
 def boundary_residuals(cylinder: Any, sections: Any, positions: Any, margin: float = 0.0
@@ -144,8 +152,17 @@ class BoundaryFamily(Family):
         super().__init__(indices, 1, sigma=as_scalar(sigma, "sigma", minimum=1e-12))
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+        """The hinge of the active factors among ``rows`` (inactive ones are exactly zero and
+        left out); positions come from the window's kinematics, so no input checks here."""
         x, dx = window.workspace()
         i = window.local(self.first[rows])
-        h, dh_dp = boundary_residuals(self.cylinder, self.sections[rows], x[i, :3], self.margin)
-        jac = np.einsum("ti,tij->tj", dh_dp, dx[i, :3])[:, None, :] if jacobians else None
-        return Linearization(rows, h[:, None], jac)
+        outside = _distance(self.cylinder, self.sections[rows], x[i, :3], False).distance \
+            + self.margin
+        active = outside > 0.0
+        rows, i = rows[active], i[active]
+        h = outside[active][:, None]
+        jac = None
+        if jacobians:
+            gradient = _distance(self.cylinder, self.sections[rows], x[i, :3], True).gradient
+            jac = np.einsum("ti,tij->tj", gradient, dx[i, :3])[:, None, :]
+        return Linearization(rows, h, jac)
