@@ -18,6 +18,7 @@ from typing import Any, Union
 import gtsam
 import numpy as np
 
+from clamp.conditioning import planning_prior
 from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
@@ -31,6 +32,7 @@ from clamp.problem import PlanningProblem
 from clamp.request import (Request, Target, as_config, as_scene, check_prior, check_robot,
                            has_obstacles, make_request)
 from clamp.result import PlanResult
+from clamp.targets import target_problems
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array
 from clamp.verdict import evaluate, failed_result, start_problems
@@ -181,8 +183,9 @@ def _build(prior, robot, scene, start, goal, via_points, extra_factors, config, 
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
     request = request or make_request(prior, robot, start, goal, via_points, config)
     extra_families, foreign = _extras(extra_factors, T)
-    families = _families(prior, robot, request, config, distance_query(scene, config, sdf))
-    init = (_initialise(prior, robot, request, config) if initial is None
+    model_prior = planning_prior(prior, robot, request, config)   # conditioned on the targets
+    families = _families(model_prior, robot, request, config, distance_query(scene, config, sdf))
+    init = (_initialise(model_prior, robot, request, config) if initial is None
             else warm_start(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
     return problem, request, init
@@ -213,7 +216,8 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     scene = as_scene(scene)
     request = make_request(prior, robot, start, goal, via_points, config)
     T = prior.Phi.shape[0] + 1
-    reasons = start_problems(robot, scene, request, config)
+    reasons = start_problems(robot, scene, request, config) + target_problems(robot, request,
+                                                                              config)
     if reasons:
         return failed_result(prior, robot, np.repeat(request.q_start[None], T, axis=0), reasons, t0,
                        request.start_ik_error, config)
