@@ -32,7 +32,7 @@ from clamp.problem import PlanningProblem
 from clamp.request import (Request, Target, as_config, as_scene, check_prior, check_robot,
                            has_obstacles, make_request)
 from clamp.result import PlanResult
-from clamp.targets import target_problems
+from clamp.targets import constraint_violations, target_problems
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array
 from clamp.verdict import evaluate, failed_result, start_problems
@@ -237,5 +237,9 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     result.initial_q = init.q
     result.state_covariance, result.ee_covariance = state_cov, ee_cov
     result.covariance_floor = floor
+    result.violations, broken = constraint_violations(problem.families, robot, result.q)
+    if broken:
+        result.reasons += broken
+        result.success = False
     result.timings["total"] = time.perf_counter() - t0
     return result

@@ -28,7 +28,8 @@ class PlanResult:
     that all score ~1); within_limits; success and reasons (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
-    computed); covariance_floor: information [1/rad^2] added to every coordinate because the
+    computed); violations: per constraint family (e.g. "orientation") how far beyond its
+    tolerance the plan goes [rad for orientation] (0.0: met); covariance_floor: information [1/rad^2] added to every coordinate because the
     graph left a direction unconstrained (0.0: the exact Laplace covariance; see
     :mod:`clamp.uncertainty`).
     """
@@ -62,6 +63,7 @@ class PlanResult:
     ee_covariance: np.ndarray | None = None
     via_errors: list[float] = field(default_factory=list)
     covariance_floor: float = 0.0
+    violations: dict[str, float] = field(default_factory=dict)
 
     @property
     def ee_std(self) -> np.ndarray | None:
@@ -78,6 +80,7 @@ class PlanResult:
                 "min_clearance_m": number(self.min_clearance),
                 "start_error": number(self.start_error), "goal_error": number(self.goal_error),
                 "via_errors": [float(e) for e in self.via_errors],
+                "violations": {k: float(v) for k, v in self.violations.items()},
                 "within_limits": bool(self.within_limits)}
 
     def to_joint_trajectory(self, robot: Any) -> Any:

@@ -1,4 +1,5 @@
-"""Reachability of a request's goal and via points, checked before planning.
+"""Targets and constraints of a plan: reachability of the goal and via points, checked before
+planning, and the violations of constraint families (orientation), checked after.
 
 An end-effector target (goal or via point) that inverse kinematics cannot reach within the
 check's tolerance cannot be met by any plan: the plan fails at once with a reason naming the
@@ -37,3 +38,19 @@ def target_problems(robot: Any, request: Request, config: PlannerConfig) -> list
     reasons = [_problem(robot, name, target, tol, request.q_start)
                for name, target, tol in named]
     return [r for r in reasons if r is not None]
+
+
+def constraint_violations(families: Any, robot: Any, q: np.ndarray
+                          ) -> tuple[dict[str, float], list[str]]:
+    """Violation of every family that reports one (a ``violation(robot, q)`` method, e.g.
+    :class:`clamp.factors.OrientationFamily`: how far beyond its tolerance, in its units) at
+    the plan's joint positions q (T, n), and a reason for each one that is violated."""
+    violations, reasons = {}, []
+    for family in families:
+        if callable(getattr(family, "violation", None)):
+            value = float(family.violation(robot, q))
+            violations[family.name] = value
+            if value > 0.0:
+                reasons.append(f"{family.name} constraint violated by {value:.4g} beyond its "
+                               f"tolerance {getattr(family, 'tolerance', float('nan')):.4g}")
+    return violations, reasons
