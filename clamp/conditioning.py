@@ -8,8 +8,8 @@ given those observations, again a Markov chain with the same structure:
 
 A backward information filter gives it in O(T): the likelihood of the observations at states
 > i given x_{i+1} is exp(-0.5 x' L x + e' x) (information L, vector e); with
-K = Q (I + L Q)^-1 the conditioned step is Phi' = (I - K L) Phi, u' = (I - K L) u + K e,
-Q' = (I - K L) Q, and the message passed back to x_i is L~ = (I + L Q)^-1 L,
+K = Q (I + L Q)^-1 = (Q^-1 + L)^-1 the conditioned step is Phi' = (I - K L) Phi,
+u' = (I - K L) u + K e, Q' = (I - K L) Q = K, and the message passed back to x_i is L~ = (I + L Q)^-1 L,
 e~ = (I + L Q)^-1 e, L_i = Phi' L~ Phi (+ H' H / r^2 if state i is observed),
 e_i = Phi' (e~ - L~ u) (+ H' p / r^2).
 
@@ -28,10 +28,6 @@ import numpy as np
 from clamp.errors import InvalidParameterError
 from clamp.prior import WorkspacePrior
 from clamp.validation import as_array, as_scalar
-
-
-def _symmetric(a: np.ndarray) -> np.ndarray:
-    return 0.5 * (a + a.T)
 
 
 def condition_prior(prior: Any, observations: Sequence[tuple[int, Any]],
@@ -58,23 +54,33 @@ def condition_prior(prior: Any, observations: Sequence[tuple[int, Any]],
         L_obs[int(index), np.arange(A), np.arange(A)] += 1.0 / sigma**2
         e_obs[int(index), :A] += p / sigma**2
     eye = np.eye(D)
-    Phi_c, u_c, Q_c = np.empty_like(Phi), np.empty_like(u), np.empty_like(Q)
+    # backward pass: only the information messages are sequential; K_i = (Q_i^-1 + L_{i+1})^-1
+    # (= Q (I + L Q)^-1) and the messages are kept for the batched conditioned steps below
+    Q_inv = np.linalg.inv(Q)
+    Q_inv = 0.5 * (Q_inv + np.swapaxes(Q_inv, 1, 2))
+    gains, L_next, e_next = np.zeros_like(Q), np.zeros_like(Q), np.zeros_like(u)
     L, e = L_obs[-1], e_obs[-1]
     for i in range(T - 2, -1, -1):
-        gain_t = np.linalg.solve((eye + L @ Q[i]).T, Q[i])      # K^T, K = Q (I + L Q)^-1
-        K = gain_t.T
-        keep = eye - K @ L
-        Phi_c[i] = keep @ Phi[i]
-        u_c[i] = keep @ u[i] + K @ e
-        Q_c[i] = _symmetric(keep @ Q[i])
-        L_t = L - L @ K @ L                                        # (I + L Q)^-1 L
-        e_t = e - L @ (K @ e)                                      # (I + L Q)^-1 e
-        L = _symmetric(Phi[i].T @ L_t @ Phi[i]) + L_obs[i]
-        e = Phi[i].T @ (e_t - L_t @ u[i]) + e_obs[i]
+        L_next[i], e_next[i] = L, e
+        K = np.linalg.inv(Q_inv[i] + L)
+        gains[i] = K
+        LK = L @ K
+        L_t = L - LK @ L                                           # (I + L Q)^-1 L
+        e_t = e - LK @ e                                           # (I + L Q)^-1 e
+        PhiT = Phi[i].T
+        L = PhiT @ L_t @ Phi[i]
+        L = 0.5 * (L + L.T) + L_obs[i]
+        e = PhiT @ (e_t - L_t @ u[i]) + e_obs[i]
+    keep = eye - gains @ L_next                                    # (T-1, D, D)
+    Phi_c = keep @ Phi
+    u_c = np.einsum("tij,tj->ti", keep, u) + np.einsum("tij,tj->ti", gains, e_next)
+    Q_c = gains                                                    # (Q^-1 + L)^-1 = (I - K L) Q
+    Q_c = 0.5 * (Q_c + np.swapaxes(Q_c, 1, 2))
     P0, m0 = np.asarray(prior.cov0, dtype=float), np.asarray(prior.mean0, dtype=float)
-    K0 = np.linalg.solve((eye + L @ P0).T, P0).T
+    K0 = np.linalg.solve((eye + L @ P0).T, P0).T                  # P0 (I + L P0)^-1
     mean0 = m0 + K0 @ (e - L @ m0)
-    cov0 = _symmetric((eye - K0 @ L) @ P0)
+    cov0 = (eye - K0 @ L) @ P0
+    cov0 = 0.5 * (cov0 + cov0.T)
     info = {**getattr(prior, "info", {}), "conditioned_on": [
         [int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations],
         "conditioning_sigma": sigma}

@@ -7,6 +7,24 @@ from typing import Any
 import numpy as np
 
 
+@dataclass(frozen=True)
+class PlanInputs:
+    """What a plan was asked (kept by :func:`clamp.plan` on ``PlanResult.inputs`` for
+    :func:`clamp.replan`): the arguments of the call and the prior it planned with
+    (``model_prior``: the learned prior conditioned on the start, goal and via points)."""
+
+    prior: Any
+    robot: Any
+    scene: Any
+    start: Any
+    goal: Any
+    via_points: tuple
+    extra_factors: tuple
+    config: Any
+    sdf: Any
+    model_prior: Any
+
+
 @dataclass
 class PlanResult:
     """Outcome of :func:`clamp.plan`.
@@ -64,6 +82,8 @@ class PlanResult:
     via_errors: list[float] = field(default_factory=list)
     covariance_floor: float = 0.0
     violations: dict[str, float] = field(default_factory=dict)
+    #: the request (not a dataclass field: left out of to_dict / asdict); set by clamp.plan
+    inputs = None
 
     @property
     def ee_std(self) -> np.ndarray | None:
