@@ -18,6 +18,13 @@ All T - 1 regressions are solved at once with batched SVDs.
 
 The same learner gives the workspace prior (A = 3 Cartesian axes, :func:`learn_prior`) and a
 configuration-space prior (A = n joints, :func:`learn_joint_prior`, paper section 4.2).
+
+``method="incremental"`` learns the same per-step, per-group regressions with the reference's
+conjugate Bayesian model instead (:mod:`clamp.conjugate`); the prior keeps the posterior and
+``prior.update(demos)`` continues from it. ``obstacle_weighting`` weights every sample by its
+distance to its own demonstration's obstacles (:mod:`clamp.obstacle_weighting`): weighted
+means, weighted residual covariances, a transition weighted by the smaller of its two samples'
+weights (scaled per step so the largest is 1 in batch learning).
 """
 from __future__ import annotations
 
