@@ -142,7 +142,7 @@ def _draw_prior_3d(ax, prior: LinearGaussianPrior, states: np.ndarray | None, le
         if weights is not None:
             points = states[..., :3].reshape(-1, 3)
             ax.scatter(*points.T, c=weights.reshape(-1), cmap="viridis", vmin=0.0, vmax=1.0,
-                       s=3, label="sample weight")
+                       s=1, alpha=0.6, label="sample weight")
     ax.plot(*prior.mean[:, :3].T, color="tab:blue", lw=2.2, label="prior mean")
     ax.plot([], [], color="tab:blue", alpha=0.3, lw=6, label=f"{100 * level:.0f} % envelope")
     ax.scatter(*prior.mean[0, :3], color="tab:green", s=30, label="start")
@@ -170,10 +170,10 @@ def plot_weighted_priors(unweighted: LinearGaussianPrior, weighted: LinearGaussi
             ref = as_array(reference, "reference", (prior.T, 3))
             ax.plot(*ref.T, color="k", ls="--", lw=1.2, label="clutter-free skill")
             gap = float(np.sqrt(np.mean(np.sum((prior.mean[:, :3] - ref) ** 2, axis=1))))
-            name += f": rms {1000 * gap:.1f} mm from it"
+            name += f" prior: rms {1000 * gap:.1f} mm from the clutter-free skill"
         for obstacle in obstacles:
             draw_obstacle(ax, obstacle, alpha=0.15)
-        ax.set_title(f"{name} prior")
+        ax.set_title(name if reference is not None else f"{name} prior", fontsize=10)
         ax.legend(loc="upper left", fontsize=7)
     return _finish(fig, path, dpi)
 
