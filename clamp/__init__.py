@@ -13,12 +13,15 @@ from clamp.optimizers import optimize
 from clamp.planner import build, plan
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
 from clamp.problem import PlanningProblem
+from clamp.replanning import replan
 from clamp.result import PlanResult
+from clamp.obstacle_weighting import ObstacleWeighting
+from clamp.conditioning import condition_prior
 
 __all__ = [
     "learn_prior", "learn_joint_prior", "WorkspacePrior", "LinearGaussianPrior",
     "PlannerConfig", "ModelConfig", "OptimizerConfig", "CheckConfig",
-    "plan", "build", "optimize", "PlanningProblem", "PlanResult",
+    "plan", "build", "replan", "condition_prior", "ObstacleWeighting", "optimize", "PlanningProblem", "PlanResult",
     "ClampError", "ClampWarning", "InsufficientDemonstrationsError", "InvalidParameterError",
     "NonFiniteError", "PriorFileError", "ShapeError",
 ]

@@ -33,6 +33,11 @@ class ModelConfig:
     goal_sigma: float = 1e-3
     #: [m or rad] via-point factors
     via_sigma: float = 1e-3
+    #: plan with the learned prior conditioned exactly on the start, goal and via positions
+    #: (:mod:`clamp.conditioning`) when a goal or via points are given
+    condition_on_targets: bool = True
+    #: [m] observation noise of that conditioning (the conditioned mean meets them to ~this)
+    conditioning_sigma: float = 1e-5
     #: learned initial workspace state factor (position moved to the start)
     workspace_start: bool = True
     #: an end-effector start is replaced by its IK configuration (removes the arm's self-motion)
@@ -89,7 +94,9 @@ class CheckConfig:
     #: [m] end-effector start (or [rad] joint start) error
     start_tolerance: float = 1e-3
     #: [m] end-effector goal (or [rad] joint goal) error
-    goal_tolerance: float = 0.02
+    goal_tolerance: float = 0.002
+    #: [m] end-effector via-point (or [rad] joint via-point) error
+    via_tolerance: float = 0.002
     #: [m] IK accuracy required to accept an end-effector start as reachable
     ik_tolerance: float = 1e-4
     #: [rad] joint position limits (the limit factors are soft)
@@ -143,10 +150,10 @@ class PlannerConfig:
         for name in ("epsilon", "limit_margin", "velocity_margin"):
             as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
         for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
-                     "sdf_cell_size"):
+                     "sdf_cell_size", "conditioning_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", strictly_positive=True)
         for name in ("workspace_start", "fix_start_configuration", "obstacle_factors",
-                     "joint_limits"):
+                     "joint_limits", "condition_on_targets"):
             if not isinstance(getattr(m, name), bool):
                 raise InvalidParameterError(f"config.model.{name}: expected True or False, got "
                                             f"{getattr(m, name)!r}")
@@ -164,7 +171,7 @@ class PlannerConfig:
                                             f"{getattr(o, name)!r}; valid: {', '.join(valid)}")
         for name in ("limit_tolerance", "velocity_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", minimum=0.0)
-        for name in ("start_tolerance", "goal_tolerance", "ik_tolerance"):
+        for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", strictly_positive=True)
         return self
 

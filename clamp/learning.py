@@ -18,20 +18,30 @@ All T - 1 regressions are solved at once with batched SVDs.
 
 The same learner gives the workspace prior (A = 3 Cartesian axes, :func:`learn_prior`) and a
 configuration-space prior (A = n joints, :func:`learn_joint_prior`, paper section 4.2).
+
+``method="incremental"`` learns the same per-step, per-group regressions with the reference's
+conjugate Bayesian model instead (:mod:`clamp.conjugate`); the prior keeps the posterior and
+``prior.update(demos)`` continues from it. ``obstacle_weighting`` weights every sample by its
+distance to its own demonstration's obstacles (:mod:`clamp.obstacle_weighting`): weighted
+means, weighted residual covariances, a transition weighted by the smaller of its two samples'
+weights (scaled per step so the largest is 1 in batch learning).
 """
 from __future__ import annotations
 
 import warnings
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 
 from clamp.errors import (ClampWarning, InsufficientDemonstrationsError, InvalidParameterError,
                           ShapeError)
+from clamp.conjugate import ConjugatePosterior
+from clamp.obstacle_weighting import ObstacleWeighting, as_weighting, demonstration_weights
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
 from clamp.validation import as_array, as_scalar, as_time
 
-__all__ = ["learn_prior", "learn_joint_prior", "fit_transitions", "state_groups"]
+__all__ = ["learn_prior", "learn_joint_prior", "update_prior", "fit_transitions", "state_groups",
+           "METHODS"]
 
 
 def state_groups(num_axes: int, coupled: bool) -> np.ndarray:
@@ -68,52 +78,103 @@ def _ridge_fit(X: np.ndarray, Y: np.ndarray, ridge: float) -> np.ndarray:
     return np.swapaxes(Vt, -1, -2) @ (gain[..., None] * UtY)
 
 
-def fit_transitions(states: np.ndarray, groups: np.ndarray, ridge: float,
-                    jitter: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-step ridge regression of x_{i+1} on [1, x_i] over M demonstrations.
+def _step_weights(weights: np.ndarray | None, M: int, T: int) -> np.ndarray:
+    """Transition weights (T-1, M) from sample weights (M, T): the smaller of the two samples',
+    scaled so every step's largest weight is 1 (all ones without weights)."""
+    if weights is None:
+        return np.ones((T - 1, M))
+    step = np.minimum(weights[:, :-1], weights[:, 1:]).T
+    top = step.max(axis=1, keepdims=True)
+    return step / np.where(top > 0, top, 1.0)
 
-    states (M, T, D); groups (G, k) index groups regressed jointly (see :func:`state_groups`).
-    Returns Phi (T-1, D, D), u (T-1, D), Q (T-1, D, D) with ``jitter`` on Q's diagonal.
+
+def fit_transitions(states: np.ndarray, groups: np.ndarray, ridge: float, jitter: float,
+                    weights: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-step (weighted) ridge regression of x_{i+1} on [1, x_i] over M demonstrations.
+
+    states (M, T, D); groups (G, k) index groups regressed jointly (see :func:`state_groups`);
+    weights (M, T) per sample (None: unweighted; see :mod:`clamp.obstacle_weighting`).
+    Returns Phi (T-1, D, D), u (T-1, D), Q (T-1, D, D) with ``jitter`` on Q's diagonal; Q is
+    the weighted mean of the residuals' outer products.
     """
-    M, _, D = states.shape
+    M, T, D = states.shape
+    w = _step_weights(weights, M, T)[:, None, :, None]  # (T-1, 1, M, 1)
+    total = w.sum(axis=2, keepdims=True)
     # (T-1, G, M, k): one small regression per step and group, all solved in one batch.
     X = np.moveaxis(states[:, :-1][:, :, groups], 0, 2)
     Y = np.moveaxis(states[:, 1:][:, :, groups], 0, 2)
-    x_bar = X.mean(axis=2, keepdims=True)
-    y_bar = Y.mean(axis=2, keepdims=True)
-    Xc, Yc = X - x_bar, Y - y_bar
+    x_bar = (w * X).sum(axis=2, keepdims=True) / total
+    y_bar = (w * Y).sum(axis=2, keepdims=True) / total
+    root = np.sqrt(w)
+    Xc, Yc = root * (X - x_bar), root * (Y - y_bar)
     B = _ridge_fit(Xc, Yc, ridge)                      # (T-1, G, k, k): Phi_g^T
     Phi_g = np.swapaxes(B, -1, -2)
     u_g = (y_bar - x_bar @ B)[..., 0, :]               # (T-1, G, k)
     R = Yc - Xc @ B
-    Q_g = np.swapaxes(R, -1, -2) @ R / M
+    Q_g = np.swapaxes(R, -1, -2) @ R / total
+    return _assemble(Phi_g, u_g, Q_g, groups, D, jitter)
+
+
+def _assemble(Phi_g: np.ndarray, u_g: np.ndarray, Q_g: np.ndarray, groups: np.ndarray,
+              D: int, jitter: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-group Phi (S, G, k, k), u (S, G, k), Q (S, G, k, k) -> block-structured (S, D, D),
+    (S, D), (S, D, D) with ``jitter`` on Q's diagonal."""
     Phi = _scatter_blocks(Phi_g, groups, D)
     Q = _scatter_blocks(Q_g, groups, D) + jitter * np.eye(D)
     Q = 0.5 * (Q + np.swapaxes(Q, -1, -2))
-    u = np.zeros((states.shape[1] - 1, D))
+    u = np.zeros((Phi.shape[0], D))
     u[:, groups] = u_g
     return Phi, u, Q
 
 
-def _initial_state(states: np.ndarray, groups: np.ndarray,
-                   jitter: float) -> tuple[np.ndarray, np.ndarray]:
-    """Mean (D,) and biased (1/M) covariance (D, D) of the first states, block-diagonal by group."""
+def _initial_state(states: np.ndarray, groups: np.ndarray, jitter: float,
+                   weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted mean (D,) and biased covariance (D, D) of the first states, block-diagonal by
+    group (weights (M, T) per sample, column 0 used; None: equal weights)."""
     x0 = states[:, 0]
-    mean0 = x0.mean(axis=0)
+    w = np.ones(len(x0)) if weights is None else weights[:, 0] / max(weights[:, 0].max(), 1e-300)
+    mean0 = w @ x0 / w.sum()
     centred = x0 - mean0
-    full = centred.T @ centred / x0.shape[0]
+    return mean0, _block_covariance((centred * w[:, None]).T @ centred / w.sum(), groups, jitter)
+
+
+def _block_covariance(full: np.ndarray, groups: np.ndarray, jitter: float) -> np.ndarray:
+    """full (D, D) with entries outside the groups' blocks zeroed, plus jitter I."""
     mask = _scatter_blocks(np.ones((groups.shape[0],) + (groups.shape[1],) * 2), groups,
-                           x0.shape[1]).astype(bool)
-    cov0 = np.where(mask, full, 0.0) + jitter * np.eye(x0.shape[1])
-    return mean0, cov0
+                           full.shape[0]).astype(bool)
+    return np.where(mask, full, 0.0) + jitter * np.eye(full.shape[0])
+
+
+def prior_from_posterior(posterior: ConjugatePosterior, time: np.ndarray, jitter: float,
+                         prior_class: type[LinearGaussianPrior], kind: str,
+                         state_names: tuple[str, ...] | None,
+                         info: dict[str, Any]) -> LinearGaussianPrior:
+    """The prior of a conjugate posterior: posterior mean transitions, MAP noise
+    S / (N + k + 1) plus jitter, weighted mean and covariance of the first states."""
+    D = len(posterior.first_mean)
+    Phi, u, Q = _assemble(*posterior.transitions(), posterior.groups, D, jitter)
+    mean0, full0 = posterior.initial()
+    cov0 = _block_covariance(full0, posterior.groups, jitter)
+    return prior_class(time, Phi, u, Q, mean0, cov0, kind=kind, info=info,
+                       state_names=state_names, posterior=posterior)
+
+
+METHODS = ("batch", "incremental")
 
 
 def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float, jitter: float,
            prior_class: type[LinearGaussianPrior], kind: str,
-           state_names: tuple[str, ...] | None) -> LinearGaussianPrior:
-    """Shared learner: states (M, T, D = 2A) ordered [positions, velocities] -> prior."""
+           state_names: tuple[str, ...] | None, method: str = "batch",
+           weights: np.ndarray | None = None,
+           weighting: ObstacleWeighting | None = None) -> LinearGaussianPrior:
+    """Shared learner: states (M, T, D = 2A) ordered [positions, velocities] -> prior.
+
+    weights (M, T) per sample (None: unweighted), weighting the settings that made them."""
     ridge = as_scalar(ridge, "ridge", minimum=0.0)
     jitter = as_scalar(jitter, "jitter", minimum=0.0)
+    if method not in METHODS:
+        raise InvalidParameterError(f"method: expected one of {list(METHODS)}, got {method!r}")
     M, T, D = states.shape
     if M < 2:
         raise InsufficientDemonstrationsError(
@@ -121,6 +182,14 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
     if T < 2:
         raise ShapeError(f"demonstrations: expected at least 2 time steps, got {T}")
     groups = state_groups(D // 2, bool(coupled))
+    info: dict[str, Any] = {"method": method, "coupled": bool(coupled), "jitter": jitter,
+                            "num_demos": int(M),
+                            "obstacle_weighting": weighting.to_dict() if weighting else None}
+    if method == "incremental":
+        # the conjugate prior (K0, S0) regularises every regression: no ridge, no minimum M
+        posterior = ConjugatePosterior.empty(T - 1, D, groups).update(states, weights)
+        return prior_from_posterior(posterior, time, jitter, prior_class, kind, state_names,
+                                    info)
     unknowns = groups.shape[1] + 1                     # slopes of one output + bias
     if M < unknowns:
         what = f"coupled learning of D = {D}" if coupled else "per-axis learning"
@@ -131,10 +200,9 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
         warnings.warn(f"{what} from {M} demonstrations is underdetermined ({unknowns} unknowns "
                       f"per output); the fit relies on ridge = {ridge:g} and Q has rank "
                       f"<= {M - 1} before jitter", ClampWarning, stacklevel=3)
-    Phi, u, Q = fit_transitions(states, groups, ridge, jitter)
-    mean0, cov0 = _initial_state(states, groups, jitter)
-    info = {"coupled": bool(coupled), "ridge": ridge, "jitter": jitter, "num_demos": int(M)}
-    return prior_class(time, Phi, u, Q, mean0, cov0, kind=kind, info=info,
+    Phi, u, Q = fit_transitions(states, groups, ridge, jitter, weights)
+    mean0, cov0 = _initial_state(states, groups, jitter, weights)
+    return prior_class(time, Phi, u, Q, mean0, cov0, kind=kind, info={**info, "ridge": ridge},
                        state_names=state_names)
 
 
@@ -147,19 +215,9 @@ def _stack_states(positions: object, velocities: object, time: object, names: tu
     return np.concatenate([p, v], axis=2), t
 
 
-def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
-                velocities: np.ndarray | None = None, time: np.ndarray | None = None,
-                coupled: bool = False, ridge: float = 1e-6,
-                jitter: float = 1e-12) -> WorkspacePrior:
-    """Learn CLAMP's workspace prior over x = [p, v] (D = 6) from demonstrations.
-
-    demos: a ``scenes.Demonstrations`` (anything with ``positions`` (M, T, 3) m,
-    ``velocities`` (M, T, 3) m/s and ``time`` (T,) s); or give those three arrays by keyword.
-    coupled: regress the full 6-vector instead of each axis's [p_d, v_d] separately.
-    ridge: Frobenius penalty on every Phi_i (>= 0; 0 needs M >= 3 per axis, M >= 7 coupled).
-    jitter: added to the diagonal of every Q_i and of cov0 so they are positive definite.
-    Raises InsufficientDemonstrationsError (M < 2, ...), ShapeError, NonFiniteError.
-    """
+def _demo_arrays(demos: object, positions: object, velocities: object,
+                 time: object) -> tuple[object, object, object, object]:
+    """(positions, velocities, time, obstacles) from a Demonstrations or the keyword arrays."""
     if demos is not None:
         if any(a is not None for a in (positions, velocities, time)):
             raise InvalidParameterError("demos: give either a Demonstrations object or the "
@@ -168,19 +226,75 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
         if missing:
             raise ShapeError(f"demos: expected a scenes.Demonstrations with attributes "
                              f"positions, velocities, time; {type(demos).__name__} lacks {missing}")
-        positions, velocities, time = demos.positions, demos.velocities, demos.time
-    elif positions is None or velocities is None or time is None:
+        return demos.positions, demos.velocities, demos.time, getattr(demos, "obstacles", None)
+    if positions is None or velocities is None or time is None:
         raise InvalidParameterError("demos: expected a Demonstrations object, or all of "
                                     "positions (M, T, 3), velocities (M, T, 3), time (T,)")
+    return positions, velocities, time, None
+
+
+def _weights(states: np.ndarray, obstacles: Any,
+             weighting: ObstacleWeighting | None) -> np.ndarray | None:
+    if weighting is not None and not obstacles:
+        warnings.warn("obstacle_weighting: the demonstrations carry no recorded obstacles; "
+                      "every sample keeps weight 1", ClampWarning, stacklevel=3)
+    return demonstration_weights(states[..., :3], obstacles, weighting)
+
+
+def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
+                velocities: np.ndarray | None = None, time: np.ndarray | None = None,
+                coupled: bool = False, ridge: float = 1e-6, jitter: float = 1e-12,
+                method: str = "batch", obstacle_weighting: Any = None) -> WorkspacePrior:
+    """Learn CLAMP's workspace prior over x = [p, v] (D = 6) from demonstrations.
+
+    demos: a ``scenes.Demonstrations`` (anything with ``positions`` (M, T, 3) m,
+    ``velocities`` (M, T, 3) m/s and ``time`` (T,) s; ``obstacles``, per demonstration the
+    obstacles recorded with it, are used by the weighting); or give the arrays by keyword.
+    coupled: regress the full 6-vector instead of each axis's [p_d, v_d] separately.
+    ridge: Frobenius penalty on every Phi_i (>= 0; 0 needs M >= 3 per axis, M >= 7 coupled).
+    jitter: added to the diagonal of every Q_i and of cov0 so they are positive definite.
+    method: "batch" (ridge regression) or "incremental" (the conjugate Bayesian model of
+    :mod:`clamp.conjugate`; the prior keeps its posterior, see ``WorkspacePrior.update``).
+    obstacle_weighting: None, True (eps 0.3 m, sigma 0.001) or a clamp.ObstacleWeighting /
+    dict: every sample weighted by its distance to its demonstration's own obstacles.
+    Raises InsufficientDemonstrationsError (M < 2, ...), ShapeError, NonFiniteError.
+    """
+    positions, velocities, time, obstacles = _demo_arrays(demos, positions, velocities, time)
     states, t = _stack_states(positions, velocities, time, ("positions", "velocities"), 3)
+    weighting = as_weighting(obstacle_weighting)
     prior = _learn(states, t, coupled=coupled, ridge=ridge, jitter=jitter,
-                   prior_class=WorkspacePrior, kind=WorkspacePrior.default_kind, state_names=None)
+                   prior_class=WorkspacePrior, kind=WorkspacePrior.default_kind, state_names=None,
+                   method=method, weights=_weights(states, obstacles, weighting),
+                   weighting=weighting)
     return cast(WorkspacePrior, prior)
 
 
+def update_prior(prior: LinearGaussianPrior, demos: object) -> LinearGaussianPrior:
+    """The prior after more demonstrations (see ``LinearGaussianPrior.update``)."""
+    posterior = prior.posterior
+    if posterior is None:
+        raise InvalidParameterError(f"prior: learned with method={prior.info.get('method', 'batch')!r}"
+                                    "; only a prior learned with method='incremental' keeps the "
+                                    "posterior that update() continues from")
+    positions, velocities, time, obstacles = _demo_arrays(demos, None, None, None)
+    p = as_array(positions, "demos.positions", (None, prior.T, prior.num_axes))
+    states, t = _stack_states(p, velocities, time, ("demos.positions", "demos.velocities"),
+                              prior.num_axes)
+    if not np.allclose(t - t[0], prior.time - prior.time[0], rtol=0.0,
+                       atol=1e-9 * max(prior.dt, 1.0)):
+        raise ShapeError("demos.time: expected the prior's time steps (resample the "
+                         "demonstrations to the prior's T and dt)")
+    settings = prior.info.get("obstacle_weighting")
+    weighting = None if settings is None else ObstacleWeighting(**settings)
+    posterior = posterior.update(states, _weights(states, obstacles, weighting))
+    info = {**prior.info, "num_demos": int(prior.info.get("num_demos", 0)) + len(states)}
+    return prior_from_posterior(posterior, prior.time, float(prior.info.get("jitter", 0.0)),
+                                type(prior), prior.kind, prior.state_names, info)
+
+
 def learn_joint_prior(q: np.ndarray, qdot: np.ndarray, time: np.ndarray, *,
-                      coupled: bool = False, ridge: float = 1e-6,
-                      jitter: float = 1e-12) -> LinearGaussianPrior:
+                      coupled: bool = False, ridge: float = 1e-6, jitter: float = 1e-12,
+                      method: str = "batch") -> LinearGaussianPrior:
     """Learn a configuration-space prior over theta = [q, qdot] (D = 2n) (paper section 4.2).
 
     q (M, T, n) rad, qdot (M, T, n) rad/s, time (T,) s. Per joint by default (block-diagonal
@@ -193,4 +307,5 @@ def learn_joint_prior(q: np.ndarray, qdot: np.ndarray, time: np.ndarray, *,
         raise ShapeError("q: expected at least one joint, got shape (M, T, 0)")
     names = tuple(f"q{j}" for j in range(n)) + tuple(f"qdot{j}" for j in range(n))
     return _learn(states, t, coupled=coupled, ridge=ridge, jitter=jitter,
-                  prior_class=LinearGaussianPrior, kind="joint", state_names=names)
+                  prior_class=LinearGaussianPrior, kind="joint", state_names=names,
+                  method=method)

@@ -89,3 +89,29 @@ def plot_plan_uncertainty(result: Any, path: str | os.PathLike[str] | None = Non
     if path is not None:
         fig.savefig(path, dpi=dpi)
     return fig
+
+
+def plot_orientation(result: Any, robot: Any, family: Any,
+                     path: str | os.PathLike[str] | None = None, title: str | None = None,
+                     dpi: int = 120) -> Figure:
+    """Angle of the tool from an orientation family's target [deg] against time over the whole
+    plan, with the family's window shaded and its tolerance; writes a PNG to ``path``."""
+    every = type(family)(np.arange(len(result.q)), tolerance=family.tolerance,
+                         axis=family.axis, direction=family.direction,
+                         rotation=family.rotation)
+    angles = np.degrees(every.angles(robot, result.q))
+    fig = Figure(figsize=(7.5, 3.6))
+    ax = fig.add_subplot()
+    window = result.time[family.first]
+    ax.axvspan(window[0], window[-1], color="tab:green", alpha=0.12, label="constrained window")
+    ax.axhline(np.degrees(family.tolerance), color="tab:red", ls="--", lw=1, label="tolerance")
+    ax.plot(result.time, angles, color="tab:blue", lw=1.5, label="angle from target")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("angle [deg]")
+    worst = float(np.max(angles[family.first]))
+    ax.set_title(title or f"tool orientation (largest in window {worst:.2f} deg)", fontsize=9)
+    ax.legend(loc="best", fontsize=7)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=dpi)
+    return fig

@@ -18,6 +18,7 @@ from typing import Any, Union
 import gtsam
 import numpy as np
 
+from clamp.conditioning import planning_prior
 from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
@@ -30,7 +31,8 @@ from clamp.optimizers import optimize
 from clamp.problem import PlanningProblem
 from clamp.request import (Request, Target, as_config, as_scene, check_prior, check_robot,
                            has_obstacles, make_request)
-from clamp.result import PlanResult
+from clamp.result import PlanInputs, PlanResult
+from clamp.targets import constraint_violations, target_problems
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array
 from clamp.verdict import evaluate, failed_result, start_problems
@@ -169,23 +171,26 @@ def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: An
     ``problem.values()`` give the GTSAM graph and initial values. Raises ClampError
     subclasses on bad input.
     """
-    problem, _, _ = _build(prior, robot, as_scene(scene), start, goal, via_points,
+    problem, _, _, _ = _build(prior, robot, as_scene(scene), start, goal, via_points,
                            extra_factors, as_config(config), sdf, initial)
     return problem
 
 
 def _build(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf, initial,
-           request: Request | None = None) -> tuple[PlanningProblem, Request, Initialisation]:
+           request: Request | None = None, model_prior: Any = None
+           ) -> tuple[PlanningProblem, Request, Initialisation, Any]:
     check_prior(prior)
     check_robot(robot)
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
     request = request or make_request(prior, robot, start, goal, via_points, config)
     extra_families, foreign = _extras(extra_factors, T)
-    families = _families(prior, robot, request, config, distance_query(scene, config, sdf))
-    init = (_initialise(prior, robot, request, config) if initial is None
+    if model_prior is None:                       # the prior conditioned on the targets
+        model_prior = planning_prior(prior, robot, request, config)
+    families = _families(model_prior, robot, request, config, distance_query(scene, config, sdf))
+    init = (_initialise(model_prior, robot, request, config) if initial is None
             else warm_start(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
-    return problem, request, init
+    return problem, request, init, model_prior
 
 
 def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
@@ -205,20 +210,22 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
 
 
 def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf, initial,
-          covariance) -> PlanResult:
+          covariance, q_start: np.ndarray | None = None, model_prior: Any = None) -> PlanResult:
     t0 = time.perf_counter()
     config = as_config(config)
     check_prior(prior)
     check_robot(robot)
     scene = as_scene(scene)
-    request = make_request(prior, robot, start, goal, via_points, config)
+    request = make_request(prior, robot, start, goal, via_points, config, q_start)
     T = prior.Phi.shape[0] + 1
-    reasons = start_problems(robot, scene, request, config)
+    reasons = start_problems(robot, scene, request, config) + target_problems(robot, request,
+                                                                              config)
     if reasons:
         return failed_result(prior, robot, np.repeat(request.q_start[None], T, axis=0), reasons, t0,
                        request.start_ik_error, config)
-    problem, request, init = _build(prior, robot, scene, start, goal, via_points, extra_factors,
-                                    config, sdf, initial, request)
+    problem, request, init, model_prior = _build(prior, robot, scene, start, goal, via_points,
+                                                 extra_factors, config, sdf, initial, request,
+                                                 model_prior)
     t_opt = time.perf_counter()
     out = optimize(problem, config)
     t_cov = time.perf_counter()
@@ -233,5 +240,11 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     result.initial_q = init.q
     result.state_covariance, result.ee_covariance = state_cov, ee_cov
     result.covariance_floor = floor
+    result.inputs = PlanInputs(prior, robot, scene, start, goal, tuple(via_points),
+                               tuple(extra_factors), config, sdf, model_prior)
+    result.violations, broken = constraint_violations(problem.families, robot, result.q)
+    if broken:
+        result.reasons += broken
+        result.success = False
     result.timings["total"] = time.perf_counter() - t0
     return result

@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy import stats
 
+from clamp.conjugate import POSTERIOR_KEYS, ConjugatePosterior
 from clamp.errors import InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time
 
@@ -108,7 +109,9 @@ class LinearGaussianPrior:
         Phi (T-1, D, D) transition matrices; u (T-1, D) biases; Q (T-1, D, D) process noise;
         mean0 (D,), cov0 (D, D) initial state; mean (T, D), cov (T, D, D) marginals;
         state_names tuple of D strings; kind str ("workspace", "joint", ...);
-        info dict of JSON-serialisable learning settings (ridge, jitter, coupled, ...).
+        info dict of JSON-serialisable learning settings (ridge, jitter, coupled, ...);
+        posterior: the conjugate posterior (clamp.conjugate.ConjugatePosterior) of a prior
+        learned with method="incremental" (None otherwise), saved with it.
     The arrays are read-only copies (the marginals are cached from the parameters).
     The state is ordered ``[positions (D/2), velocities (D/2)]``.
     """
@@ -117,7 +120,8 @@ class LinearGaussianPrior:
 
     def __init__(self, time: np.ndarray, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray,
                  mean0: np.ndarray, cov0: np.ndarray, *, state_names: tuple[str, ...] | None = None,
-                 kind: str | None = None, info: dict[str, Any] | None = None) -> None:
+                 kind: str | None = None, info: dict[str, Any] | None = None,
+                 posterior: ConjugatePosterior | None = None) -> None:
         Phi = as_array(Phi, "Phi", (None, "D", "D"))
         steps, D = Phi.shape[0], Phi.shape[1]
         if steps < 1:
@@ -140,6 +144,7 @@ class LinearGaussianPrior:
         self.dt = float(np.median(np.diff(self.time)))
         self.kind = str(kind or self.default_kind)
         self.info = dict(info or {})
+        self.posterior = posterior
         if state_names is None:
             state_names = self._default_state_names()
         if len(state_names) != D:
@@ -296,16 +301,32 @@ class LinearGaussianPrior:
         """
         return stats.chi2.sf(self.step_mahalanobis_squared(x), df=self.D)
 
+    # ------------------------------------------------------------------ learning on
+    def update(self, demos: Any) -> LinearGaussianPrior:
+        """A new prior that has also learned from ``demos`` (a scenes.Demonstrations, or
+        anything with positions / velocities (M, T, A) and time (T,) on this prior's steps),
+        by the conjugate update of :mod:`clamp.conjugate`; needs a prior learned with
+        method="incremental" (or loaded from its file). Weighted like the original when it
+        was learned with obstacle_weighting. This prior is unchanged."""
+        from clamp.learning import update_prior      # learning builds priors: deferred import
+        return update_prior(self, demos)
+
     # ------------------------------------------------------------------ persistence
     def save(self, path: str | os.PathLike[str]) -> Path:
-        """Write the prior to an ``.npz`` file (suffix added by numpy if missing)."""
+        """Write the prior (and its conjugate posterior, if any, as ``posterior_*`` entries:
+        M, K, S, N and the factor learning resumes from) to an ``.npz`` file (suffix added if
+        missing). The file is written next to the target and moved over it when complete."""
         path = Path(path)
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
-        np.savez(path, format=np.array(FILE_FORMAT), kind=np.array(self.kind),
+        extra = {} if self.posterior is None else {
+            f"posterior_{k}": v for k, v in self.posterior.arrays().items()}
+        partial = path.with_name(path.name + ".partial.npz")
+        np.savez(partial, format=np.array(FILE_FORMAT), kind=np.array(self.kind),
                  state_names=np.array(self.state_names), info=np.array(json.dumps(self.info)),
                  time=self.time, Phi=self.Phi, u=self.u, Q=self.Q, mean0=self.mean0,
-                 cov0=self.cov0)
+                 cov0=self.cov0, **extra)
+        os.replace(partial, path)
         return path
 
     @classmethod
@@ -341,9 +362,18 @@ class LinearGaussianPrior:
             info = json.loads(str(contents["info"]))
         except json.JSONDecodeError as exc:
             raise PriorFileError(f"path: '{path}' has unreadable info ({exc})") from None
+        posterior = None
+        if "posterior_factor" in contents:
+            try:
+                posterior = ConjugatePosterior.from_arrays(
+                    {k: contents[f"posterior_{k}"] for k in POSTERIOR_KEYS})
+            except KeyError as exc:
+                raise PriorFileError(f"path: '{path}' has an incomplete posterior (lacks "
+                                     f"{exc})") from None
         try:
             return target(*(contents[k] for k in _ARRAY_KEYS), kind=kind, info=info,
-                          state_names=tuple(str(s) for s in contents["state_names"]))
+                          state_names=tuple(str(s) for s in contents["state_names"]),
+                          posterior=posterior)
         except (ShapeError, InvalidParameterError, ValueError) as exc:
             raise PriorFileError(f"path: '{path}' holds an invalid prior: {exc}") from None
 
@@ -363,10 +393,11 @@ class WorkspacePrior(LinearGaussianPrior):
 
     def __init__(self, time: np.ndarray, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray,
                  mean0: np.ndarray, cov0: np.ndarray, *, state_names: tuple[str, ...] | None = None,
-                 kind: str | None = None, info: dict[str, Any] | None = None) -> None:
+                 kind: str | None = None, info: dict[str, Any] | None = None,
+                 posterior: ConjugatePosterior | None = None) -> None:
         Phi = as_array(Phi, "Phi", (None, 6, 6))
         super().__init__(time, Phi, u, Q, mean0, cov0, state_names=state_names,
-                         kind=kind or self.default_kind, info=info)
+                         kind=kind or self.default_kind, info=info, posterior=posterior)
 
     def _default_state_names(self) -> tuple[str, ...]:
         return ("px", "py", "pz", "vx", "vy", "vz")

@@ -3,6 +3,8 @@
 - :func:`plot_prior_3d`: workspace prior in 3-D, mean path, demonstrations and a tube whose
   cross-section at every support state is the ``z sigma`` ellipse (z = 1.96 for 95 %) of the
   position covariance projected on the plane normal to the mean path.
+- :func:`plot_weighted_priors`: the priors learned from cluttered demonstrations without and
+  with obstacle weighting, side by side (sample weights, obstacles, clutter-free reference).
 - :func:`plot_prior_time`: every coordinate against time (rows positions / velocities, one
   column per axis), demonstrations, mean and the marginal envelope ``mean -+ z sigma``.
 Both build a bare ``matplotlib.figure.Figure`` (no pyplot, no GUI backend: headless) and
@@ -19,8 +21,9 @@ from matplotlib.figure import Figure
 from clamp.errors import ShapeError
 from clamp.prior import LinearGaussianPrior, envelope_quantile
 from clamp.validation import as_array, as_count
+from scenes.plotting import draw_obstacle
 
-__all__ = ["plot_prior_3d", "plot_prior_time", "envelope_tube"]
+__all__ = ["plot_prior_3d", "plot_prior_time", "plot_weighted_priors", "envelope_tube"]
 
 #: Mean-path steps shorter than this fraction of the longest step count as stationary: the
 #: tube keeps the neighbouring direction there instead of following a noisy tangent.
@@ -118,16 +121,28 @@ def plot_prior_3d(prior: LinearGaussianPrior, demos: object = None, *, level: fl
     demos: Demonstrations-like object or states (M, T, 6), optional. Writes a PNG to ``path``
     if given; returns the figure.
     """
-    tube = envelope_tube(prior, level)
-    states = _demo_states(demos, prior)
     fig = Figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
+    _draw_prior_3d(ax, prior, _demo_states(demos, prior), level)
+    ax.set_title(title or f"{prior.kind} prior (T = {prior.T})")
+    ax.legend(loc="upper left", fontsize=8)
+    return _finish(fig, path, dpi)
+
+
+def _draw_prior_3d(ax, prior: LinearGaussianPrior, states: np.ndarray | None, level: float,
+                   weights: np.ndarray | None = None) -> None:
+    """Envelope tube, demonstrations (faded where their weights (M, T) are small), mean."""
+    tube = envelope_tube(prior, level)
     ax.plot_surface(tube[..., 0], tube[..., 1], tube[..., 2], color="tab:blue", alpha=0.18,
                     linewidth=0, shade=False)
     if states is not None:
         for m, demo in enumerate(states):
             ax.plot(*demo[:, :3].T, color="0.4", lw=0.8,
                     label="demonstrations" if m == 0 else None)
+        if weights is not None:
+            points = states[..., :3].reshape(-1, 3)
+            ax.scatter(*points.T, c=weights.reshape(-1), cmap="viridis", vmin=0.0, vmax=1.0,
+                       s=1, alpha=0.6, label="sample weight")
     ax.plot(*prior.mean[:, :3].T, color="tab:blue", lw=2.2, label="prior mean")
     ax.plot([], [], color="tab:blue", alpha=0.3, lw=6, label=f"{100 * level:.0f} % envelope")
     ax.scatter(*prior.mean[0, :3], color="tab:green", s=30, label="start")
@@ -135,8 +150,31 @@ def plot_prior_3d(prior: LinearGaussianPrior, demos: object = None, *, level: fl
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
-    ax.set_title(title or f"{prior.kind} prior (T = {prior.T})")
-    ax.legend(loc="upper left", fontsize=8)
+
+
+def plot_weighted_priors(unweighted: LinearGaussianPrior, weighted: LinearGaussianPrior,
+                         demos: object, *, weights: np.ndarray | None = None,
+                         reference: np.ndarray | None = None, level: float = 0.95,
+                         path: str | os.PathLike[str] | None = None, dpi: int = 120) -> Figure:
+    """Side by side: the prior learned from cluttered demonstrations without and with obstacle
+    weighting. demos: Demonstrations-like (its recorded obstacles are drawn);
+    weights (M, T) sample weights shown on the right; reference (T, 3) [m] e.g. the
+    clutter-free skill's mean, dashed on both. Writes a PNG to ``path`` if given."""
+    fig = Figure(figsize=(13, 6))
+    obstacles = [ob for group in (getattr(demos, "obstacles", None) or []) for ob in group]
+    for k, (prior, name, w) in enumerate(((unweighted, "unweighted", None),
+                                          (weighted, "obstacle-weighted", weights))):
+        ax = fig.add_subplot(1, 2, k + 1, projection="3d")
+        _draw_prior_3d(ax, prior, _demo_states(demos, prior), level, w)
+        if reference is not None:
+            ref = as_array(reference, "reference", (prior.T, 3))
+            ax.plot(*ref.T, color="k", ls="--", lw=1.2, label="clutter-free skill")
+            gap = float(np.sqrt(np.mean(np.sum((prior.mean[:, :3] - ref) ** 2, axis=1))))
+            name += f" prior: rms {1000 * gap:.1f} mm from the clutter-free skill"
+        for obstacle in obstacles:
+            draw_obstacle(ax, obstacle, alpha=0.15)
+        ax.set_title(name if reference is not None else f"{name} prior", fontsize=10)
+        ax.legend(loc="upper left", fontsize=7)
     return _finish(fig, path, dpi)
 
 

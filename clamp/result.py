@@ -7,6 +7,24 @@ from typing import Any
 import numpy as np
 
 
+@dataclass(frozen=True)
+class PlanInputs:
+    """What a plan was asked (kept by :func:`clamp.plan` on ``PlanResult.inputs`` for
+    :func:`clamp.replan`): the arguments of the call and the prior it planned with
+    (``model_prior``: the learned prior conditioned on the start, goal and via points)."""
+
+    prior: Any
+    robot: Any
+    scene: Any
+    start: Any
+    goal: Any
+    via_points: tuple
+    extra_factors: tuple
+    config: Any
+    sdf: Any
+    model_prior: Any
+
+
 @dataclass
 class PlanResult:
     """Outcome of :func:`clamp.plan`.
@@ -28,7 +46,8 @@ class PlanResult:
     that all score ~1); within_limits; success and reasons (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
-    computed); covariance_floor: information [1/rad^2] added to every coordinate because the
+    computed); violations: per constraint family (e.g. "orientation") how far beyond its
+    tolerance the plan goes [rad for orientation] (0.0: met); covariance_floor: information [1/rad^2] added to every coordinate because the
     graph left a direction unconstrained (0.0: the exact Laplace covariance; see
     :mod:`clamp.uncertainty`).
     """
@@ -62,6 +81,9 @@ class PlanResult:
     ee_covariance: np.ndarray | None = None
     via_errors: list[float] = field(default_factory=list)
     covariance_floor: float = 0.0
+    violations: dict[str, float] = field(default_factory=dict)
+    #: the request (not a dataclass field: left out of to_dict / asdict); set by clamp.plan
+    inputs = None
 
     @property
     def ee_std(self) -> np.ndarray | None:
@@ -78,6 +100,7 @@ class PlanResult:
                 "min_clearance_m": number(self.min_clearance),
                 "start_error": number(self.start_error), "goal_error": number(self.goal_error),
                 "via_errors": [float(e) for e in self.via_errors],
+                "violations": {k: float(v) for k, v in self.violations.items()},
                 "within_limits": bool(self.within_limits)}
 
     def to_joint_trajectory(self, robot: Any) -> Any:

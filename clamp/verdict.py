@@ -99,9 +99,9 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     if goal_error is not None and goal_error > checks.goal_tolerance:
         reasons.append(f"goal error {goal_error:.4g} exceeds {checks.goal_tolerance:.4g}")
     for (index, _), error in zip(request.vias, via_errors):
-        if error > checks.goal_tolerance:
+        if error > checks.via_tolerance:
             reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
-                           f"{checks.goal_tolerance:.4g}")
+                           f"{checks.via_tolerance:.4g}")
     if clearance < 0:
         reasons.append(f"collision: minimum clearance {clearance * 1000:.1f} mm")
     if not within:

@@ -207,6 +207,20 @@ class Robot:
                                      columns.transpose(0, 2, 1).reshape(shape3n),
                                      velocity_jacobian.reshape(shape3n))
 
+    def ee_rotation(self, q, jacobians: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+        """End-effector rotation (..., 3, 3) (columns: the tool's x, y, z axes in the base
+        frame) for q (..., n) and, if asked, its angular Jacobian (..., 3, n): the base-frame
+        angular velocity is ``jacobian @ qdot`` (column j: joint j's axis if revolute and
+        upstream of the end effector, else 0), so d (R a) / d q_j = column_j x (R a)."""
+        flat, lead = self._batch(q, "q")
+        frames = self.chain.joint_frames(flat)
+        rotation = (frames.rotations[:, self._ee.joint] @ self._ee.rotation).reshape(lead + (3, 3))
+        if not jacobians:
+            return rotation, None
+        angular = np.where(self.chain.is_prismatic[:, None], 0.0, frames.axes)    # (B, n, 3)
+        angular[:, self._ee.joint:] = 0.0                                         # downstream joints
+        return rotation, angular.transpose(0, 2, 1).reshape(lead + (3, self.n))
+
     def ee_position_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """End-effector position (3,) [m] and d position / d q (3, n) of ONE validated
         configuration q (n,), from Pinocchio's C++ kinematics (equal to :meth:`ee_kinematics`

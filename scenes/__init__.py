@@ -8,13 +8,13 @@ from .io import load_demonstrations, save_csv
 from .obstacles import Box, Capsule, Cylinder, Obstacle, Sphere
 from .scene import DEFAULT_WORKSPACE, Scene, available_scenes, builtin_scene
 from .sdf import SignedDistanceField
-from .synthetic import SKILLS, make_demonstrations
+from .synthetic import SKILLS, make_cluttered_demonstrations, make_demonstrations
 
 __all__ = [
     "Box", "Capsule", "Cylinder", "Obstacle", "Sphere", "Scene", "SignedDistanceField", "DEFAULT_WORKSPACE",
     "available_scenes", "builtin_scene",
     "Demonstrations", "NOMINAL_DURATION", "load_demonstrations", "save_csv", "shared_dataset",
-    "make_demonstrations", "SKILLS",
+    "make_demonstrations", "make_cluttered_demonstrations", "SKILLS",
     "ScenesError", "InvalidArgumentError", "InvalidObstacleError", "SceneFileError",
     "InvalidDemonstrationsError", "DemonstrationFileError", "UnknownSkillError",
 ]

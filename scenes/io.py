@@ -11,6 +11,9 @@ Formats (chosen by suffix, then by content):
 * ``.csv``: header ``demo,t,x,y,z`` or ``demo,t,x,y,z,vx,vy,vz``, one row per sample; ``demo`` is
   an integer label (order of first appearance), ``t`` in seconds, positions in metres,
   velocities in m/s. Without velocity columns they are the cubic-spline derivative.
+  The obstacles of each demonstration come from scene JSON files (one per demonstration,
+  ``scenes=`` of :func:`load_demonstrations`; :func:`save_csv` writes them as
+  ``<stem>.scene<m>.json`` next to the CSV).
 
 Demonstrations sharing the same time stamps are taken as they are; otherwise they are
 resampled with :meth:`Demonstrations.from_trajectories`.
@@ -18,6 +21,7 @@ resampled with :meth:`Demonstrations.from_trajectories`.
 from __future__ import annotations
 
 import zipfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -28,16 +32,20 @@ from scipy.interpolate import CubicSpline
 from .demonstrations import NOMINAL_DURATION, Demonstrations
 from .errors import DemonstrationFileError, InvalidDemonstrationsError, InvalidObstacleError
 from .obstacles import Box
+from .scene import Scene
 
 CSV_COLUMNS = ("demo", "t", "x", "y", "z")
 CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
 
 
-def load_demonstrations(path: str | Path) -> Demonstrations:
+def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None) -> Demonstrations:
     """Read demonstrations from a .mat (CLAMP or TLGC), .npz or .csv file.
 
-    Raises DemonstrationFileError (missing/unreadable file, unknown suffix or content,
-    malformed fields) naming the file and what was expected.
+    scenes: per demonstration the scene it was recorded in (a scene JSON path or a
+    scenes.Scene), whose obstacles become that demonstration's ``obstacles`` (replacing any
+    the file records). Raises DemonstrationFileError (missing/unreadable file, unknown suffix
+    or content, malformed fields, a scene count that is not the demonstration count) naming
+    the file and what was expected; SceneFileError for a bad scene file.
     """
     path = Path(path)
     if not path.is_file():
@@ -47,9 +55,18 @@ def load_demonstrations(path: str | Path) -> Demonstrations:
     if suffix not in readers:
         raise DemonstrationFileError(f"{path}: unknown suffix {suffix!r}; expected one of {sorted(readers)}")
     try:
-        return readers[suffix](path)
+        demos = readers[suffix](path)
     except (InvalidDemonstrationsError, InvalidObstacleError) as exc:
         raise DemonstrationFileError(f"{path}: {exc}") from None
+    if scenes is None:
+        return demos
+    scenes = list(scenes)
+    if len(scenes) != demos.M:
+        raise DemonstrationFileError(f"scenes: expected one scene per demonstration of {path} "
+                                     f"({demos.M}), got {len(scenes)}")
+    loaded = [s if isinstance(s, Scene) else Scene.load(s) for s in scenes]
+    return Demonstrations(demos.positions, demos.velocities, demos.time,
+                          [list(s.obstacles) for s in loaded], demos.name)
 
 
 def _load_mat(path: Path) -> Demonstrations:
@@ -177,10 +194,21 @@ def _load_csv(path: Path) -> Demonstrations:
     return _assemble(positions, velocities, times, None, path.stem)
 
 
-def save_csv(demos: Demonstrations, path: str | Path) -> None:
-    """Write demonstrations as CSV with columns demo,t,x,y,z,vx,vy,vz (see module docstring)."""
+def save_csv(demos: Demonstrations, path: str | Path) -> list[Path]:
+    """Write demonstrations as CSV with columns demo,t,x,y,z,vx,vy,vz (see module docstring).
+
+    Demonstrations with recorded obstacles also get one scene file per demonstration,
+    ``<stem>.scene<m>.json`` beside the CSV; returns their paths (empty without obstacles),
+    in the order :func:`load_demonstrations` takes them as ``scenes``.
+    """
+    path = Path(path)
+    scene_paths = []
+    for m, group in enumerate(demos.obstacles or []):
+        scene_paths.append(path.with_name(f"{path.stem}.scene{m}.json"))
+        Scene(group).save(scene_paths[-1])
     M, T = demos.M, demos.T
     table = np.column_stack([np.repeat(np.arange(M), T), np.tile(demos.time, M),
                              demos.positions.reshape(-1, 3), demos.velocities.reshape(-1, 3)])
     np.savetxt(path, table, delimiter=",", header=",".join(CSV_COLUMNS + CSV_VELOCITY_COLUMNS),
                comments="", fmt=["%d"] + ["%.17g"] * 7)
+    return scene_paths

@@ -10,6 +10,8 @@ by w = tau + a tau (1 - tau), a uniform in [-timing, timing]. The skills of the 
 experiments (needle_threading, pick_place, curved_reach) have no timing warp: like the TLGC
 reference's smoothData they come phase-aligned, so a narrow part stays narrow step by step and
 cross-sections taken at equal indices do not overlap near the resting ends. Velocities are the exact time derivative of the positions (chain rule).
+:func:`make_cluttered_demonstrations` records the same demonstrations each bending around a
+box of its own (for learning with obstacle weighting).
 """
 from __future__ import annotations
 
@@ -84,18 +86,9 @@ def skill_spec(skill: str) -> SkillSpec:
     return _SPECS[skill]
 
 
-def make_demonstrations(skill: str, num_demos: int = 6, num_points: int = 250, dt: float = 0.16,
-                        seed: int = 0) -> Demonstrations:
-    """num_demos seeded demonstrations of ``skill`` (see SKILLS) with num_points steps of dt s.
-
-    Returns Demonstrations (M=num_demos, T=num_points), time = arange(T) * dt, named after the
-    skill; skills shown around an obstacle record it for every demonstration.
-    """
-    spec = skill_spec(skill)
-    M = as_count(num_demos, "num_demos", 2, InvalidArgumentError)
-    T = as_count(num_points, "num_points", 4, InvalidArgumentError)
-    step = as_positive(dt, "dt")
-    rng = np.random.default_rng(seed)
+def _skill_paths(spec: SkillSpec, M: int, T: int, step: float,
+                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions, velocities (M, T, 3) and phase tau (T,) of M demonstrations of ``spec``."""
     duration = (T - 1) * step
     chord = np.linalg.norm(np.diff(spec.waypoints, axis=0), axis=1)
     knots = np.concatenate([[0.0], np.cumsum(chord)]) / chord.sum()
@@ -112,5 +105,57 @@ def make_demonstrations(skill: str, num_demos: int = 6, num_points: int = 250, d
         ds = 30.0 * w**2 * (1.0 - w) ** 2
         positions[m] = path(s)
         velocities[m] = path(s, 1) * (ds * dw / duration)[:, None]
+    return positions, velocities, tau
+
+
+def _checked(skill: str, num_demos: int, num_points: int, dt: float) -> tuple[SkillSpec, int, int, float]:
+    spec = skill_spec(skill)
+    M = as_count(num_demos, "num_demos", 2, InvalidArgumentError)
+    T = as_count(num_points, "num_points", 4, InvalidArgumentError)
+    return spec, M, T, as_positive(dt, "dt")
+
+
+def make_demonstrations(skill: str, num_demos: int = 6, num_points: int = 250, dt: float = 0.16,
+                        seed: int = 0) -> Demonstrations:
+    """num_demos seeded demonstrations of ``skill`` (see SKILLS) with num_points steps of dt s.
+
+    Returns Demonstrations (M=num_demos, T=num_points), time = arange(T) * dt, named after the
+    skill; skills shown around an obstacle record it for every demonstration.
+    """
+    spec, M, T, step = _checked(skill, num_demos, num_points, dt)
+    positions, velocities, tau = _skill_paths(spec, M, T, step, np.random.default_rng(seed))
     obstacles = [list(spec.obstacles) for _ in range(M)] if spec.obstacles else None
-    return Demonstrations(positions, velocities, tau * duration, obstacles, skill)
+    return Demonstrations(positions, velocities, tau * (T - 1) * step, obstacles, skill)
+
+
+def make_cluttered_demonstrations(skill: str, num_demos: int = 10, num_points: int = 250,
+                                  dt: float = 0.16, seed: int = 0, detour: float = 0.08,
+                                  box_size: float = 0.05, width: float = 0.06) -> Demonstrations:
+    """The demonstrations of :func:`make_demonstrations` (same arguments and seed) recorded in
+    clutter: each one meets its own cube (edge ``box_size`` m) placed on its path at a random
+    phase in [0.3, 0.7] and lifts over it (upwards, perpendicular to its velocity, as a hand
+    lifts over clutter) by a Gaussian bump of height ``detour`` m and phase width
+    ``width``; velocities include the bump's time derivative. Every demonstration records its
+    own box as its obstacles. The clutter-free skill is ``make_demonstrations`` with the
+    same arguments.
+    """
+    spec, M, T, step = _checked(skill, num_demos, num_points, dt)
+    detour = as_positive(detour, "detour")
+    box_size = as_positive(box_size, "box_size")
+    width = as_positive(width, "width")
+    positions, velocities, tau = _skill_paths(spec, M, T, step, np.random.default_rng(seed))
+    duration = (T - 1) * step
+    rng = np.random.default_rng([seed, 1])           # the clean paths stay those of the seed
+    obstacles = []
+    for m in range(M):
+        centre = rng.uniform(0.3, 0.7)
+        index = int(np.argmin(np.abs(tau - centre)))
+        heading = velocities[m, index] / max(float(np.linalg.norm(velocities[m, index])), 1e-12)
+        side = np.array([0.0, 0.0, 1.0]) - heading[2] * heading   # up, across the motion
+        side /= max(float(np.linalg.norm(side)), 1e-12)
+        bump = np.exp(-0.5 * ((tau - tau[index]) / width) ** 2)
+        dbump = bump * (-(tau - tau[index]) / width**2) / duration
+        obstacles.append([Box(positions[m, index], [box_size] * 3)])
+        positions[m] += detour * bump[:, None] * side
+        velocities[m] += detour * dbump[:, None] * side
+    return Demonstrations(positions, velocities, tau * duration, obstacles, f"{skill}_cluttered")

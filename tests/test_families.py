@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
-                           ObstacleFamily, StateWindow, WorkspaceGPFamily, WorkspaceStartFamily)
+                           ObstacleFamily, OrientationFamily, StateWindow, WorkspaceGPFamily,
+                           WorkspaceStartFamily)
 from clamp.keys import state_key
 from clamp.problem import PlanningProblem
 from tlgc.boundary_factor import BoundaryFamily
@@ -65,6 +66,8 @@ def make_families(robot, theta: np.ndarray, rng) -> list:
         JointLimitFamily(np.arange(T), q.mean(axis=0) - 0.3 * span, q.mean(axis=0) + 0.3 * span,
                          np.full(n, 0.3), 1e-3),
         BoundaryFamily(cylinder, T, margin=0.03, sigma=0.01),
+        OrientationFamily(np.arange(1, T), axis=[0, 0, 1], direction=[0.3, -0.2, -1.0],
+                          tolerance=0.05, sigma=0.01),
     ]
 
 

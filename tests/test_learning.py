@@ -185,7 +185,8 @@ def test_per_axis_structure_is_block_diagonal(synthetic):
     assert np.all(np.abs(per_axis.Phi[:, 0, 3]) > 0)
     coupled = learn_prior(positions=positions, velocities=velocities, time=time, coupled=True)
     assert np.abs(coupled.Phi[:, ~mask]).max() > 1e-3
-    assert per_axis.info == {"coupled": False, "ridge": 1e-6, "jitter": 1e-12, "num_demos": 8}
+    assert per_axis.info == {"method": "batch", "coupled": False, "ridge": 1e-6, "jitter": 1e-12,
+                             "num_demos": 8, "obstacle_weighting": None}
 
 
 def test_jitter_makes_covariances_positive_definite():

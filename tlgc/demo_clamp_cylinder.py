@@ -56,14 +56,15 @@ def outside_distances(cylinder: GeneralizedCylinder, ee_path: np.ndarray) -> np.
 def run_clamp_cylinder_demo(skill: str = "reach_from_above", robot_name: str = "jaco",
                             num_states: int = 40, goal_offset: float = 0.05,
                             jitter: float = 1e-4, sigma: float = 0.005, margin: float = 0.0,
-                            start_ratio: float = 0.3, seed: int = 0) -> ClampCylinderDemo:
+                            start_ratio: float = 0.3, seed: int = 0,
+                            config: Any = None) -> ClampCylinderDemo:
     """Plan the skill twice (without / with :class:`BoundaryFamily`) and compare.
 
     num_states T support states (demonstrations resampled to T, same total duration as the
     250-step reference); goal_offset [m] beyond the last boundary along its normal; jitter is
     added to the learned prior's covariances (a softer prior lets the goal pull the plan);
     sigma [m], margin [m] of the boundary factor; start at ``start_ratio`` of the first
-    boundary along its normal.
+    boundary along its normal; config: a clamp.PlannerConfig for both plans (None: defaults).
     """
     from clamp import learn_prior, plan            # clamp does not import tlgc: no cycle
     from robots import load_robot
@@ -79,8 +80,8 @@ def run_clamp_cylinder_demo(skill: str = "reach_from_above", robot_name: str = "
     start = cylinder.directrix[0] + start_ratio * cylinder.radius(0, 0.0) * cylinder.normals[0]
     end_radius = float(cylinder.radius(cylinder.num_sections - 1, 0.0))
     goal = cylinder.directrix[-1] + (end_radius + goal_offset) * cylinder.normals[-1]
-    plain = plan(prior, robot, None, start, goal=goal)
-    bounded = plan(prior, robot, None, start, goal=goal,
+    plain = plan(prior, robot, None, start, goal=goal, config=config)
+    bounded = plan(prior, robot, None, start, goal=goal, config=config,
                    extra_factors=[BoundaryFamily(cylinder, num_states, margin=margin,
                                                   sigma=sigma)])
     return ClampCylinderDemo(plain, bounded, cylinder, goal,

@@ -10,6 +10,7 @@ from .joint_gp import JointGPFamily, joint_gp_covariance, joint_gp_transition
 from .joint_limits import JointLimitFamily
 from .joint_target import JointTargetFamily
 from .obstacle import DistanceQuery, ObstacleFamily
+from .orientation import OrientationFamily
 from .states import StateWindow
 from .workspace_gp import WorkspaceGPFamily
 from .workspace_start import WorkspaceStartFamily, shifted_start_mean
@@ -19,5 +20,5 @@ __all__ = [
     "WorkspaceGPFamily", "WorkspaceStartFamily", "shifted_start_mean",
     "JointGPFamily", "joint_gp_transition", "joint_gp_covariance",
     "JointTargetFamily", "EEPositionFamily", "ObstacleFamily", "DistanceQuery",
-    "JointLimitFamily",
+    "JointLimitFamily", "OrientationFamily",
 ]

@@ -1,0 +1,90 @@
+"""Benchmark of replanning (clamp.replan) against a fresh plan, box_closing in the README's box
+scene, README start, Jaco and Sawyer.
+
+Cases: the goal moved 5 cm (y) and the box moved 5 cm (y; moved 5 cm in x it blocks the
+Sawyer: a fresh plan collides, see the note of issue 12). For each: a fresh ``plan`` of the
+changed request (anchor), ``replan`` from the previous plan with the previous (default)
+configuration, and ``replan`` with ``PlannerConfig.fast()`` (one small step stops); all with
+covariance=False (the posterior covariance costs the same either way). Prints median wall
+times, iterations, the ratio replan / fresh (target <= 0.25) and whether the same checks pass.
+With ``--isam2`` also times GTSAM's ISAM2 on the problem's graph (Python factor adapters):
+one update from the previous plan, then relinearising updates.
+
+Run: python benchmarks/bench_replan.py [--repeats 5] [--isam2]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from clamp import PlannerConfig, build, learn_prior, plan, replan
+from harness import median_seconds, print_environment
+from robots import load_robot
+from scenes import Box, Scene, make_demonstrations
+
+START = [0.2054, -0.4722, 0.2625]
+BOX = Box.from_reference([0.32, -0.32, 0.13, 0.09, 0.06, 0.28])
+
+
+def isam2_seconds(prior, robot, scene, goal, previous, updates: int = 5) -> tuple[float, float]:
+    """Seconds of GTSAM ISAM2: the first update (graph + previous plan as values) and then
+    ``updates`` relinearising updates; returns (first, total)."""
+    import gtsam
+    problem = build(prior, robot, scene, START, goal, initial=np.hstack([previous.q,
+                                                                          previous.qdot]))
+    graph, values = problem.graph(), problem.values()
+    params = gtsam.ISAM2Params()
+    params.setRelinearizeThreshold(1e-3)
+    params.setFactorization("QR")       # Cholesky: "indeterminate linear system" near x0
+    isam = gtsam.ISAM2(params)
+    t0 = time.perf_counter()
+    isam.update(graph, values)
+    first = time.perf_counter() - t0
+    for _ in range(updates):
+        isam.update()
+    return first, time.perf_counter() - t0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--isam2", action="store_true")
+    args = parser.parse_args()
+    print_environment()
+    prior = learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
+    scene = Scene([BOX])
+    moved_scene = Scene([BOX.translated([0.0, 0.05, 0.0])])
+    goal = prior.mean[-1, :3]
+    moved_goal = goal + [0.0, 0.05, 0.0]
+    print(f"median of {args.repeats} runs, covariance=False; ratio = replan / fresh")
+    for arm in ("jaco", "sawyer"):
+        robot = load_robot(arm)
+        previous = plan(prior, robot, scene, START, goal, covariance=False)
+        cases = (("goal moved 5 cm", dict(goal=moved_goal), (scene, moved_goal)),
+                 ("box moved 5 cm", dict(scene=moved_scene), (moved_scene, goal)))
+        for name, change, (new_scene, new_goal) in cases:
+            fresh_result = plan(prior, robot, new_scene, START, new_goal, covariance=False)
+            fresh = median_seconds(lambda: plan(prior, robot, new_scene, START, new_goal,
+                                                covariance=False), args.repeats)
+            print(f"{arm}, {name}: fresh plan {1e3 * fresh:7.1f} ms "
+                  f"({fresh_result.iterations} it, success {fresh_result.success})")
+            for label, config in (("replan, same config", None),
+                                  ("replan, PlannerConfig.fast()", PlannerConfig.fast())):
+                result = replan(previous, config=config, covariance=False, **change)
+                seconds = median_seconds(lambda: replan(previous, config=config,
+                                                        covariance=False, **change),
+                                         args.repeats)
+                print(f"    {label:30s} {1e3 * seconds:7.1f} ms ({result.iterations} it, "
+                      f"success {result.success}, clearance {1e3 * result.min_clearance:.1f} "
+                      f"mm, goal error {1e3 * (result.goal_error or 0):.3f} mm)  ratio "
+                      f"{seconds / fresh:.2f}")
+            if args.isam2:
+                first, total = isam2_seconds(prior, robot, new_scene, new_goal, previous)
+                print(f"    GTSAM ISAM2 first update {1e3 * first:7.1f} ms, +5 updates "
+                      f"{1e3 * total:7.1f} ms  ratio {total / fresh:.2f}")
+
+
+if __name__ == "__main__":
+    main()

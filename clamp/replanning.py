@@ -1,0 +1,76 @@
+"""Replanning: a new plan after the goal, the via points or the scene changed, warm-started
+from the previous plan.
+
+:func:`replan` keeps everything the previous :func:`clamp.plan` call was asked (its
+``PlanResult.inputs``) except what is given, reuses the previous start configuration (no
+inverse kinematics) and starts the optimiser from the previous joint trajectory moved by the
+change of the planning prior: the new conditioned prior mean minus the previous one (zero
+when only the scene changed) is added to the previous plan's workspace states, and a few
+per-state Gauss-Newton updates (:class:`clamp.solver.WorkspaceCorrection`) carry the joints
+onto them. The previous plan's own deviations from its prior (around obstacles) are kept.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from clamp.conditioning import planning_prior
+from clamp.errors import InvalidParameterError
+from clamp.factors.states import StateWindow
+from clamp.planner import _plan
+from clamp.request import as_config, as_scene, make_request
+from clamp.result import PlanResult
+from clamp.solver import WorkspaceCorrection
+from scenes.threads import single_blas_thread
+
+_KEEP = object()
+
+#: per-state Gauss-Newton updates moving the previous plan onto the shifted workspace states
+CORRECTION_STEPS = 3
+
+
+def _shifted_start(previous: PlanResult, robot: Any, shift: np.ndarray) -> np.ndarray:
+    """Previous joint states (T, 2n) moved so their workspace states gain ``shift`` (T, 6)."""
+    theta = np.hstack([previous.q, previous.qdot])
+    if not np.any(shift):
+        return theta
+    x, _ = StateWindow(robot, theta).workspace()
+    correction = WorkspaceCorrection(lambda t: StateWindow(robot, t), x + shift,
+                                     np.zeros(x.shape + (theta.shape[1],)), CORRECTION_STEPS)
+    return correction.apply(theta, np.zeros_like(theta))
+
+
+def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
+           via_points: Sequence[tuple[int, Any]] | Any = _KEEP, config: Any = None,
+           covariance: bool = True) -> PlanResult:
+    """A new plan for the request of ``previous`` with ``goal``, ``scene`` and / or
+    ``via_points`` replaced (same meaning as in :func:`clamp.plan`; left out: unchanged),
+    warm-started from ``previous`` (see the module docstring). ``config`` replaces the
+    previous configuration when given. The result is checked like any plan's."""
+    inputs = previous.inputs
+    if inputs is None:
+        raise InvalidParameterError("previous: expected a PlanResult returned by clamp.plan "
+                                    "(it keeps its request in .inputs), got one without")
+    if previous.stop_reason == "not started":
+        raise InvalidParameterError(f"previous: the plan never started ({previous.reasons}); "
+                                    "plan afresh with clamp.plan")
+    goal = inputs.goal if goal is _KEEP else goal
+    scene = inputs.scene if scene is _KEEP else as_scene(scene)
+    via_points = inputs.via_points if via_points is _KEEP else tuple(via_points)
+    config = inputs.config if config is None else config
+    with single_blas_thread():
+        config = as_config(config)
+        prior, robot = inputs.prior, inputs.robot
+        q_start = np.asarray(previous.q[0], dtype=float)
+        request = make_request(prior, robot, inputs.start, goal, via_points, config, q_start)
+        if goal is inputs.goal and via_points == inputs.via_points and config == inputs.config:
+            model_prior = inputs.model_prior          # same targets: the same conditioned prior
+        else:
+            model_prior = planning_prior(prior, robot, request, config)
+        shift = np.asarray(model_prior.mean) - np.asarray(inputs.model_prior.mean)
+        initial = _shifted_start(previous, robot, shift)
+        return _plan(prior, robot, scene, inputs.start, goal, via_points, inputs.extra_factors,
+                     config, inputs.sdf if scene is inputs.scene else None, initial, covariance,
+                     q_start=q_start, model_prior=model_prior)

@@ -1,0 +1,56 @@
+"""Targets and constraints of a plan: reachability of the goal and via points, checked before
+planning, and the violations of constraint families (orientation), checked after.
+
+An end-effector target (goal or via point) that inverse kinematics cannot reach within the
+check's tolerance cannot be met by any plan: the plan fails at once with a reason naming the
+target, its position and how far the arm's closest reach is. Joint-space targets are checked
+against the joint limits.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from clamp.config import PlannerConfig
+from clamp.request import Request, Target
+
+
+def _problem(robot: Any, name: str, target: Target, tolerance: float,
+             seed: np.ndarray) -> str | None:
+    if target.kind == "joint":
+        if not bool(np.all(robot.within_limits(target.value, 1e-9))):
+            return f"{name} configuration is outside the joint limits"
+        return None
+    ik = robot.ik(target.value, seed=seed, tol=0.1 * tolerance)
+    if float(ik.error) > tolerance:
+        return (f"{name} position {np.round(target.value, 4).tolist()} is out of reach (closest "
+                f"reach {float(ik.error) * 1000:.1f} mm away, tolerance "
+                f"{tolerance * 1000:.1f} mm)")
+    return None
+
+
+def target_problems(robot: Any, request: Request, config: PlannerConfig) -> list[str]:
+    """Reasons (empty: none) why the goal or a via point of ``request`` cannot be met."""
+    checks = config.checks
+    named = [("goal", request.goal, checks.goal_tolerance)] if request.goal is not None else []
+    named += [(f"via point at state {i}", t, checks.via_tolerance) for i, t in request.vias]
+    reasons = [_problem(robot, name, target, tol, request.q_start)
+               for name, target, tol in named]
+    return [r for r in reasons if r is not None]
+
+
+def constraint_violations(families: Any, robot: Any, q: np.ndarray
+                          ) -> tuple[dict[str, float], list[str]]:
+    """Violation of every family that reports one (a ``violation(robot, q)`` method, e.g.
+    :class:`clamp.factors.OrientationFamily`: how far beyond its tolerance, in its units) at
+    the plan's joint positions q (T, n), and a reason for each one that is violated."""
+    violations, reasons = {}, []
+    for family in families:
+        if callable(getattr(family, "violation", None)):
+            value = float(family.violation(robot, q))
+            violations[family.name] = value
+            if value > 0.0:
+                reasons.append(f"{family.name} constraint violated by {value:.4g} beyond its "
+                               f"tolerance {getattr(family, 'tolerance', float('nan')):.4g}")
+    return violations, reasons

@@ -1,0 +1,46 @@
+"""Replanning from a previous plan (clamp.replan): same checks as a fresh plan, warm start."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from clamp import PlannerConfig, errors, learn_prior, plan, replan
+from clamp.result import PlanResult
+from scenes import Box, Scene, make_demonstrations
+
+START = [0.2054, -0.4722, 0.2625]
+BOX = Box.from_reference([0.32, -0.32, 0.13, 0.09, 0.06, 0.28])
+
+
+@pytest.fixture(scope="module")
+def prior():
+    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
+
+
+@pytest.mark.parametrize("arm", ["jaco", "sawyer"])
+def test_replan_after_goal_and_obstacle_moves(prior, arm, request):
+    robot = request.getfixturevalue(arm)
+    goal = prior.mean[-1, :3]
+    previous = plan(prior, robot, Scene([BOX]), START, goal, covariance=False)
+    assert previous.success, previous.reasons
+    moved_goal = goal + [0.0, 0.05, 0.0]
+    for config in (None, PlannerConfig.fast()):
+        result = replan(previous, goal=moved_goal, config=config, covariance=False)
+        assert result.success, result.reasons
+        assert np.linalg.norm(robot.fk(result.q[-1]) - moved_goal) < 0.002
+        np.testing.assert_allclose(result.q[0], previous.q[0], atol=1e-8)   # same start
+        fresh = plan(prior, robot, Scene([BOX]), START, moved_goal, covariance=False)
+        assert np.abs(result.ee_path - fresh.ee_path).max() < 0.005     # the same motion
+    moved = Scene([BOX.translated([0.0, 0.05, 0.0])])
+    result = replan(previous, scene=moved, covariance=False)
+    assert result.success and result.min_clearance > 0.0, result.reasons
+    assert result.inputs.scene is moved and result.inputs.goal is goal
+    assert result.goal_error < 0.002
+
+
+def test_replan_needs_a_planned_result(prior, jaco):
+    blank = PlanResult(**{k: v for k, v in vars(plan(prior, jaco, None, START,
+                                                     covariance=False)).items()
+                          if k != "inputs"})
+    with pytest.raises(errors.InvalidParameterError, match="previous"):
+        replan(blank, goal=prior.mean[-1, :3])
