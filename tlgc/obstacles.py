@@ -159,8 +159,7 @@ def _sphere_sections(cyl: GeneralizedCylinder, sphere: BoundingSphere) -> np.nda
     w = sphere.center - cyl.directrix
     along = np.einsum("ni,ni->n", w, cyl.tangents)
     in_plane = np.linalg.norm(w - along[:, None] * cyl.tangents, axis=1)
-    reach = cyl.radius(np.arange(cyl.num_sections)[:, None],
-                       np.linspace(0, 2 * np.pi, 16, endpoint=False)[None]).max(axis=1)
+    reach = cyl.largest_radius()
     return (np.abs(along) < sphere.radius) & (in_plane < sphere.radius + reach)
 
 
@@ -408,7 +407,7 @@ def _push_direction(cyl: GeneralizedCylinder, sphere: BoundingSphere) -> tuple[i
     dist = float(np.linalg.norm(in_plane))
     away = -in_plane / dist if dist > 1e-9 else cyl.normals[i]
     disc = np.sqrt(max(sphere.radius**2 - along**2, 0.0))
-    reach = float(cyl.radius(np.full(64, i), np.linspace(0, 2 * np.pi, 64, endpoint=False)).max())
+    reach = float(cyl.largest_radius(i)[0])
     return i, away, max(disc + reach - dist, 0.0)
 
 
