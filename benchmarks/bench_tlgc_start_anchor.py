@@ -11,6 +11,8 @@ default mode). Per move and cross-section type it prints:
   points, old vs new, in world coordinates); target <= 1 mm;
 * tilt [deg]: largest turn of the first section's plane (tangent) or of its normal; target
   <= 0.1 deg;
+* end [mm]: distance of the new directrix end from its target (the move was made, not
+  skipped);
 * in: how many of 200 seeded starts (uniform in area inside the OLD first section) are
   accepted by :func:`tlgc.reproduce` on the new cylinder and reproduce with every one of
   their points inside it (:meth:`GeneralizedCylinder.contains`); target 200.
@@ -64,8 +66,9 @@ def main(argv: list[str] | None = None) -> int:
                         choices=sorted(CROSS_SECTION_TYPES))
     args = parser.parse_args(argv)
     print_environment()
-    head = "".join(f" | {kind:^24s}" for kind in args.kinds)
-    sub = "".join(f" | {'move[mm]':>9s} {'tilt[deg]':>9s} {'in':>4s}" for _ in args.kinds)
+    head = "".join(f" | {kind:^33s}" for kind in args.kinds)
+    sub = "".join(f" | {'move[mm]':>9s} {'tilt[deg]':>9s} {'end[mm]':>8s} {'in':>4s}"
+                  for _ in args.kinds)
     worst = {}
     for name in ("needle_threading", "pick_place"):
         demos = shared_demonstrations(name)
@@ -89,11 +92,12 @@ def main(argv: list[str] | None = None) -> int:
                         else:
                             new = lte_generalize(cyl, landmark_constraints(cyl, source, target))
                         move, tilt = first_section_change(cyl, new)
+                        end = float(np.linalg.norm(new.directrix[-1] - target[1]))
                         inside = starts_inside(new, starts[kind])
                         key = (name, method)
                         w = worst.setdefault(key, [0.0, 0.0, STARTS])
                         w[:] = [max(w[0], move), max(w[1], tilt), min(w[2], inside)]
-                        row += f" | {move * 1e3:9.2e} {tilt:9.2e} {inside:4d}"
+                        row += f" | {move * 1e3:9.2e} {tilt:9.2e} {end * 1e3:8.1e} {inside:4d}"
                     print(row)
     print("\nworst over moves and cross-section types (targets: <= 1 mm, <= 0.1 deg, 200):")
     for (name, method), (move, tilt, inside) in worst.items():
