@@ -250,3 +250,17 @@ def test_error_catalogue(synthetic):
     cyl = fit_cylinder(synthetic, "circle")
     with pytest.raises(InvalidArgumentError, match=r"points: expected shape \(P, 3\)"):
         cyl.containment(np.zeros(3))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_largest_radius_is_the_sampled_maximum_of_the_boundary(synthetic, kind):
+    cyl = fit_cylinder(synthetic, kind)
+    fine = cyl.radius(np.arange(cyl.num_sections)[:, None],
+                      np.linspace(0.0, 2.0 * np.pi, 4096, endpoint=False)[None, :]).max(axis=1)
+    largest = cyl.largest_radius()
+    assert np.all(largest <= fine * (1 + 1e-12)) and np.all(largest >= 0.99 * fine)
+    norms = np.linalg.norm(cyl.effective_points, axis=-1).max(axis=0)   # on the boundary or in
+    assert np.all(largest >= 0.99 * norms)
+    np.testing.assert_array_equal(cyl.largest_radius([3, 7]), largest[[3, 7]])
+    if kind == "circle":
+        np.testing.assert_allclose(largest, norms, rtol=1e-12)

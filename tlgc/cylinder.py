@@ -33,6 +33,7 @@ MIN_DEMONSTRATIONS = 2
 CONTAINMENT_WINDOW = 4     # sections either side of the nearest directrix point searched first
 CONTAINMENT_BLOCK = 512    # points per block in the full search (block x N offsets at a time)
 INSIDE_TOLERANCE = 1e-9    # inclusive boundary test: inside when ratio <= 1 + this (round-off)
+RADIUS_SAMPLES = 64        # angles at which largest_radius samples every boundary
 
 
 def resample_demonstrations(trajectories: Sequence[np.ndarray] | np.ndarray,
@@ -224,6 +225,18 @@ class GeneralizedCylinder:
     def radius(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
         """Boundary radius [m] of sections ``index`` (...) at ``angle`` (...) [rad], broadcast."""
         return self.cross_sections.radius(index, angle)
+
+    def largest_radius(self, indices: np.ndarray | None = None) -> np.ndarray:
+        """Largest boundary radius (K,) [m] of sections ``indices`` (K,) (default all N),
+        sampled at RADIUS_SAMPLES equally spaced angles (exact for circles)."""
+        if indices is None:
+            return self._largest_radii.copy()
+        return self._largest_radii[self.cross_sections.check_index(np.atleast_1d(indices))]
+
+    @cached_property
+    def _largest_radii(self) -> np.ndarray:
+        angles = np.linspace(0.0, 2.0 * np.pi, RADIUS_SAMPLES, endpoint=False)
+        return self.radius(np.arange(self.num_sections)[:, None], angles[None, :]).max(axis=1)
 
     def radius_derivative(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
         """Slope d radius / d angle [m/rad] of sections ``index`` (...) at ``angle`` (...) [rad]."""

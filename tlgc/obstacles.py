@@ -159,8 +159,7 @@ def _sphere_sections(cyl: GeneralizedCylinder, sphere: BoundingSphere) -> np.nda
     w = sphere.center - cyl.directrix
     along = np.einsum("ni,ni->n", w, cyl.tangents)
     in_plane = np.linalg.norm(w - along[:, None] * cyl.tangents, axis=1)
-    reach = cyl.radius(np.arange(cyl.num_sections)[:, None],
-                       np.linspace(0, 2 * np.pi, 16, endpoint=False)[None]).max(axis=1)
+    reach = cyl.largest_radius()
     return (np.abs(along) < sphere.radius) & (in_plane < sphere.radius + reach)
 
 
@@ -339,8 +338,9 @@ class DeformationAvoidance:
     """Result of :func:`avoid_with_deformation`: the deformed cylinder; clearance [m], a
     lower bound of the distance from every cross-section's region to the sphere surface
     (before: ``original_clearance``); the constraints {index: position} used; the sphere;
-    required [m]: the clearance the sections had to reach so that every segment between
-    consecutive fixed-ratio samples clears sphere + safety; reproductions (R, N, 3) from the
+    required [m]: the clearance the section with the least slack had to reach so that every
+    segment between consecutive fixed-ratio samples next to it clears sphere + safety
+    (every section meets its own requirement); reproductions (R, N, 3) from the
     given starts (None without starts), each verified clear by ``safety`` at samples and
     segments."""
 
@@ -349,7 +349,7 @@ class DeformationAvoidance:
     original_clearance: float
     constraints: dict[int, np.ndarray]
     sphere: BoundingSphere
-    required: float = 0.0   # largest per-section requirement [m] (safety + segment allowance)
+    required: float = 0.0   # requirement [m] of the least-slack section (safety + segment allowance)
     reproductions: np.ndarray | None = None
 
 
@@ -407,7 +407,7 @@ def _push_direction(cyl: GeneralizedCylinder, sphere: BoundingSphere) -> tuple[i
     dist = float(np.linalg.norm(in_plane))
     away = -in_plane / dist if dist > 1e-9 else cyl.normals[i]
     disc = np.sqrt(max(sphere.radius**2 - along**2, 0.0))
-    reach = float(cyl.radius(np.full(64, i), np.linspace(0, 2 * np.pi, 64, endpoint=False)).max())
+    reach = float(cyl.largest_radius(i)[0])
     return i, away, max(disc + reach - dist, 0.0)
 
 
@@ -434,12 +434,13 @@ def avoid_with_deformation(cyl: GeneralizedCylinder, obstacle: Any, safety: floa
     sphere = bounding_sphere(obstacle)
     points = None if starts is None else as_points(starts, "starts").reshape(-1, 3)
 
-    def shortfall(c: GeneralizedCylinder) -> tuple[float, float, float]:
-        """Largest shortfall [m] of any section, the smallest clearance and its requirement."""
+    def shortfall(c: GeneralizedCylinder) -> tuple[float, float, np.ndarray, int]:
+        """Largest shortfall [m] of any section, the smallest clearance [m], the per-section
+        requirements (N,) [m] and the section with the least slack."""
         clear = section_clearance(c, sphere)
         need = _required_clearance(c, sphere.radius + margin) + margin
         k = int(np.argmax(need - clear))
-        return float(need[k] - clear[k]), float(clear.min()), float(need.max())
+        return float(need[k] - clear[k]), float(clear.min()), need, k
 
     def verified(c: GeneralizedCylinder) -> np.ndarray | None:
         if points is None:
@@ -453,24 +454,27 @@ def avoid_with_deformation(cyl: GeneralizedCylinder, obstacle: Any, safety: floa
                 f"bounding sphere by {gaps[bad[0]]:.4g} m, less than the requested safety {margin:g} m")
         return reps
 
-    missing, before, need = shortfall(cyl)
+    missing, before, need, binding = shortfall(cyl)
     if missing <= 0.0:
-        return DeformationAvoidance(cyl, before, before, {}, sphere, need, verified(cyl))
+        return DeformationAvoidance(cyl, before, before, {}, sphere, float(need[binding]),
+                                    verified(cyl))
     n = cyl.num_sections
     index, away, push = _push_direction(cyl, sphere)
     if index < ANCHORED_SECTIONS or index == n - 1:
         raise ObstacleAvoidanceError(
             "obstacle: its bounding sphere is nearest the first or last cross-section of the "
             "skill, which deformation keeps fixed")
-    push += need + 1e-3 * sphere.radius
+    # what the pushed section needs (not the largest need anywhere: a section far from the
+    # sphere with long steps needs much more and has it, and would swing the whole skill)
+    push += float(need[index]) + 1e-3 * sphere.radius
     for _ in range(rounds):
         constraints = {0: cyl.directrix[0].copy(), n - 1: cyl.directrix[-1].copy(),
                        index: cyl.directrix[index] + push * away}
         current = lte_generalize(cyl, constraints, iterations=iterations, scale_cross_sections=False)
-        missing, clear, need = shortfall(current)
+        missing, clear, need, binding = shortfall(current)
         if missing <= 0.0:
-            return DeformationAvoidance(current, clear, before, constraints, sphere, need,
-                                        verified(current))
+            return DeformationAvoidance(current, clear, before, constraints, sphere,
+                                        float(need[binding]), verified(current))
         push += missing + 1e-3 * sphere.radius
     raise ObstacleAvoidanceError(
         f"obstacle: after {rounds} rounds the deformed cylinder's sections still miss the "
