@@ -102,6 +102,8 @@ def _obstacle_footprint(ax: Any, obstacle: Any, color: str, label: str | None) -
     """Fill the top-view footprint of any obstacle (points of its bounding box, sampled on a
     grid, that it contains at some height)."""
     lo, hi = np.asarray(obstacle.aabb(), dtype=float)
+    pad = 0.05 * (hi - lo) + 1e-4  # the outline closes outside the bounding box
+    lo, hi = lo - pad, hi + pad
     x, y, z = (np.linspace(lo[k], hi[k], n) for k, n in ((0, 61), (1, 61), (2, 15)))
     grid = np.stack(np.meshgrid(x, y, z, indexing="ij"), axis=-1)
     inside = obstacle.contains(grid.reshape(-1, 3)).reshape(grid.shape[:3]).any(axis=2)
@@ -115,10 +117,12 @@ def plot_top_view(result: Any, robot: Any, scene: Any = None, *, prior: Any = No
                   demos: Any = None, arm_states: int = 5, title: str | None = None) -> Figure:
     """Top view (x-y plane, [m], equal axes) of a plan: demonstrations, prior mean, the
     end-effector path, the arm at ``arm_states`` support states, obstacle footprints."""
-    fig = Figure(figsize=(6.5, 6.0))
+    fig = Figure(figsize=(8.0, 6.0))
     ax = fig.add_subplot()
+    extent = [np.zeros((1, 2)), result.ee_path[:, :2]]
     for k, obstacle in enumerate(getattr(scene, "obstacles", ()) if scene is not None else ()):
         _obstacle_footprint(ax, obstacle, "tab:red", "obstacle (footprint)" if k == 0 else None)
+        extent.append(np.asarray(obstacle.aabb(), dtype=float)[:, :2])
     if demos is not None:
         for m, demo in enumerate(np.asarray(demos.positions)):
             ax.plot(demo[:, 0], demo[:, 1], color="0.6", lw=0.7,
@@ -136,12 +140,17 @@ def plot_top_view(result: Any, robot: Any, scene: Any = None, *, prior: Any = No
     ax.scatter(*result.ee_path[0, :2], color="tab:green", s=36, zorder=5, label="start")
     ax.scatter(*result.ee_path[-1, :2], color="tab:red", s=36, zorder=5, label="end")
     ax.scatter(0.0, 0.0, marker="s", color="k", s=30, zorder=5, label="robot base")
-    ax.set_aspect("equal", adjustable="datalim")
+    points = np.concatenate(extent + [frames[..., :2].reshape(-1, 2)])
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    pad = 0.08 * float(np.max(hi - lo)) + 1e-3
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.grid(alpha=0.3)
     ax.set_title(title or f"CLAMP plan on {getattr(robot, 'name', 'robot')}: top view", fontsize=10)
-    ax.legend(loc="best", fontsize=7)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
     fig.tight_layout()
     return fig
 

@@ -19,12 +19,14 @@ without importing ``clamp`` or ``tlgc``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib.metadata
 import logging
 import os
 import secrets
 import sys
-from collections.abc import Callable, Sequence
+import tempfile
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import IO, Any, NoReturn
 
@@ -106,6 +108,29 @@ def save_figure(fig: Any, path: str | os.PathLike[str], dpi: int = 120, overwrit
     fmt = Path(path).suffix.lstrip(".") or "png"
     return atomic_write(path, lambda handle: fig.savefig(handle, format=fmt, dpi=dpi, bbox_inches="tight"),
                         overwrite)
+
+
+@contextlib.contextmanager
+def native_stderr_logged(logger: logging.Logger = log) -> Iterator[None]:
+    """Capture what C/C++ code writes straight to file descriptor 2 (e.g. urdfdom's parse
+    errors) inside the block and log it at debug level instead, so an error stays one line."""
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no real stderr (embedded interpreters): nothing to capture
+        yield
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            text = sink.read().decode("utf-8", "replace").strip()
+            if text:
+                logger.debug("native library output: %s", " | ".join(text.splitlines()))
 
 
 # --------------------------------------------------------------------------- output folders
