@@ -211,18 +211,30 @@ def number(text: str) -> float:
     return value
 
 
-def configure_logging(verbose: int = 0, quiet: bool = False) -> None:
-    """Messages of the project's loggers on stderr, one line each: warnings by default, info
-    with ``verbose`` 1, debug with 2, errors only when ``quiet``; Python warnings are logged."""
+@contextlib.contextmanager
+def cli_logging(verbose: int = 0, quiet: bool = False) -> Iterator[None]:
+    """Inside the block, messages of the project's loggers go to stderr, one line each:
+    warnings by default, info with ``verbose`` 1, debug with 2, errors only when ``quiet``;
+    Python warnings are logged. The loggers' previous set-up is restored afterwards (a
+    command run in-process leaves the caller's logging alone)."""
     level = logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
-    for name in (*PACKAGE_LOGGERS, "py.warnings"):
-        logger = logging.getLogger(name)
+    loggers = [logging.getLogger(name) for name in (*PACKAGE_LOGGERS, "py.warnings")]
+    saved = [(lg.handlers[:], lg.level, lg.propagate) for lg in loggers]
+    for logger in loggers:
         logger.handlers[:] = [handler]
         logger.setLevel(level)
         logger.propagate = False
     logging.captureWarnings(True)
+    try:
+        yield
+    finally:
+        logging.captureWarnings(False)
+        for logger, (handlers, old_level, propagate) in zip(loggers, saved):
+            logger.handlers[:] = handlers
+            logger.setLevel(old_level)
+            logger.propagate = propagate
 
 
 def _one_line(exc: BaseException) -> str:
@@ -235,7 +247,7 @@ def _one_line(exc: BaseException) -> str:
 def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> int:
     """Parse ``argv`` and call ``args.run(args)``; returns the exit code.
 
-    Bad input (the project's errors, files that cannot be read or written) gives one line
+    Bad input (the project's errors, files that cannot be read, decoded or written) gives one line
     ``<prog>: error: ...`` on stderr and exit 2; any other exception one line and exit 1;
     ``--debug`` re-raises with the traceback. Ctrl-C exits 130.
     """
@@ -243,16 +255,16 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
         args = parser.parse_args(argv)
     except SystemExit as stop:  # --help, --version, usage errors (already printed)
         return stop.code if isinstance(stop.code, int) else EXIT_USAGE
-    debug, quiet = getattr(args, "debug", False), getattr(args, "quiet", False)
-    configure_logging(getattr(args, "verbose", 0) or 0, quiet)
-    set_progress(False if quiet else None)
+    debug, silent = getattr(args, "debug", False), getattr(args, "quiet", False)
+    previous_progress = set_progress(False if silent else None)
     prog = " ".join(filter(None, [parser.prog, getattr(args, "command", None)]))
     try:
-        return int(args.run(args))
+        with cli_logging(getattr(args, "verbose", 0) or 0, silent):
+            return int(args.run(args))
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return 130
-    except (InvalidArgumentError, OSError) as exc:
+    except (InvalidArgumentError, OSError, UnicodeDecodeError) as exc:  # a user file not in UTF-8
         if debug:
             raise
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
@@ -263,6 +275,8 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
         print(f"{prog}: internal error: {type(exc).__name__}: {_one_line(exc)} "
               f"(run with --debug for the traceback)", file=sys.stderr)
         return EXIT_FAILED
+    finally:
+        set_progress(previous_progress)
 
 
 def quiet(args: argparse.Namespace) -> bool:

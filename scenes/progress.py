@@ -14,9 +14,11 @@ from tqdm.auto import tqdm
 _state: dict[str, bool | None] = {"enabled": None}
 
 
-def set_progress(enabled: bool | None) -> None:
-    """Draw progress bars always (True), never (False) or on a terminal only (None)."""
-    _state["enabled"] = enabled
+def set_progress(enabled: bool | None) -> bool | None:
+    """Draw progress bars always (True), never (False) or on a terminal only (None); returns
+    the previous setting."""
+    previous, _state["enabled"] = _state["enabled"], enabled
+    return previous
 
 
 def progress(iterable: Iterable[Any] | None = None, *, description: str, total: float | None = None,
