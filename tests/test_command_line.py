@@ -92,3 +92,18 @@ def test_logging_is_restored_after_a_run(capfd):
     assert (logger.handlers, logger.level, logger.propagate) == before
     assert run(_parser(action), ["--n", "1"]) == 0
     assert capfd.readouterr().err == ""
+
+
+def test_progress_bars_follow_the_setting(capfd):
+    from scenes.progress import progress, set_progress
+    previous = set_progress(True)
+    try:
+        for _ in progress(range(3), description="counting"):
+            pass
+        assert "counting" in capfd.readouterr().err
+        set_progress(False)
+        for _ in progress(range(3), description="silent"):
+            pass
+        assert capfd.readouterr().err == ""
+    finally:
+        set_progress(previous)
