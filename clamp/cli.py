@@ -1,25 +1,38 @@
 """Command line of CLAMP: ``clamp demo`` (built-in synthetic skill) and ``clamp plan`` (user files).
 
-Both learn the workspace prior from demonstrations, plan on a robot and write to the output
-folder: prior figures (3-D, against time), plan figures, plans as JSON (q, qdot, end-effector
-path, metrics) and the scene; a summary table is printed.
+Both learn the workspace prior from demonstrations, plan on a robot (a registered name or any
+URDF arm) and write to the output folder (new or empty, or ``--force``): prior figures, plan
+figures (3-D, top view, joint angles with limits, clearance, uncertainty), plans as JSON (q,
+qdot, end-effector path, metrics), executable joint trajectories, browser animations and the
+scene; a summary table is printed. Exit codes: 0 success, 1 a plan was computed but failed,
+2 bad input. Shared plumbing (errors, output folder, atomic writes, logging): :mod:`scenes.command_line`.
+
+A sub-command is registered in :func:`parser` by ``add_parser`` + ``set_defaults(run=...)``;
+:func:`robot_options` / :func:`planning_options` add the shared options.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
-import warnings
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
 from clamp.config import PlannerConfig
+from clamp.errors import InvalidParameterError
 from clamp.initialisation import INITIALISATIONS
 from clamp.optimizers import OPTIMIZERS
 from clamp.planner import plan
 from clamp.result import PlanResult
+from scenes.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
+                                 integer_at_least, number, output_directory, quiet, run,
+                                 save_figure)
+from scenes.progress import progress
+
+log = logging.getLogger(__name__)
 
 DEMO_START_OFFSET = np.array([0.0, -0.03, 0.03])
 
@@ -31,14 +44,15 @@ def _config(args: argparse.Namespace) -> PlannerConfig:
              "max_iterations": args.max_iterations, "optimizer": args.optimizer,
              "sigma_obs": args.sigma_obs}
     changes = {name: value for name, value in given.items() if value is not None}
-    return PlannerConfig.fast(**changes) if args.fast else PlannerConfig().with_(**changes)
+    config = PlannerConfig.fast(**changes) if args.fast else PlannerConfig().with_(**changes)
+    return config.validate()
 
 
 def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
-    """Plan and metrics as JSON (arrays as lists; +inf as null)."""
+    """Plan and metrics as JSON (arrays as lists; +inf as null), written atomically."""
     data = result.to_dict()
     data.update(extra)
-    path.write_text(json.dumps(data, indent=1))
+    atomic_write_text(path, json.dumps(data, indent=1) + "\n", overwrite=True)
 
 
 def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
@@ -56,19 +70,27 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
     return "\n".join(lines)
 
 
-def _figures(out: Path, prior: Any, demos: Any, robot: Any,
+def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
              plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
-    """Prior figures; per plan: 3-D figure, uncertainty figure, executable trajectory (JSON)
-    and the browser animation (HTML)."""
+    """Prior figures; per plan: 3-D, top view, joint angles, clearance and uncertainty
+    figures, the executable trajectory (JSON) and the browser animation (HTML)."""
     from clamp.animation import write_animation
-    from clamp.plan_plots import plot_plan_3d, plot_plan_uncertainty
+    from clamp.plan_plots import (plot_clearance, plot_joint_angles, plot_plan_3d,
+                                  plot_plan_uncertainty, plot_top_view)
     from clamp.prior_plots import plot_prior_3d, plot_prior_time
-    plot_prior_3d(prior, demos, path=out / "prior_3d.png")
-    plot_prior_time(prior, demos, path=out / "prior_time.png")
-    for name, result, scene in plans:
-        plot_plan_3d(result, robot, scene, prior=prior, demos=demos, path=out / f"plan_{name}.png")
+    save_figure(plot_prior_3d(prior, demos), out / "prior_3d.png")
+    save_figure(plot_prior_time(prior, demos), out / "prior_time.png")
+    for name, result, scene in progress(plans, description="figures and animations", unit="plan"):
+        save_figure(plot_plan_3d(result, robot, scene, prior=prior, demos=demos),
+                    out / f"plan_{name}.png")
+        save_figure(plot_top_view(result, robot, scene, prior=prior, demos=demos),
+                    out / f"plan_{name}_top.png")
+        save_figure(plot_joint_angles(result, robot), out / f"plan_{name}_joints.png")
+        if scene is not None and len(getattr(scene, "obstacles", ())):
+            save_figure(plot_clearance(result, robot, scene, epsilon=config.model.epsilon),
+                        out / f"plan_{name}_clearance.png")
         if result.ee_covariance is not None:
-            plot_plan_uncertainty(result, path=out / f"plan_{name}_uncertainty.png")
+            save_figure(plot_plan_uncertainty(result), out / f"plan_{name}_uncertainty.png")
         result.to_joint_trajectory(robot).to_json(out / f"trajectory_{name}.json", overwrite=True)
         write_animation(out / f"animation_{name}.html", robot, result.time, result.q,
                         obstacles=scene, demonstrations=demos.positions,
@@ -76,11 +98,85 @@ def _figures(out: Path, prior: Any, demos: Any, robot: Any,
                         title=f"CLAMP plan {name} on {robot.name}")
 
 
-def _load_robot(name: str) -> Any:
-    from robots import load_robot
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_robot(name)
+def load_robot_from_args(args: argparse.Namespace) -> Any:
+    """The robot of ``--robot NAME`` or ``--urdf FILE --end-effector FRAME``."""
+    from robots import Robot, load_robot
+    if args.urdf is None:
+        if args.end_effector is not None:
+            raise InvalidParameterError("--end-effector: only with --urdf (a registered robot "
+                                        "has its own end effector)")
+        return load_robot(args.robot)
+    if args.end_effector is None:
+        raise InvalidParameterError("--end-effector: required with --urdf (the frame to plan "
+                                    "for, e.g. the tool or the last link)")
+    return Robot.from_urdf(args.urdf, args.end_effector, package_dirs=args.package_dir,
+                           spheres=args.spheres, base_frame=args.base_frame)
+
+
+def _plan_all(prior: Any, robot: Any, start: np.ndarray,
+              requests: Sequence[tuple[str, Any, PlannerConfig, dict[str, Any]]]
+              ) -> list[PlanResult]:
+    """plan() for each (name, scene, config, options), one progress-bar step per plan."""
+    results = []
+    bar = progress(requests, description="planning", unit="plan")
+    for name, scene, config, options in bar:
+        bar.set_postfix_str(f"{name} ({config.optimizer.optimizer})")
+        log.info("planning %r with the %s optimizer", name, config.optimizer.optimizer)
+        results.append(plan(prior, robot, scene, start, config=config, **options))
+    return results
+
+
+def run_demo(args: argparse.Namespace) -> int:
+    from clamp.learning import learn_prior
+    from scenes import Scene, make_demonstrations
+    out = output_directory(args.out, args.force)
+    robot = load_robot_from_args(args)
+    demos = make_demonstrations(args.skill, num_demos=6, num_points=args.num_points)
+    prior = learn_prior(demos)
+    start = prior.mean[0, :3] + DEMO_START_OFFSET
+    config = _config(args)
+    [empty] = _plan_all(prior, robot, start, [("empty scene", None, config, {})])
+    scene = Scene([obstacle_below_path(empty)])
+    scene.save(out / "scene_obstacle.json")
+    with_obstacle, unaware = _plan_all(prior, robot, start, [
+        ("obstacle", scene, config, {}),
+        ("obstacle, no factors", scene, config.with_(obstacle_factors=False), {})])
+    rows = [("empty scene", empty), ("obstacle", with_obstacle), ("obstacle, no factors", unaware)]
+    write_plan(empty, out / "plan_empty.json", robot=robot.name, skill=args.skill)
+    write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
+               scene=scene.to_dict())
+    _figures(out, prior, demos, robot, config,
+             [("empty", empty, None), ("obstacle", with_obstacle, scene)])
+    if not quiet(args):
+        print(f"CLAMP demo: skill {args.skill!r} ({demos.M} demonstrations, T = {demos.T}), "
+              f"robot {robot.name}, start {np.round(start, 4).tolist()}")
+        print(summary_table(rows))
+        print(f"wrote figures and plans to {out}")
+    return EXIT_OK if empty.success and with_obstacle.success else EXIT_FAILED
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    from clamp.learning import learn_prior
+    from scenes import Scene, load_demonstrations
+    out = output_directory(args.out, args.force)
+    robot = load_robot_from_args(args)
+    demos = load_demonstrations(args.demos)
+    if args.translate is not None:
+        demos = demos.translated(np.array(args.translate, dtype=float))
+    prior = learn_prior(demos)
+    scene = Scene.load(args.scene) if args.scene else None
+    config = _config(args)
+    goal = None if args.goal is None else np.array(args.goal, dtype=float)
+    [result] = _plan_all(prior, robot, np.array(args.start, dtype=float),
+                         [("plan", scene, config, {"goal": goal})])
+    write_plan(result, out / "plan.json", robot=robot.name, demos=str(args.demos),
+               urdf=None if args.urdf is None else str(args.urdf),
+               scene=None if scene is None else scene.to_dict())
+    _figures(out, prior, demos, robot, config, [("result", result, scene)])
+    if not quiet(args):
+        print(summary_table([(Path(args.demos).stem, result)]))
+        print(f"wrote figures and plan to {out}")
+    return EXIT_OK if result.success else EXIT_FAILED
 
 
 def obstacle_below_path(result: PlanResult, size: float = 0.08, overlap: float = 0.02) -> Any:
@@ -91,95 +187,67 @@ def obstacle_below_path(result: PlanResult, size: float = 0.08, overlap: float =
     return Box(centre, [size, size, size])
 
 
-def run_demo(args: argparse.Namespace) -> int:
-    from clamp.learning import learn_prior
-    from scenes import Scene, make_demonstrations
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    robot = _load_robot(args.robot)
-    demos = make_demonstrations(args.skill, num_demos=6, num_points=args.num_points)
-    prior = learn_prior(demos)
-    start = prior.mean[0, :3] + DEMO_START_OFFSET
-    config = _config(args)
-    empty = plan(prior, robot, None, start, config=config)
-    scene = Scene([obstacle_below_path(empty)])
-    scene.save(out / "scene_obstacle.json")
-    with_obstacle = plan(prior, robot, scene, start, config=config)
-    unaware = plan(prior, robot, scene, start, config=config.with_(obstacle_factors=False))
-    rows = [("empty scene", empty), ("obstacle", with_obstacle),
-            ("obstacle, no factors", unaware)]
-    write_plan(empty, out / "plan_empty.json", robot=robot.name, skill=args.skill)
-    write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
-               scene=scene.to_dict())
-    _figures(out, prior, demos, robot, [("empty", empty, None), ("obstacle", with_obstacle, scene)])
-    print(f"CLAMP demo: skill {args.skill!r} ({demos.M} demonstrations, T = {demos.T}), "
-          f"robot {robot.name}, start {np.round(start, 4).tolist()}")
-    print(summary_table(rows))
-    print(f"wrote figures and plans to {out}")
-    return 0 if empty.success and with_obstacle.success else 1
+def planning_options(p: argparse.ArgumentParser, out_default: str | None = "clamp_out") -> None:
+    """--out/--force and the planner settings; defaults are PlannerConfig()'s (clamp.config)."""
+    p.add_argument("--out", default=out_default, required=out_default is None,
+                   help="output folder: new or empty unless --force"
+                        + (f" (default: {out_default})" if out_default else ""))
+    p.add_argument("--force", action="store_true", help="replace files in a non-empty --out")
+    p.add_argument("--fast", action="store_true",
+                   help="PlannerConfig.fast(): stop at 5 %% relative decrease (about ten "
+                        "iterations; less polished plans)")
+    defaults = PlannerConfig()
+    p.add_argument("--sigma-obs", type=number, default=None, metavar="M",
+                   help=f"obstacle hinge noise [m] (default {defaults.model.sigma_obs})")
+    p.add_argument("--epsilon", type=number, default=None, metavar="M",
+                   help=f"obstacle safety distance [m] (default {defaults.model.epsilon})")
+    p.add_argument("--init", choices=INITIALISATIONS, default=None,
+                   help=f"initialisation (default {defaults.optimizer.initialisation})")
+    p.add_argument("--optimizer", choices=OPTIMIZERS, default=None,
+                   help=f"optimizer (default {defaults.optimizer.optimizer})")
+    p.add_argument("--max-iterations", type=integer_at_least(1), default=None, metavar="N",
+                   help=f"(default {defaults.optimizer.max_iterations})")
 
 
-def run_plan(args: argparse.Namespace) -> int:
-    from clamp.learning import learn_prior
-    from scenes import Scene, load_demonstrations
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    robot = _load_robot(args.robot)
-    demos = load_demonstrations(args.demos)
-    if args.translate is not None:
-        demos = demos.translated(np.array(args.translate, dtype=float))
-    prior = learn_prior(demos)
-    scene = Scene.load(args.scene) if args.scene else None
-    result = plan(prior, robot, scene, np.array(args.start, dtype=float),
-                  goal=None if args.goal is None else np.array(args.goal, dtype=float),
-                  config=_config(args))
-    write_plan(result, out / "plan.json", robot=robot.name, demos=str(args.demos),
-               scene=None if scene is None else scene.to_dict())
-    _figures(out, prior, demos, robot, [("result", result, scene)])
-    print(summary_table([(Path(args.demos).stem, result)]))
-    print(f"wrote figures and plan to {out}")
-    return 0 if result.success else 1
+def robot_options(p: argparse.ArgumentParser, default_robot: str | None = None) -> None:
+    """--robot NAME or --urdf FILE --end-effector FRAME (plus URDF helpers)."""
+    group = p.add_mutually_exclusive_group(required=default_robot is None)
+    group.add_argument("--robot", default=default_robot,
+                       help="registered robot (jaco, sawyer)"
+                            + (f"; default {default_robot}" if default_robot else ""))
+    group.add_argument("--urdf", default=None, metavar="FILE", help="any URDF arm")
+    p.add_argument("--end-effector", default=None, metavar="FRAME",
+                   help="with --urdf: the frame to plan for")
+    p.add_argument("--package-dir", action="append", default=[], metavar="DIR",
+                   help="with --urdf: folder holding package:// meshes (repeatable)")
+    p.add_argument("--base-frame", default=None, metavar="FRAME",
+                   help="with --urdf: planning frame (default: the URDF root)")
+    p.add_argument("--spheres", default=None, metavar="FILE",
+                   help="with --urdf: collision sphere file (default: fitted from the URDF)")
 
 
 def parser() -> argparse.ArgumentParser:
     """Argument parser of the ``clamp`` command."""
-    main = argparse.ArgumentParser(prog="clamp", description=__doc__.splitlines()[0])
-    sub = main.add_subparsers(dest="command", required=True)
-
-    def planning_options(p: argparse.ArgumentParser) -> None:
-        p.add_argument("--out", default="clamp_out", help="output folder (default: clamp_out)")
-        p.add_argument("--fast", action="store_true",
-                       help="PlannerConfig.fast(): stop at 5 %% relative decrease (about ten "
-                            "iterations; less polished plans, check their success probability)")
-        defaults = PlannerConfig()
-        p.add_argument("--sigma-obs", type=float, default=None,
-                       help=f"obstacle hinge noise [m] (default {defaults.model.sigma_obs})")
-        p.add_argument("--epsilon", type=float, default=None,
-                       help=f"obstacle safety distance [m] (default {defaults.model.epsilon})")
-        p.add_argument("--init", choices=INITIALISATIONS, default=None,
-                       help=f"initialisation (default {defaults.optimizer.initialisation})")
-        p.add_argument("--optimizer", choices=OPTIMIZERS, default=None,
-                       help=f"optimizer (default {defaults.optimizer.optimizer})")
-        p.add_argument("--max-iterations", type=int, default=None,
-                       help=f"(default {defaults.optimizer.max_iterations})")
+    main = CommandLineParser(prog="clamp", description=__doc__.splitlines()[0])
+    sub = main.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     demo = sub.add_parser("demo", help="learn a built-in synthetic skill and plan it")
     planning_options(demo)
+    robot_options(demo, default_robot="jaco")
     demo.add_argument("--skill", default="box_closing", help="built-in skill (scenes.SKILLS)")
-    demo.add_argument("--robot", default="jaco", help="built-in robot (default jaco)")
-    demo.add_argument("--num-points", type=int, default=250, help="support states T")
+    demo.add_argument("--num-points", type=integer_at_least(2), default=250, help="support states T")
     demo.set_defaults(run=run_demo)
 
     user = sub.add_parser("plan", help="learn from a demonstration file and plan")
     planning_options(user)
+    robot_options(user)
     user.add_argument("--demos", required=True, help="demonstrations (.mat, .npz, .csv)")
-    user.add_argument("--robot", required=True, help="built-in robot name")
-    user.add_argument("--start", type=float, nargs="+", required=True,
+    user.add_argument("--start", type=number, nargs="+", required=True,
                       help="start: end-effector position x y z [m] or a joint configuration")
-    user.add_argument("--goal", type=float, nargs="+", default=None,
+    user.add_argument("--goal", type=number, nargs="+", default=None,
                       help="goal: end-effector position x y z [m] or a joint configuration")
     user.add_argument("--scene", default=None, help="scene JSON file (scenes.Scene.save)")
-    user.add_argument("--translate", type=float, nargs=3, default=None,
+    user.add_argument("--translate", type=number, nargs=3, default=None,
                       help="move the demonstrations by dx dy dz [m] before learning")
     user.set_defaults(run=run_plan)
     return main
@@ -189,12 +257,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``clamp``; returns the exit code (0 success, 1 plan failed, 2 bad input)."""
     import matplotlib
     matplotlib.use("Agg")
-    args = parser().parse_args(argv)
-    try:
-        return args.run(args)
-    except ValueError as exc:  # every package's input errors derive from ValueError
-        print(f"clamp {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    return run(parser(), argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,6 +1,13 @@
-"""Figures of CLAMP plans: the end-effector path in 3-D with the scene's obstacles, the arm
-drawn at a few support states and the posterior 95 % tube; the end-effector position against
-time with its posterior band (headless matplotlib; PNG files)."""
+"""Figures of CLAMP plans (headless matplotlib; bare ``Figure`` objects, PNG files):
+
+- :func:`plot_plan_3d`: end-effector path in 3-D with the obstacles, the arm at a few support
+  states and the posterior 95 % tube;
+- :func:`plot_top_view`: the same seen from above (x-y plane), obstacles as their footprints;
+- :func:`plot_joint_angles`: every joint angle against time, outside its limits shaded;
+- :func:`plot_clearance`: the smallest sphere-obstacle distance against time with the safety
+  distance epsilon and contact marked;
+- :func:`plot_plan_uncertainty`: end-effector position against time with its posterior band.
+"""
 from __future__ import annotations
 
 import os
@@ -114,4 +121,133 @@ def plot_orientation(result: Any, robot: Any, family: Any,
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=dpi)
+    return fig
+
+
+def _obstacle_footprint(ax: Any, obstacle: Any, color: str, label: str | None) -> None:
+    """Fill the top-view footprint of any obstacle (points of its bounding box, sampled on a
+    grid, that it contains at some height)."""
+    lo, hi = np.asarray(obstacle.aabb(), dtype=float)
+    pad = 0.05 * (hi - lo) + 1e-4  # the outline closes outside the bounding box
+    lo, hi = lo - pad, hi + pad
+    x, y, z = (np.linspace(lo[k], hi[k], n) for k, n in ((0, 61), (1, 61), (2, 15)))
+    grid = np.stack(np.meshgrid(x, y, z, indexing="ij"), axis=-1)
+    inside = obstacle.contains(grid.reshape(-1, 3)).reshape(grid.shape[:3]).any(axis=2)
+    ax.contourf(x, y, inside.T.astype(float), levels=[0.5, 1.5], colors=[color], alpha=0.35)
+    ax.contour(x, y, inside.T.astype(float), levels=[0.5], colors=[color], linewidths=0.8)
+    if label:
+        ax.fill([], [], color=color, alpha=0.35, label=label)
+
+
+def plot_top_view(result: Any, robot: Any, scene: Any = None, *, prior: Any = None,
+                  demos: Any = None, arm_states: int = 5, title: str | None = None) -> Figure:
+    """Top view (x-y plane, [m], equal axes) of a plan: demonstrations, prior mean, the
+    end-effector path, the arm at ``arm_states`` support states, obstacle footprints."""
+    fig = Figure(figsize=(8.0, 6.0))
+    ax = fig.add_subplot()
+    extent = [np.zeros((1, 2)), result.ee_path[:, :2]]
+    for k, obstacle in enumerate(getattr(scene, "obstacles", ()) if scene is not None else ()):
+        _obstacle_footprint(ax, obstacle, "tab:red", "obstacle (footprint)" if k == 0 else None)
+        extent.append(np.asarray(obstacle.aabb(), dtype=float)[:, :2])
+    if demos is not None:
+        for m, demo in enumerate(np.asarray(demos.positions)):
+            ax.plot(demo[:, 0], demo[:, 1], color="0.6", lw=0.7,
+                    label="demonstrations" if m == 0 else None)
+    if prior is not None:
+        mean = np.asarray(prior.mean)
+        ax.plot(mean[:, 0], mean[:, 1], color="tab:blue", lw=1.2, ls="--", label="prior mean")
+    T = len(result.q)
+    frames = robot.frame_positions(result.q[np.linspace(0, T - 1, max(arm_states, 2)).astype(int)])
+    for k, arm in enumerate(frames):
+        ax.plot(arm[:, 0], arm[:, 1], color="0.2", lw=2.0, marker="o", ms=2.5,
+                alpha=0.35 + 0.5 * k / len(frames), label="arm" if k == 0 else None)
+    ax.plot(result.ee_path[:, 0], result.ee_path[:, 1], color="tab:orange", lw=2.2,
+            label="plan (end effector)")
+    ax.scatter(*result.ee_path[0, :2], color="tab:green", s=36, zorder=5, label="start")
+    ax.scatter(*result.ee_path[-1, :2], color="tab:red", s=36, zorder=5, label="end")
+    ax.scatter(0.0, 0.0, marker="s", color="k", s=30, zorder=5, label="robot base")
+    points = np.concatenate(extent + [frames[..., :2].reshape(-1, 2)])
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    pad = 0.08 * float(np.max(hi - lo)) + 1e-3
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(alpha=0.3)
+    ax.set_title(title or f"CLAMP plan on {getattr(robot, 'name', 'robot')}: top view", fontsize=10)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_joint_angles(result: Any, robot: Any, title: str | None = None) -> Figure:
+    """Every joint angle [rad] against time [s], one panel per joint; the region outside the
+    joint's position limits is shaded (continuous joints: no limits)."""
+    q, t = np.asarray(result.q), np.asarray(result.time)
+    n = q.shape[1]
+    cols = 2 if n <= 8 else 3
+    rows = int(np.ceil(n / cols))
+    fig = Figure(figsize=(4.0 * cols, 1.9 * rows + 0.8))
+    axes = fig.subplots(rows, cols, sharex=True, squeeze=False).ravel()
+    names = list(getattr(robot, "joint_names", [f"joint {j + 1}" for j in range(n)]))
+    lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
+    for j, ax in enumerate(axes[:n]):
+        lo, hi = q[:, j].min(), q[:, j].max()
+        finite = [v for v in (lower[j], upper[j]) if np.isfinite(v)]
+        lo, hi = min([lo, *finite]), max([hi, *finite])
+        pad = 0.12 * max(hi - lo, 0.2)
+        view = (lo - pad, hi + pad)
+        if np.isfinite(lower[j]):
+            ax.axhspan(view[0], lower[j], color="tab:red", alpha=0.18, lw=0)
+        if np.isfinite(upper[j]):
+            ax.axhspan(upper[j], view[1], color="tab:red", alpha=0.18, lw=0)
+        ax.plot(t, q[:, j], color="tab:blue", lw=1.6)
+        ax.set_ylim(*view)
+        ax.set_ylabel("angle [rad]", fontsize=8)
+        ax.set_title(names[j] + ("" if finite else " (continuous: no limits)"), fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    for ax in axes[n:]:
+        ax.axis("off")
+    for ax in axes[max(n - cols, 0):n]:
+        ax.set_xlabel("time [s]")
+        ax.tick_params(labelbottom=True)
+    from matplotlib.patches import Patch
+    from matplotlib.lines import Line2D
+    fig.legend([Line2D([], [], color="tab:blue", lw=1.6), Patch(color="tab:red", alpha=0.18)],
+               ["plan", "outside the position limits"], loc="upper right", fontsize=8, ncol=2)
+    fig.suptitle(title or f"joint angles of {getattr(robot, 'name', 'robot')} against time "
+                 f"({'within' if result.within_limits else 'OUTSIDE'} limits)", fontsize=10,
+                 x=0.02, ha="left")
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.95))
+    return fig
+
+
+def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
+                   title: str | None = None) -> Figure:
+    """Clearance [m] against time [s]: the smallest distance between the robot's collision
+    spheres and the obstacles at every support state, the safety distance ``epsilon`` [m]
+    (the obstacle factors act below it) and contact (0) marked."""
+    from clamp.verdict import sphere_clearance
+    clearance = np.min(sphere_clearance(robot, scene, np.asarray(result.q)), axis=1)
+    t = np.asarray(result.time)
+    fig = Figure(figsize=(7.0, 3.6))
+    ax = fig.add_subplot()
+    ax.axhspan(min(clearance.min(), 0.0) - 0.01, 0.0, color="tab:red", alpha=0.15, lw=0,
+               label="collision (< 0)")
+    ax.axhline(epsilon, color="tab:orange", ls="--", lw=1.2,
+               label=f"safety distance epsilon = {epsilon * 1e3:.0f} mm")
+    ax.plot(t, clearance, color="tab:blue", lw=1.6, label="clearance of the arm")
+    k = int(np.argmin(clearance))
+    ax.scatter(t[k], clearance[k], color="k", s=20, zorder=5,
+               label=f"minimum {clearance[k] * 1e3:.1f} mm at {t[k]:.2f} s")
+    ax.set_ylim(min(clearance.min(), 0.0) - 0.01, max(clearance.max(), epsilon) * 1.1 + 0.01)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("clearance [m]")
+    ax.grid(alpha=0.3)
+    ax.set_title(title or "smallest distance between the arm's collision spheres and the "
+                          "obstacles", fontsize=10)
+    ax.legend(loc="best", fontsize=7)
+    fig.tight_layout()
     return fig

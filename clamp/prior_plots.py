@@ -13,7 +13,6 @@ write a PNG when given ``path``.
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -21,6 +20,7 @@ from matplotlib.figure import Figure
 from clamp.errors import ShapeError
 from clamp.prior import LinearGaussianPrior, envelope_quantile
 from clamp.validation import as_array, as_count
+from scenes.command_line import save_figure
 from scenes.plotting import draw_obstacle
 
 __all__ = ["plot_prior_3d", "plot_prior_time", "plot_weighted_priors", "envelope_tube"]
@@ -45,8 +45,7 @@ def _demo_states(demos: object, prior: LinearGaussianPrior) -> np.ndarray | None
 def _finish(fig: Figure, path: str | os.PathLike[str] | None, dpi: int) -> Figure:
     fig.tight_layout()
     if path is not None:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=dpi)
+        save_figure(fig, path, dpi=dpi)
     return fig
 
 
@@ -197,7 +196,9 @@ def plot_prior_time(prior: LinearGaussianPrior, demos: object = None, *, level: 
         ax.fill_between(prior.time, lower[:, k], upper[:, k], color="tab:blue", alpha=0.2,
                         lw=0, label=f"{100 * level:.0f} % envelope")
         if states is not None:
-            ax.plot(prior.time, states[:, :, k].T, color="0.4", lw=0.7)
+            for m, demo in enumerate(states[:, :, k]):
+                ax.plot(prior.time, demo, color="0.4", lw=0.7,
+                        label="demonstrations" if m == 0 else None)
         ax.plot(prior.time, prior.mean[:, k], color="tab:blue", lw=1.8, label="prior mean")
         ax.set_ylabel(f"{prior.state_names[k]} [{unit[k // A]}]")
         if k // A == 1:

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from scenes.command_line import native_stderr_logged
+
 from .errors import RobotError, UnknownFrameError, URDFParseError
 from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain, frame_index, frame_names
 from .sphere_model import SphereModel, load_sphere_file
@@ -90,7 +92,8 @@ class Robot:
         if not path.is_file():
             raise URDFParseError(f"path: URDF file {str(path)!r} does not exist")
         try:
-            model = pin.buildModelFromUrdf(str(path))
+            with native_stderr_logged():  # urdfdom prints parse errors on fd 2
+                model = pin.buildModelFromUrdf(str(path))
         except Exception as exc:  # Pinocchio raises bare RuntimeErrors on malformed URDF
             raise URDFParseError(f"path: cannot parse URDF {str(path)!r}: {exc}") from exc
         return cls(model, end_effector, spheres=spheres, name=name or model.name or path.stem,

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from scenes.command_line import atomic_write_text
+
 from .errors import InvalidArrayError, SphereFileError
 
 FILE_FORMAT = "skillplan-spheres"
@@ -157,4 +159,4 @@ def save_sphere_file(model: SphereModel, path: str | Path) -> None:
     data = model.to_dict()
     spheres = ",\n  ".join(json.dumps(entry) for entry in data.pop("spheres"))
     header = json.dumps(data)[:-1]
-    Path(path).write_text(f'{header}, "spheres": [\n  {spheres}\n]}}\n', encoding="utf-8")
+    atomic_write_text(path, f'{header}, "spheres": [\n  {spheres}\n]}}\n', overwrite=True)

@@ -26,6 +26,7 @@ from scipy.optimize import minimize
 from scipy.spatial import cKDTree
 
 from scenes import validation as _checks
+from scenes.progress import progress
 
 from .collision_geometry import LinkSurface, link_surfaces
 from .errors import CollisionGeometryError, UnknownFrameError
@@ -237,17 +238,21 @@ def fit_spheres(model: pin.Model, collision_model: pin.GeometryModel, links: Seq
         link_rng = np.random.default_rng([int(seeds[index]), k])
         return _fit_link(points[index], k, inflation, link_rng, restarts, iterations, previous)
 
-    current = [fit(i, 1, None) for i in range(len(surfaces))]
-    following = [fit(i, 2, current[i]) for i in range(len(surfaces))]
-    while True:
-        total = sum(len(c.radii) for c in current)
-        gains = np.array([cur.volume - nxt.volume if total - len(cur.radii) + len(nxt.radii) <= max_spheres
-                          else -np.inf for cur, nxt in zip(current, following)])
-        best = int(np.argmax(gains))
-        if not gains[best] > min_gain * sum(c.volume for c in current):
-            break
-        current[best] = following[best]
-        following[best] = fit(best, len(current[best].radii) + 1, current[best])
+    # progress in spheres placed (at most max_spheres; the fit may stop earlier)
+    with progress(description="fitting collision spheres", total=max_spheres, unit="sphere") as bar:
+        current = [fit(i, 1, None) for i in range(len(surfaces))]
+        following = [fit(i, 2, current[i]) for i in range(len(surfaces))]
+        bar.update(len(current))
+        while True:
+            total = sum(len(c.radii) for c in current)
+            gains = np.array([cur.volume - nxt.volume if total - len(cur.radii) + len(nxt.radii) <= max_spheres
+                              else -np.inf for cur, nxt in zip(current, following)])
+            best = int(np.argmax(gains))
+            if not gains[best] > min_gain * sum(c.volume for c in current):
+                break
+            current[best] = following[best]
+            following[best] = fit(best, len(current[best].radii) + 1, current[best])
+            bar.update(1)
     counts = [len(c.radii) for c in current]
     radii = [_grow_to_cover(surface.sample_surface(samples_per_link, generator), fitted.centres, fitted.radii,
                             inflation) for surface, fitted in zip(surfaces, current)]

@@ -28,7 +28,6 @@ import io
 import json
 import math
 import os
-import secrets
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from scenes import validation as _checks
+from scenes.command_line import atomic_write_text as _atomic_write_text
 
 from .errors import TrajectoryError, TrajectoryExistsError, TrajectoryFileError
 
@@ -112,47 +112,10 @@ def joint_units(kinds: Sequence[str]) -> dict[str, str | list[str]]:
 
 def atomic_write_text(path: str | Path, text: str, overwrite: bool = False,
                       exists_error: Callable[[str], Exception] | None = None) -> Path:
-    """Write `text` (UTF-8) to `path` atomically; returns the path.
-
-    The data go to a temporary file ``.<name>.<random>.tmp`` in the same folder, are flushed
-    to disk, then moved into place: ``os.replace`` when overwriting, else ``os.link`` (which
-    fails if the target exists, so a file created meanwhile is never clobbered; filesystems
-    without hard links fall back to a check followed by ``os.replace``). The temporary file
-    is removed whatever happens. ``exists_error(message)`` builds the error for an existing
-    target (default TrajectoryExistsError).
-    """
-    path = Path(path)
-    make_error = exists_error or TrajectoryExistsError
-    message = f"path: {str(path)!r} already exists; pass overwrite=True to replace it"
-    if not overwrite and path.exists():
-        raise make_error(message)
-    folder = path.parent
-    if not folder.is_dir():
-        raise TrajectoryFileError(f"path: folder {str(folder)!r} does not exist")
-    tmp = folder / f".{path.name}.{secrets.token_hex(6)}.tmp"
-    try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        if overwrite:
-            os.replace(tmp, path)
-        else:
-            try:
-                os.link(tmp, path)
-            except FileExistsError:
-                raise make_error(message) from None
-            except OSError:  # no hard links on this filesystem
-                if path.exists():
-                    raise make_error(message) from None
-                os.replace(tmp, path)
-    finally:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-    return path
+    """Write `text` (UTF-8) to `path` atomically (:func:`scenes.command_line.atomic_write`);
+    ``exists_error(message)`` builds the error for an existing target (default
+    TrajectoryExistsError), a missing folder raises TrajectoryFileError."""
+    return _atomic_write_text(path, text, overwrite, exists_error or TrajectoryExistsError, TrajectoryFileError)
 
 
 def load_schema() -> dict[str, Any]:

@@ -37,3 +37,8 @@ class DemonstrationFileError(ScenesError):
 
 class UnknownSkillError(ScenesError):
     """A synthetic skill name is not one of :data:`scenes.SKILLS`."""
+
+
+class OutputPathError(ScenesError, FileExistsError):
+    """An output file or folder cannot be used: it exists (pass overwrite=True / --force), is
+    not empty, is a file where a folder is expected, or its folder is missing."""

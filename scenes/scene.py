@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .command_line import atomic_write_text
 from .errors import InvalidArgumentError, InvalidObstacleError, SceneFileError
 from .obstacles import Nearest, Obstacle, as_coords, obstacle_from_dict
 from .sdf import DEFAULT_CELL_SIZE, SignedDistanceField, check_cell_size
@@ -173,9 +174,10 @@ class Scene:
             raise SceneFileError(f"{path}: not valid JSON ({exc})") from None
         return cls.from_dict(data, source=str(path))
 
-    def save(self, path: str | Path) -> None:
-        """Write this scene as JSON."""
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+    def save(self, path: str | Path, overwrite: bool = True) -> None:
+        """Write this scene as JSON, atomically (OutputPathError if the file exists and not
+        ``overwrite``)."""
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=2) + "\n", overwrite=overwrite)
 
     def __repr__(self) -> str:
         return f"Scene(obstacles={list(self._obstacles)!r}, bounds={self._bounds.tolist()})"

@@ -56,3 +56,59 @@ def test_plan_from_user_files(tmp_path, capsys):
 def test_bad_input_exits_with_message(tmp_path, capsys, argv, message):
     assert main(argv + ["--out", str(tmp_path)]) == 2
     assert message in capsys.readouterr().err
+
+
+def _user_files(tmp_path, num_points=40):
+    from scenes import make_demonstrations
+    demos = make_demonstrations("box_closing", num_points=num_points, seed=1)
+    demos.save_npz(tmp_path / "demos.npz")
+    return tmp_path / "demos.npz", demos.positions[:, 0].mean(axis=0)
+
+
+def test_plan_on_an_unregistered_urdf_arm(tmp_path, capsys):
+    """UR5 from example-robot-data (not registered): the plan starts where asked, stays in
+    the URDF's limits (read independently by Pinocchio) and exports the UR5's joint names."""
+    import pinocchio as pin
+
+    from robots.registry import example_robot_data_share
+    from scenes import Box, Scene
+    share = example_robot_data_share()
+    urdf = share / "example-robot-data/robots/ur_description/urdf/ur5_joint_limited_robot.urdf"
+    demos, start = _user_files(tmp_path)
+    Scene([Box([0.6, 0.3, 0.2], [0.1, 0.1, 0.1])]).save(tmp_path / "scene.json")
+    out = tmp_path / "out"
+    code = main(["plan", "--urdf", str(urdf), "--end-effector", "tool0", "--package-dir", str(share),
+                 "--demos", str(demos), "--start", *map(str, start), "--scene",
+                 str(tmp_path / "scene.json"), "--out", str(out), "-q"])
+    assert code == 0
+    assert capsys.readouterr().out == ""  # -q: no summary
+    trajectory = json.loads((out / "trajectory_result.json").read_text())
+    model = pin.buildModelFromUrdf(str(urdf))
+    names = [model.names[j] for j in range(1, model.njoints)]
+    assert trajectory["joint_names"] == names
+    q = np.array(json.loads((out / "plan.json").read_text())["q"])
+    assert np.all(q >= model.lowerPositionLimit - 1e-4) and np.all(q <= model.upperPositionLimit + 1e-4)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q[0])
+    np.testing.assert_allclose(data.oMf[model.getFrameId("tool0")].translation, start, atol=1e-3)
+    for name in ("plan_result_top.png", "plan_result_joints.png", "plan_result_clearance.png",
+                 "animation_result.html"):
+        assert (out / name).stat().st_size > 0, name
+
+
+def test_failed_plan_exits_1_and_outputs_need_force(tmp_path, capsys):
+    from scenes import Box, Scene
+    demos, start = _user_files(tmp_path)
+    Scene([Box(start, [0.2, 0.2, 0.2])]).save(tmp_path / "scene.json")  # start inside a box
+    argv = ["plan", "--robot", "jaco", "--demos", str(demos), "--start", *map(str, start),
+            "--scene", str(tmp_path / "scene.json"), "--out", str(tmp_path / "out")]
+    assert main(argv) == 1
+    plan = json.loads((tmp_path / "out" / "plan.json").read_text())
+    assert not plan["success"] and any("collision" in r for r in plan["reasons"])
+    before = (tmp_path / "out" / "plan.json").stat().st_mtime_ns
+    capsys.readouterr()
+    assert main(argv) == 2  # the folder is no longer empty
+    assert "--force" in capsys.readouterr().err
+    assert (tmp_path / "out" / "plan.json").stat().st_mtime_ns == before
+    assert main(argv + ["--force"]) == 1
+    assert not list((tmp_path / "out").glob(".*.tmp"))

@@ -7,7 +7,9 @@ Example::
 
 writes cylinder.npz, reproductions.npy (R, N, 3), cylinder.png (3-D) and cross_sections.png,
 and prints fit/reproduction times and the fraction of reproduced points inside the cylinder.
-``--skill NAME`` uses the project's synthetic demonstrations instead of a file.
+``--skill NAME`` uses the project's synthetic demonstrations instead of a file. The output
+folder must be new or empty unless ``--force``; files are written atomically. Bad input: one
+line on stderr, exit 2 (:mod:`scenes.command_line`).
 """
 from __future__ import annotations
 
@@ -19,8 +21,12 @@ from typing import Sequence
 
 import numpy as np
 
+from scenes.command_line import (EXIT_OK, CommandLineParser, atomic_write, integer_at_least,
+                                 number, output_directory, quiet, run)
+
 from .cross_sections import CROSS_SECTION_TYPES
 from .cylinder import fit_cylinder
+from .errors import InvalidArgumentError
 from .plots import plot_cross_sections, plot_cylinder, save_figure
 from .reproduction import DEFAULT_GAMMA, random_starts, reproduce
 
@@ -35,6 +41,7 @@ def _load(args: argparse.Namespace):
 
 def fit_reproduce(args: argparse.Namespace) -> int:
     """Run the fit-reproduce command; returns the exit status."""
+    out = output_directory(args.out, args.force)
     demos = _load(args)
     t0 = time.perf_counter()
     cyl = fit_cylinder(demos, args.cross_section, num_points=args.num_points)
@@ -44,54 +51,56 @@ def fit_reproduce(args: argparse.Namespace) -> int:
     reps = reproduce(cyl, starts, eta_final=args.eta_final, gamma=args.gamma)
     t_rep = time.perf_counter() - t0
     inside = cyl.ratio(reps, np.arange(cyl.num_sections)[None, :]) <= 1.0 + 1e-9
+    if args.sections > cyl.num_sections:
+        raise InvalidArgumentError(f"--sections: expected at most the {cyl.num_sections} "
+                                   f"cross-sections of the cylinder, got {args.sections}")
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    cyl.save(out / "cylinder.npz")
-    np.save(out / "reproductions.npy", reps)
+    atomic_write(out / "cylinder.npz", cyl.save, overwrite=True)
+    atomic_write(out / "reproductions.npy", lambda handle: np.save(handle, reps), overwrite=True)
     name = getattr(demos, "name", "") or (Path(args.demos).stem if args.demos else args.skill)
     save_figure(plot_cylinder(cyl, reps, title=f"{name}: {cyl.cross_section} cylinder, "
                                                f"{args.count} reproductions"), out / "cylinder.png")
     indices = np.linspace(0, cyl.num_sections - 1, args.sections).round().astype(int)
     save_figure(plot_cross_sections(cyl, indices, reps), out / "cross_sections.png")
-    print(f"{name}: M={len(cyl.effective_points)} N={cyl.num_sections} "
-          f"cross-section={cyl.cross_section}")
-    print(f"fit {1e3 * t_fit:.1f} ms, {args.count} reproductions {1e3 * t_rep:.1f} ms, "
-          f"points inside {100.0 * inside.mean():.2f} %")
-    print(f"wrote {out}/cylinder.npz, reproductions.npy, cylinder.png, cross_sections.png")
-    return 0
+    if not quiet(args):
+        print(f"{name}: M={len(cyl.effective_points)} N={cyl.num_sections} "
+              f"cross-section={cyl.cross_section}")
+        print(f"fit {1e3 * t_fit:.1f} ms, {args.count} reproductions {1e3 * t_rep:.1f} ms, "
+              f"points inside {100.0 * inside.mean():.2f} %")
+        print(f"wrote {out}/cylinder.npz, reproductions.npy, cylinder.png, cross_sections.png")
+    return EXIT_OK
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Argument parser with one sub-command per task."""
-    parser = argparse.ArgumentParser(prog="tlgc", description="Skill learning with generalized cylinders")
-    commands = parser.add_subparsers(dest="command", required=True)
+    parser = CommandLineParser(prog="tlgc", description="Skill learning with generalized cylinders")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     fr = commands.add_parser("fit-reproduce", help="fit a cylinder, reproduce from random starts, plot")
     source = fr.add_mutually_exclusive_group(required=True)
     source.add_argument("--demos", help="demonstration file (.mat CLAMP/TLGC, .npz, .csv)")
     source.add_argument("--skill", help="synthetic skill name (scenes.SKILLS)")
-    fr.add_argument("--num-demos", type=int, default=5, help="demonstrations for --skill (default 5)")
+    fr.add_argument("--num-demos", type=integer_at_least(2), default=5,
+                    help="demonstrations for --skill (default 5)")
     fr.add_argument("--cross-section", default="spline", choices=sorted(CROSS_SECTION_TYPES))
-    fr.add_argument("--num-points", type=int, default=None, help="resample to N points")
-    fr.add_argument("--out", required=True, help="output directory")
-    fr.add_argument("--count", type=int, default=10, help="number of reproductions (default 10)")
-    fr.add_argument("--eta-final", type=float, default=None,
+    fr.add_argument("--num-points", type=integer_at_least(2), default=None,
+                    help="resample to N points")
+    fr.add_argument("--out", required=True, help="output folder (new or empty unless --force)")
+    fr.add_argument("--force", action="store_true", help="replace files in a non-empty --out")
+    fr.add_argument("--count", type=integer_at_least(1), default=10,
+                    help="number of reproductions (default 10)")
+    fr.add_argument("--eta-final", type=number, default=None,
                     help="target ratio (0 convergent, 1 divergent; default: fixed ratio)")
-    fr.add_argument("--gamma", type=float, default=DEFAULT_GAMMA, help="decay constant of eq. 10")
-    fr.add_argument("--seed", type=int, default=0, help="seed of the random starts")
-    fr.add_argument("--sections", type=int, default=8, help="cross-sections to draw (default 8)")
+    fr.add_argument("--gamma", type=number, default=DEFAULT_GAMMA, help="decay constant of eq. 10")
+    fr.add_argument("--seed", type=integer_at_least(0), default=0, help="seed of the random starts")
+    fr.add_argument("--sections", type=integer_at_least(1), default=8,
+                    help="cross-sections to draw (default 8)")
     fr.set_defaults(run=fit_reproduce)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``tlgc`` command; bad input prints one error line, exit status 2."""
-    args = build_parser().parse_args(argv)
-    try:
-        return args.run(args)
-    except ValueError as exc:           # TLGCError, ScenesError, ... all derive from ValueError
-        print(f"tlgc {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    return run(build_parser(), argv)
 
 
 if __name__ == "__main__":

@@ -18,6 +18,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from scenes.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, integer_at_least, number,
+                                 quiet, run)
+
 from .boundary_factor import BoundaryFamily, boundary_distance, section_indices
 from .cylinder import GeneralizedCylinder, fit_cylinder
 from .errors import InvalidArgumentError
@@ -89,24 +92,32 @@ def run_clamp_cylinder_demo(skill: str = "reach_from_above", robot_name: str = "
                              outside_distances(cylinder, bounded.ee_path))
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: run the demo and print the inside fractions."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--skill", default="reach_from_above")
-    parser.add_argument("--robot", default="jaco")
-    parser.add_argument("--states", type=int, default=40)
-    parser.add_argument("--goal-offset", type=float, default=0.05)
-    args = parser.parse_args(argv)
+def report(args: argparse.Namespace) -> int:
+    """Run the demo and print the inside fractions (exit 0 when both plans succeed, else 1)."""
     demo = run_clamp_cylinder_demo(args.skill, args.robot, args.states, args.goal_offset)
     for label, result, outside, inside in (
             ("without boundary factor", demo.without_factor, demo.outside_without,
              demo.fraction_inside_without),
             ("with boundary factor", demo.with_factor, demo.outside_with, demo.fraction_inside_with)):
-        print(f"{label:>24}: {inside * 100:5.1f} % of {len(outside)} support states inside the "
-              f"cylinder, farthest outside {outside.max() * 1000:6.1f} mm, goal error "
-              f"{(result.goal_error or 0.0) * 1000:5.1f} mm, success {result.success}, "
-              f"{result.timings['total']:.2f} s")
-    return 0
+        if not quiet(args):
+            print(f"{label:>24}: {inside * 100:5.1f} % of {len(outside)} support states inside the "
+                  f"cylinder, farthest outside {outside.max() * 1000:6.1f} mm, goal error "
+                  f"{(result.goal_error or 0.0) * 1000:5.1f} mm, success {result.success}, "
+                  f"{result.timings['total']:.2f} s")
+    return EXIT_OK if demo.with_factor.success else EXIT_FAILED
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Command line; bad input: one line on stderr, exit 2."""
+    parser = CommandLineParser(prog="python -m tlgc.demo_clamp_cylinder",
+                               description=__doc__.split("\n\n")[0])
+    parser.add_argument("--skill", default="reach_from_above", help="synthetic skill (scenes.SKILLS)")
+    parser.add_argument("--robot", default="jaco", help="registered robot (jaco, sawyer)")
+    parser.add_argument("--states", type=integer_at_least(2), default=40, help="support states T")
+    parser.add_argument("--goal-offset", type=number, default=0.05,
+                        help="goal distance outside the last cross-section [m]")
+    parser.set_defaults(run=report)
+    return run(parser, argv)
 
 
 if __name__ == "__main__":

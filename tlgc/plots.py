@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+from scenes.command_line import save_figure as _save_figure  # noqa: E402
 from scenes.plotting import set_equal_axes_3d  # noqa: E402
 
 from .cylinder import GeneralizedCylinder  # noqa: E402
@@ -47,17 +48,21 @@ def plot_cylinder(cyl: GeneralizedCylinder, reproductions: np.ndarray | None = N
         fig = ax.figure
     step = max(1, cyl.num_sections // num_rings)
     x, y, z = cyl.surface(num_angles, step)
-    ax.plot_surface(x, y, z, color="tab:cyan", alpha=0.18, linewidth=0.2, edgecolor="tab:cyan",
-                    rstride=1, cstride=1, shade=False)
+    # draw in call order (surface first, paths over it): mplot3d's depth sorting would hide
+    # the paths inside the cylinder behind its front faces
+    ax.computed_zorder = False
+    ax.plot_surface(x, y, z, color="tab:cyan", alpha=0.12, linewidth=0.15, edgecolor="tab:cyan",
+                    rstride=1, cstride=1, shade=False, zorder=1)
+    ax.plot([], [], color="tab:cyan", alpha=0.4, lw=6, label="cylinder surface")
     if cyl.demonstrations is not None:
         for m, demo in enumerate(cyl.demonstrations):
-            ax.plot(*demo.T, color="tab:red", lw=1.2, label="demonstrations" if m == 0 else None)
-    ax.plot(*cyl.directrix.T, color="tab:blue", lw=2.0, label="directrix")
+            ax.plot(*demo.T, color="tab:red", lw=1.2, label="demonstrations" if m == 0 else None, zorder=3)
+    ax.plot(*cyl.directrix.T, color="tab:blue", lw=2.0, label="directrix", zorder=4)
     if reps is not None:
         for r, rep in enumerate(reps):
-            ax.plot(*rep.T, color="tab:purple", lw=0.8, alpha=0.8,
-                    label="reproductions" if r == 0 else None)
-        ax.scatter(*reps[:, 0].T, color="k", s=8, label="starts")
+            ax.plot(*rep.T, color="tab:purple", lw=0.9, alpha=0.9,
+                    label="reproductions" if r == 0 else None, zorder=5)
+        ax.scatter(*reps[:, 0].T, color="k", s=8, label="starts", zorder=6)
     set_equal_axes_3d(ax, np.stack([x, y, z], axis=-1))
     ax.set_title(title or f"generalized cylinder ({cyl.cross_section} cross-sections)")
     ax.legend(loc="upper left", fontsize=8)
@@ -100,6 +105,8 @@ def plot_cross_sections(cyl: GeneralizedCylinder, indices: Sequence[int],
 
 
 def save_figure(fig: Figure, path: str | PathLike, dpi: int = 120) -> None:
-    """Write ``fig`` as PNG to ``path`` and close it."""
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
+    """Write ``fig`` as PNG to ``path`` (atomically, no label clipped) and close it."""
+    try:
+        _save_figure(fig, path, dpi=dpi)
+    finally:
+        plt.close(fig)

@@ -1,0 +1,30 @@
+"""Progress bars (tqdm) for work that can take more than a couple of seconds.
+
+The library calls :func:`progress`; whether bars are drawn is decided in one place,
+:func:`set_progress`: ``None`` (default) draws them only when stderr is a terminal, ``False``
+never (the command lines' ``-q``), ``True`` always. Bars go to stderr, never stdout.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+from tqdm.auto import tqdm
+
+_state: dict[str, bool | None] = {"enabled": None}
+
+
+def set_progress(enabled: bool | None) -> bool | None:
+    """Draw progress bars always (True), never (False) or on a terminal only (None); returns
+    the previous setting."""
+    previous, _state["enabled"] = _state["enabled"], enabled
+    return previous
+
+
+def progress(iterable: Iterable[Any] | None = None, *, description: str, total: float | None = None,
+             unit: str = "it") -> Any:
+    """A tqdm bar over ``iterable`` (or a manual bar: ``bar.update(n)``), ``total`` steps of
+    ``unit``; use as a context manager for manual bars so they close."""
+    enabled = _state["enabled"]
+    return tqdm(iterable, desc=description, total=total, unit=unit, leave=False,
+                disable=None if enabled is None else not enabled, dynamic_ncols=True)
