@@ -149,20 +149,22 @@ def run_problem(data: dict[str, Any], base: str, trajectory: bool = True) -> dic
     problem (the error is recorded). ``base``: folder of relative paths. Runs in workers."""
     from clamp.planner import plan
     from scenes.errors import InvalidArgumentError
+    from scenes.threads import single_blas_thread
     t0 = time.perf_counter()
     problem = Problem.from_dict(data)
     try:
-        kwargs = resolve(problem, Path(base))
-        t_load = time.perf_counter() - t0
-        robot = kwargs["robot"]
-        result = plan(**kwargs, covariance=False)
+        with single_blas_thread():  # one BLAS thread per worker: workers are the parallelism
+            kwargs = resolve(problem, Path(base))
+            t_load = time.perf_counter() - t0
+            robot = kwargs["robot"]
+            result = plan(**kwargs, covariance=False)
+            traj = result.to_joint_trajectory(robot).to_dict() if trajectory else None
     except Exception as exc:  # recorded, the batch goes on
         error = {"type": type(exc).__name__, "message": str(exc)}
         extra = {} if isinstance(exc, InvalidArgumentError) else {
             "traceback": traceback.format_exc(limit=-4)}
         return _record(problem, status="error", error=error,
                        timings={"wall": time.perf_counter() - t0}, **extra)
-    traj = result.to_joint_trajectory(robot).to_dict() if trajectory else None
     metrics = {"iterations": int(result.iterations), "stop_reason": result.stop_reason,
                "final_error": float(result.final_error),
                "plausibility": float(result.plausibility)}

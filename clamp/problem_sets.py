@@ -133,8 +133,10 @@ def scene_benchmark(count: int, robot: str = "jaco", seed: int = 0, *,
     demonstrations, seed 0, ``num_points`` states); start = the prior's mean start + a uniform
     offset of up to ``start_offset`` m per axis; goal = the prior's mean end. Feasible problems
     (``expected="feasible"``) get ``obstacles`` (min, max) random boxes / spheres / cylinders
-    centred within ``near`` m of a point of the mean path between 20 % and 80 % of it,
-    resampled until the start and goal are clear (module docstring). A share
+    centred within ``near`` m of a point of the mean path between 20 % and 80 % of it, each
+    drawn again until it leaves the start and goal clear (module docstring; the distance
+    bound grows to 2 ``near`` over the tries, for arms whose body covers much of the path at
+    the start or goal, e.g. the Sawyer's wrist over reach_from_above). A share
     ``impossible_share`` (every k with ``floor((k+1) s) > floor(k s)``) instead get one obstacle
     over the start or the goal (alternately), ``expected="impossible"``, ``meta["impossible"]``
     "start" / "goal". Ids ``scenes/<robot>/<k>``.
@@ -166,20 +168,23 @@ def scene_benchmark(count: int, robot: str = "jaco", seed: int = 0, *,
         else:
             expected = "feasible"
             lo, hi = int(0.2 * len(path)), int(0.8 * len(path))
-            for _ in range(_MAX_TRIES):
-                shapes = []
-                for _ in range(rng.integers(obstacles[0], obstacles[1] + 1)):
+            ends = np.stack([start, goal])
+            shapes = []
+            for _ in range(rng.integers(obstacles[0], obstacles[1] + 1)):
+                for attempt in range(_MAX_TRIES):   # drawn until it leaves the ends clear
                     direction = rng.normal(size=3)
+                    reach = near * (1.0 + attempt / _MAX_TRIES)
                     centre = path[rng.integers(lo, hi)] + direction / np.linalg.norm(direction) \
-                        * rng.uniform(0.0, near)
-                    shapes.append(_random_obstacle(rng, centre))
-                ends = np.stack([start, goal])
-                if (min(ob.distance(ends).min() for ob in shapes) >= CLEAR_POSITION
-                        and _configurations_clear(arm, shapes, ends)):
-                    break
-            else:
-                raise InvalidParameterError(f"scene_benchmark: no clear scene for problem {k} "
-                                            f"after {_MAX_TRIES} tries (near={near})")
+                        * rng.uniform(0.0, reach)
+                    shape = _random_obstacle(rng, centre)
+                    if (shape.distance(ends).min() >= CLEAR_POSITION
+                            and _configurations_clear(arm, [shape], ends)):
+                        shapes.append(shape)
+                        break
+                else:
+                    raise InvalidParameterError(f"scene_benchmark: no obstacle near the path of "
+                                                f"problem {k} leaves its start and goal clear "
+                                                f"after {_MAX_TRIES} tries (near={near} m)")
         out.append(make_problem(f"scenes/{robot}/{k:04d}", prior_spec, robot, start,
                                 scene=Scene(shapes), goal=goal, config=config,
                                 expected=expected, meta=meta))
