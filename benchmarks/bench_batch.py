@@ -6,7 +6,7 @@ seeded starts in the demonstrations' start region, with the README's box. Prints
 
 - the start-up time of a pool of 1 and of 2 workers (spawn + import), measured apart;
 - per executor: batch wall time, throughput (plans/s), median / p95 of each plan's own time
-  (``timings["total"]``); anchors: throughput 2 workers / 1 worker (target >= 1.8 on two
+  (``timings["total"]``), median CPU time per problem (``timings["cpu"]``); anchors: throughput 2 workers / 1 worker (target >= 1.8 on two
   free cores), median plan time in the 2-worker pool / in this process (target <= 1.15);
 - memory: RSS after problem 20 and after problem ``--memory-plans`` of an in-process batch,
   each problem with a new random box (target: within 20 MB).
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import os
 import time
 from pathlib import Path
 
@@ -26,13 +27,15 @@ from harness import print_environment
 from soak_clamp import rss_mb
 
 
-def _batch(problems, executor) -> tuple[float, np.ndarray]:
+def _batch(problems, executor) -> tuple[float, np.ndarray, np.ndarray]:
+    """Wall time of the batch [s], each plan's own time and each problem's CPU time [s]."""
     from clamp.batch import plan_many
     t0 = time.perf_counter()
     records = list(plan_many(problems, executor, trajectories="none"))
     wall = time.perf_counter() - t0
     assert len(records) == len(problems) and all(r["status"] == "done" for r in records)
-    return wall, np.array([r["timings"]["total"] for r in records])
+    return (wall, np.array([r["timings"]["total"] for r in records]),
+            np.array([r["timings"]["cpu"] for r in records]))
 
 
 def _memory(count: int, seed: int) -> None:
@@ -85,15 +88,18 @@ def main() -> None:
     print(f"\n{len(problems)} problems (box_closing, T = 250, Jaco, README box); timings noisy on "
           f"a shared machine")
     print(f"{'executor':<14} {'start-up s':>10} {'wall s':>8} {'plans/s':>8} {'median ms':>10} "
-          f"{'p95 ms':>8}")
-    for name, (startup, wall, times) in rows.items():
+          f"{'p95 ms':>8} {'CPU ms':>8}")
+    for name, (startup, wall, times, cpu) in rows.items():
         print(f"{name:<14} {startup:>10.2f} {wall:>8.2f} {len(problems) / wall:>8.1f} "
-              f"{1e3 * np.median(times):>10.1f} {1e3 * np.percentile(times, 95):>8.1f}")
+              f"{1e3 * np.median(times):>10.1f} {1e3 * np.percentile(times, 95):>8.1f} "
+              f"{1e3 * np.median(cpu):>8.1f}")
     one, two, local = rows["1 worker(s)"], rows["2 worker(s)"], rows["in-process"]
     print(f"throughput 2 workers / 1 worker: {one[1] / two[1]:.2f}x (target >= 1.8)")
     print(f"throughput 2 workers / in-process: {local[1] / two[1]:.2f}x")
     print(f"median plan time, 2 workers / in-process: {np.median(two[2]) / np.median(local[2]):.2f}"
-          f" (target <= 1.15)")
+          f" (target <= 1.15); median CPU time per problem: {np.median(two[3]) / np.median(local[3]):.2f}")
+    print(f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores: with other work on "
+          f"the cores, wall-time ratios measure the contention, CPU-time ratios the overhead)")
     if args.memory_plans:
         print(f"\nmemory: in-process batch of {args.memory_plans} problems, a new box each")
         _memory(args.memory_plans, args.seed)

@@ -17,7 +17,8 @@ any ``concurrent.futures.Executor`` or a Dask cluster, streaming one JSON line p
 - ``verdict``: ``PlanResult.verdict()`` (min clearance, start / goal errors, limits);
   ``metrics``: iterations, stop reason, final error, plausibility, start IK error;
 - ``timings`` [s]: the plan's own (``total``, ``build``, ``optimize``, ...) plus ``load``
-  (robot, prior, scene, config) and ``wall`` (all of the worker's time for the problem);
+  (robot, prior, scene, config), ``wall`` (all of the worker's time for the problem) and
+  ``cpu`` (the CPU time of the worker's thread for it: wall time less waiting for a core);
 - ``attempts``, ``worker`` ("host:pid");
 - ``trajectory``: the plan as a ``robots.JointTrajectory`` JSON object (``trajectories=
   "inline"``), the path of that file (``trajectories=DIR``) or null (``"none"``).
@@ -150,7 +151,7 @@ def run_problem(data: dict[str, Any], base: str, trajectory: bool = True) -> dic
     from clamp.planner import plan
     from scenes.errors import InvalidArgumentError
     from scenes.threads import single_blas_thread
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.thread_time()
     problem = Problem.from_dict(data)
     try:
         with single_blas_thread():  # one BLAS thread per worker: workers are the parallelism
@@ -169,7 +170,7 @@ def run_problem(data: dict[str, Any], base: str, trajectory: bool = True) -> dic
                "final_error": float(result.final_error),
                "plausibility": float(result.plausibility)}
     timings = {**{k: float(v) for k, v in result.timings.items()}, "load": t_load,
-               "wall": time.perf_counter() - t0}
+               "wall": time.perf_counter() - t0, "cpu": time.thread_time() - cpu0}
     return _record(problem, status="done", success=bool(result.success),
                    reasons=list(result.reasons), verdict=result.verdict(), metrics=metrics,
                    timings=timings, trajectory=traj)
@@ -400,8 +401,8 @@ class ResultsFile:
 
 
 def pending_problems(problems: Iterable[Problem], out: str | Path | None) -> list[Problem]:
-    """The problems still to plan: ids checked unique, repeated problems once, and (with
-    ``out``) those whose hash the output file already holds left out."""
+    """The problems still to plan: ids checked unique (so hashes are too) and, with ``out``,
+    those whose hash the output file already holds left out."""
     problems = list(problems)
     for k, problem in enumerate(problems):
         if not isinstance(problem, Problem):
@@ -441,13 +442,7 @@ def plan_many(problems: Iterable[Problem], executor: Any = None, *, out: str | P
     base = str(Path(base_dir if base_dir is not None else os.getcwd()).resolve())
     results = ResultsFile(out) if out is not None else None
     runner, finish = _runner(executor)
-    seen: set[str] = set()
-    queue = []
-    for problem in todo:           # a problem given twice is planned once
-        if problem.hash not in seen:
-            seen.add(problem.hash)
-            queue.append(problem)
-    queue.reverse()                # pop() from the end keeps the given order
+    queue = todo[::-1]             # pop() from the end keeps the given order
     in_flight: dict[Any, tuple[Problem, int]] = {}
     try:
         while queue or in_flight:
