@@ -121,10 +121,9 @@ def resolve(problem: Problem, base: Path) -> dict[str, Any]:
 
     from clamp.config import PlannerConfig
     from scenes import Scene
-    prior_spec, robot_spec = problem.to_dict()["prior"], problem.to_dict()["robot"]
-    key = str(base)
-    prior = _cached("prior", (problem.prior, key), lambda: load_prior(prior_spec, base))
-    robot = _cached("robot", (problem.robot, key), lambda: load_robot(robot_spec, base))
+    data, key = problem.to_dict(), str(base)
+    prior = _cached("prior", (problem.prior, key), lambda: load_prior(data["prior"], base))
+    robot = _cached("robot", (problem.robot, key), lambda: load_robot(data["robot"], base))
     scene = problem.scene_data()
     if isinstance(scene, str):
         scene = Scene.load(_path(scene, base))
@@ -188,7 +187,9 @@ def _worker_ready(delay: float = 0.0) -> int:
 class LocalPool:
     """``workers`` local worker processes (spawned: safe with threads, CUDA, macOS), restarted
     when one dies. :meth:`start` starts them ahead of the batch and returns how long that
-    took; :attr:`pids` are the workers' process ids; :attr:`restarts` counts restarts."""
+    took; :attr:`pids` are the workers' process ids; :attr:`restarts` counts restarts.
+    Workers are spawned (they import the main module afresh): a script that uses a pool needs
+    the ``if __name__ == "__main__":`` guard."""
 
     def __init__(self, workers: int):
         if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:

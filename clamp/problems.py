@@ -39,6 +39,7 @@ import hashlib
 import json
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -227,7 +228,7 @@ class Problem:
         return Problem.from_dict(data)
 
     # ------------------------------------------------------------------- identity
-    @property
+    @cached_property
     def hash(self) -> str:
         """SHA-256 (hex, first 16 digits) of the canonical JSON of the problem."""
         text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
