@@ -70,6 +70,9 @@ def run_arm(name: str, count: int, seed: int, executor, out: Path | None) -> Non
     print(f"feasible: planner success {len(solved)} / {len(feasible)} "
           f"({100 * len(solved) / max(1, len(feasible)):.1f} %), collision-free on the URDF "
           f"geometry {len(clean)} / {len(feasible)} ({100 * len(clean) / max(1, len(feasible)):.1f} %)")
+    reasons = summarize(feasible)["reasons"]
+    print("failure reasons on the feasible problems: "
+          + "; ".join(f"{key} {n}" for key, n in reasons.items()))
     print(f"false successes (planner success, URDF geometry in collision): {len(false)} "
           f"({sum(r['expected'] == 'feasible' for r in false)} feasible, "
           f"{sum(r['expected'] == 'impossible' for r in false)} impossible)")
