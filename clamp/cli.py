@@ -250,6 +250,8 @@ def parser() -> argparse.ArgumentParser:
     user.add_argument("--translate", type=number, nargs=3, default=None,
                       help="move the demonstrations by dx dy dz [m] before learning")
     user.set_defaults(run=run_plan)
+    from clamp.batch_cli import add_batch_parser
+    add_batch_parser(sub)
     return main
 
 
