@@ -21,7 +21,7 @@ from scipy.interpolate import CubicSpline
 from .demonstrations import Demonstrations
 from .errors import InvalidArgumentError, UnknownSkillError
 from .obstacles import Box, Obstacle
-from .validation import as_count, as_positive
+from .validation import as_count, as_positive, as_seed
 
 
 @dataclass(frozen=True)
@@ -79,7 +79,7 @@ SKILLS: tuple[str, ...] = ("box_closing", "reach_from_above", "needle_threading"
 
 def skill_spec(skill: str) -> SkillSpec:
     """Waypoints and spreads of a named skill; UnknownSkillError lists the valid names."""
-    if skill not in _SPECS:
+    if not isinstance(skill, str) or skill not in _SPECS:
         raise UnknownSkillError(f"skill: unknown {skill!r}; expected one of {list(SKILLS)}")
     return _SPECS[skill]
 
@@ -95,7 +95,7 @@ def make_demonstrations(skill: str, num_demos: int = 6, num_points: int = 250, d
     M = as_count(num_demos, "num_demos", 2, InvalidArgumentError)
     T = as_count(num_points, "num_points", 4, InvalidArgumentError)
     step = as_positive(dt, "dt")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(as_seed(seed, "seed"))
     duration = (T - 1) * step
     chord = np.linalg.norm(np.diff(spec.waypoints, axis=0), axis=1)
     knots = np.concatenate([[0.0], np.cumsum(chord)]) / chord.sum()
