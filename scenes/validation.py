@@ -262,5 +262,5 @@ def as_file(x: Any, name: str, error: type[ValueError],
     if path.is_dir():
         raise error(f"{name}: {path} is a directory, expected a file")
     if not path.is_file():
-        raise error(f"{name}: {path}: no such file")
+        raise error(f"{name}: {path} does not exist (no such file)")
     return path
