@@ -20,14 +20,16 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
 from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 from scipy import stats
 
-from clamp.errors import InvalidParameterError, PriorFileError, ShapeError
+from clamp.errors import ArgumentTypeError, InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time
+from scenes.validation import as_file, as_path
 
 FILE_FORMAT = "clamp-linear-gaussian-prior/1"
 _ARRAY_KEYS = ("time", "Phi", "u", "Q", "mean0", "cov0")
@@ -299,7 +301,7 @@ class LinearGaussianPrior:
     # ------------------------------------------------------------------ persistence
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the prior to an ``.npz`` file (suffix added by numpy if missing)."""
-        path = Path(path)
+        path = as_path(path, "path", ArgumentTypeError)
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
         np.savez(path, format=np.array(FILE_FORMAT), kind=np.array(self.kind),
@@ -315,13 +317,11 @@ class LinearGaussianPrior:
         ``LinearGaussianPrior.load`` returns a :class:`WorkspacePrior` for workspace files;
         ``WorkspacePrior.load`` rejects files of any other kind. Raises PriorFileError.
         """
-        path = Path(path)
-        if not path.is_file():
-            raise PriorFileError(f"path: no prior file at '{path}'")
+        path = as_file(path, "path", PriorFileError, ArgumentTypeError)
         try:
             with np.load(path, allow_pickle=False) as data:
                 contents = {key: data[key] for key in data.files}
-        except (OSError, ValueError, EOFError) as exc:
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
             raise PriorFileError(f"path: '{path}' is not a readable .npz prior file ({exc})") \
                 from None
         fmt = str(contents.get("format", ""))
@@ -339,8 +339,11 @@ class LinearGaussianPrior:
                                  f"'{target.default_kind}'")
         try:
             info = json.loads(str(contents["info"]))
-        except json.JSONDecodeError as exc:
+        except (json.JSONDecodeError, RecursionError) as exc:
             raise PriorFileError(f"path: '{path}' has unreadable info ({exc})") from None
+        if not isinstance(info, dict):
+            raise PriorFileError(f"path: '{path}' has info {type(info).__name__}, expected a JSON "
+                                 "object of learning settings")
         try:
             return target(*(contents[k] for k in _ARRAY_KEYS), kind=kind, info=info,
                           state_names=tuple(str(s) for s in contents["state_names"]))
