@@ -109,9 +109,10 @@ def as_shaped(x: Any, name: str, shape: Sequence[int | str | None],
 
 
 def as_trailing(x: Any, name: str, last_dims: tuple[int, ...], max_leading: int | None = None,
-                error: Errors = InvalidArgumentError) -> np.ndarray:
+                error: Errors = InvalidArgumentError, limit: float | None = None) -> np.ndarray:
     """Finite float64 array whose trailing shape is ``last_dims``, with at most
-    ``max_leading`` leading (batch) dimensions (None: any number)."""
+    ``max_leading`` leading (batch) dimensions (None: any number), entries of magnitude <=
+    ``limit`` when given."""
     kinds = _kinds(error)
     arr = _numeric(x, name, error)
     dims = ", ".join(str(d) for d in last_dims)
@@ -125,7 +126,7 @@ def as_trailing(x: Any, name: str, last_dims: tuple[int, ...], max_leading: int 
     if (arr.ndim < k or arr.shape[arr.ndim - k:] != tuple(last_dims)
             or (max_leading is not None and arr.ndim - k > max_leading)):
         raise kinds.shape(f"{name}: expected shape {expected}, got {arr.shape}")
-    return _finite(arr, name, error)
+    return _finite(arr, name, error, limit)
 
 
 def as_points(x: Any, name: str, error: Errors = InvalidArgumentError) -> np.ndarray:
@@ -203,9 +204,9 @@ def as_generator(rng: Any, name: str = "rng", default_seed: int | None = None,
     if rng is None and default_seed is not None:
         return np.random.default_rng(default_seed)
     if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
-        return np.random.default_rng(int(rng))
-    allowed = "a numpy Generator, an int seed or None" if default_seed is not None else \
-        "a numpy.random.Generator or an integer seed"
+        return np.random.default_rng(as_seed(rng, name, error))
+    allowed = "a numpy Generator, a non-negative int seed or None" if default_seed is not None \
+        else "a numpy.random.Generator or a non-negative integer seed"
     raise _kinds(error).value(f"{name}: expected {allowed}, got {type(rng).__name__}")
 
 
