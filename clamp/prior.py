@@ -344,9 +344,13 @@ class LinearGaussianPrior:
         if not isinstance(info, dict):
             raise PriorFileError(f"path: '{path}' has info {type(info).__name__}, expected a JSON "
                                  "object of learning settings")
+        names = contents["state_names"]
+        if names.ndim != 1 or names.dtype.kind not in "US":
+            raise PriorFileError(f"path: '{path}' has state_names of dtype {names.dtype} and shape "
+                                 f"{names.shape}, expected a list of names")
         try:
             return target(*(contents[k] for k in _ARRAY_KEYS), kind=kind, info=info,
-                          state_names=tuple(str(s) for s in contents["state_names"]))
+                          state_names=tuple(str(s) for s in names))
         except (ShapeError, InvalidParameterError, ValueError) as exc:
             raise PriorFileError(f"path: '{path}' holds an invalid prior: {exc}") from None
 

@@ -12,7 +12,7 @@ from .alignment import dtw_warp
 from .errors import ArgumentTypeError, InvalidDemonstrationsError, InvalidObstacleError
 from .obstacles import Obstacle, obstacle_from_dict
 from .validation import (MAX_COORDINATE, as_array, as_count, as_path, as_positive, as_sequence,
-                         as_vector)
+                         as_time, as_vector)
 
 #: Duration (s) given to demonstrations recorded without time stamps (e.g. TLGC smoothData).
 NOMINAL_DURATION = 10.0
@@ -27,11 +27,7 @@ def _check_time(time: Any, name: str, length: int) -> np.ndarray:
         t = t.reshape(-1)
     if t.shape != (length,):
         raise _E(f"{name}: expected shape ({length},) to match the positions, got {t.shape}")
-    if np.any(np.diff(t) <= 0):
-        first = int(np.argmax(np.diff(t) <= 0))
-        raise _E(f"{name}: expected strictly increasing time stamps, "
-                 f"but {name}[{first + 1}] = {t[first + 1]} <= {name}[{first}] = {t[first]}")
-    return t
+    return as_time(t, name, length, _E)
 
 
 def _check_obstacles(obstacles: Any, count: int) -> list[list[Obstacle]] | None:
@@ -209,7 +205,7 @@ class Demonstrations:
         pos = np.empty((len(paths), T, 3))
         vel = np.empty_like(pos)
         for m, (p, t) in enumerate(zip(paths, stamps)):
-            s = (t - t[0]) / durations[m]
+            s = as_time((t - t[0]) / durations[m], f"times[{m}] / duration", len(t), _E)
             spline = CubicSpline(s, p, axis=0)
             pos[m] = spline(phase)
             if velocities is None:

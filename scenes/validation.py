@@ -185,14 +185,29 @@ def as_count(x: Any, name: str, minimum: int = 1, error: Errors = InvalidArgumen
 
 def as_time(x: Any, name: str, length: int | None = None,
             error: Errors = InvalidArgumentError) -> np.ndarray:
-    """A strictly increasing finite time vector (T,) in seconds, T >= 2."""
+    """A strictly increasing finite time vector (T,) in seconds, T >= 2, whose steps are at
+    least :data:`TIME_RESOLUTION` times its span (closer stamps cannot be told apart by the
+    splines and regressions downstream)."""
     kinds = _kinds(error)
     t = as_shaped(x, name, (length,), error)
     if t.size < 2:
         raise kinds.shape(f"{name}: expected at least 2 time stamps, got {t.size}")
-    if np.any(np.diff(t) <= 0):
-        raise kinds.value(f"{name}: expected strictly increasing time stamps")
+    step = np.diff(t)
+    if np.any(step <= 0):
+        k = int(np.argmax(step <= 0))
+        raise kinds.value(f"{name}: expected strictly increasing time stamps, but {name}[{k + 1}] "
+                          f"= {t[k + 1]} <= {name}[{k}] = {t[k]}")
+    span = float(t[-1] - t[0])
+    if not np.isfinite(span) or np.any(step < TIME_RESOLUTION * span):
+        k = int(np.argmin(step))
+        raise kinds.value(f"{name}: time stamps {name}[{k}] = {t[k]} and {name}[{k + 1}] = "
+                          f"{t[k + 1]} are too close to tell apart (step {step[k]:.3g} s over a "
+                          f"span of {span:.4g} s; expected steps >= {TIME_RESOLUTION:g} x span)")
     return t
+
+
+#: Smallest time step accepted by :func:`as_time`, relative to the span of the time vector.
+TIME_RESOLUTION = 1e-9
 
 
 def as_generator(rng: Any, name: str = "rng", default_seed: int | None = None,
