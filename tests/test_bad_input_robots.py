@@ -92,6 +92,9 @@ CATALOGUE: list[Case] = [
     Case("ik-trajectory-shape", lambda fx: fx.robot.ik_trajectory(np.zeros((4, 2))), RobotError, "targets"),
     Case("ik-trajectory-tol", lambda fx: fx.robot.ik_trajectory(np.zeros((4, 3)), tol=-1.0), RobotError,
          "tol"),
+    Case("spheres-setter-type", lambda fx: setattr(load_robot("sawyer"), "spheres", 3), RobotError, "spheres"),
+    Case("spheres-setter-missing", lambda fx: setattr(load_robot("sawyer"), "spheres", fx.tmp / "no.json"),
+         SphereFileError, "no.json"),
     # sphere models
     Case("sphere-model-radii", lambda fx: SphereModel(("a",), np.zeros((1, 3)), [-0.1]), IA, "radii"),
     Case("sphere-model-centres", lambda fx: SphereModel(("a",), np.zeros((2, 3)), [0.1]), IA, "centres"),

@@ -147,6 +147,9 @@ CATALOGUE: list[Case] = [
     Case("sdf-estimate-cell", lambda fx: SignedDistanceField.estimate_build_bytes(
         [[0, 0, 0], [1, 1, 1]], 0), IA, "cell_size"),
     Case("sdf-query-points", lambda fx: Scene([BOX]).sdf().query(np.zeros((2, 4))), IA, "points"),
+    Case("scene-save-path-type", lambda fx: Scene([BOX]).save(None), E, "path"),
+    Case("sdf-distance-points", lambda fx: Scene([BOX]).sdf().distance([[np.nan, 0, 0]]), IA, "points"),
+    Case("contains-points", lambda fx: BOX.contains(np.zeros((2, 2))), IA, "points"),
     Case("scene-load-missing", lambda fx: Scene.load(fx.tmp / "none.json"), SF, "none.json"),
     Case("scene-load-directory", lambda fx: Scene.load(fx.tmp), SF, "directory"),
     Case("scene-load-not-json", lambda fx: Scene.load(_write(fx, "bad.json", "{obstacles")), SF,
