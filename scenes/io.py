@@ -153,9 +153,9 @@ def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], 
         raise InvalidDemonstrationsError(f"expected at least 2 demonstrations, got {len(positions)}")
     for m, (p, t) in enumerate(zip(positions, times)):
         if len(p) < 2:
-            raise InvalidDemonstrationsError(f"demonstration {m + 1} has {len(p)} sample(s), "
+            raise InvalidDemonstrationsError(f"demonstrations[{m}]: has {len(p)} sample(s), "
                                              "expected at least 2 (a trajectory needs two time stamps)")
-        as_time(t, f"time of demonstration {m + 1}", len(p), InvalidDemonstrationsError)
+        as_time(t, f"demonstrations[{m}].time", len(p), InvalidDemonstrationsError)
     same_time = all(len(t) == len(times[0]) and np.array_equal(t, times[0]) for t in times)
     if same_time and all(len(p) == len(times[0]) for p in positions):
         pos = np.stack(positions)
