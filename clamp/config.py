@@ -11,7 +11,8 @@ from typing import Any
 
 from clamp.errors import InvalidParameterError
 from clamp.initialisation import INITIALISATIONS
-from clamp.validation import as_count, as_scalar
+from clamp.validation import as_bool, as_count, as_scalar
+from scenes.sdf import DEFAULT_CELL_SIZE
 
 
 
@@ -105,25 +106,51 @@ class CheckConfig:
     velocity_tolerance: float = 1e-3
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class PlannerConfig:
-    """All planner settings: ``model``, ``optimizer`` and ``checks`` groups."""
+    """All planner settings: ``model``, ``optimizer`` and ``checks`` groups.
 
-    model: ModelConfig = field(default_factory=ModelConfig)
-    optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
-    checks: CheckConfig = field(default_factory=CheckConfig)
+    ``PlannerConfig(sigma_obs=0.01)`` is ``PlannerConfig().with_(sigma_obs=0.01)``: any field
+    of any group by name. Every configuration is checked when made (InvalidParameterError
+    naming the field).
+    """
 
-    def with_(self, **changes: Any) -> "PlannerConfig":
-        """A copy with fields of any group changed by name, e.g. ``with_(sigma_obs=0.005)``."""
-        groups = {"model": self.model, "optimizer": self.optimizer, "checks": self.checks}
-        updates: dict[str, dict[str, Any]] = {g: {} for g in groups}
+    model: ModelConfig
+    optimizer: OptimizerConfig
+    checks: CheckConfig
+
+    def __init__(self, model: ModelConfig | None = None, optimizer: OptimizerConfig | None = None,
+                 checks: CheckConfig | None = None, **changes: Any) -> None:
+        if isinstance(optimizer, str):   # PlannerConfig(optimizer="gtsam"): the optimizer's name
+            optimizer, changes = None, {**changes, "optimizer": optimizer}
+        self._assign({"model": ModelConfig() if model is None else model,
+                      "optimizer": OptimizerConfig() if optimizer is None else optimizer,
+                      "checks": CheckConfig() if checks is None else checks}, changes)
+
+    def _assign(self, groups: dict[str, Any], changes: dict[str, Any]) -> None:
+        """Set the three groups with ``changes`` (field name -> value) applied, then validate."""
+        for group, value in groups.items():
+            if not isinstance(value, _GROUPS[group]):
+                raise InvalidParameterError(f"config.{group}: expected {_GROUPS[group].__name__}, "
+                                            f"got {type(value).__name__}")
         owner = {f.name: g for g, obj in groups.items() for f in fields(obj)}
+        updates: dict[str, dict[str, Any]] = {g: {} for g in groups}
         for name, value in changes.items():
             if name not in owner:
                 raise InvalidParameterError(f"config field: unknown {name!r}; valid: "
                                             f"{', '.join(sorted(owner))}")
             updates[owner[name]][name] = value
-        return PlannerConfig(**{g: replace(obj, **updates[g]) for g, obj in groups.items()})
+        for group, value in groups.items():
+            object.__setattr__(self, group, replace(value, **updates[group]) if updates[group]
+                               else value)
+        self.validate()
+
+    def with_(self, **changes: Any) -> "PlannerConfig":
+        """A copy with fields of any group changed by name, e.g. ``with_(sigma_obs=0.005)``."""
+        new = object.__new__(PlannerConfig)
+        new._assign({"model": self.model, "optimizer": self.optimizer, "checks": self.checks},
+                    changes)
+        return new
 
     @classmethod
     def reference(cls, **changes: Any) -> "PlannerConfig":
@@ -141,22 +168,23 @@ class PlannerConfig:
 
     def validate(self) -> "PlannerConfig":
         """Check every field; raises InvalidParameterError naming the bad one."""
-        for group in ("model", "optimizer", "checks"):
-            if not isinstance(getattr(self, group), _GROUPS[group]):
-                raise InvalidParameterError(
-                    f"config.{group}: expected {_GROUPS[group].__name__}, got "
-                    f"{type(getattr(self, group)).__name__}")
         m, o, c = self.model, self.optimizer, self.checks
         for name in ("epsilon", "limit_margin", "velocity_margin"):
             as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
         for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
-                     "sdf_cell_size", "conditioning_sigma"):
+                     "conditioning_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", strictly_positive=True)
-        for name in ("workspace_start", "fix_start_configuration", "obstacle_factors",
-                     "joint_limits", "condition_on_targets"):
-            if not isinstance(getattr(m, name), bool):
-                raise InvalidParameterError(f"config.model.{name}: expected True or False, got "
-                                            f"{getattr(m, name)!r}")
+        as_scalar(m.sdf_cell_size, "config.model.sdf_cell_size", strictly_positive=True,
+                  maximum=DEFAULT_CELL_SIZE)
+        for group, name in (("model", "workspace_start"), ("model", "fix_start_configuration"),
+                            ("model", "obstacle_factors"), ("model", "joint_limits"),
+                            ("model", "condition_on_targets"),
+                            ("optimizer", "blend_start_offset")):
+            as_bool(getattr(getattr(self, group), name), f"config.{group}.{name}")
+        pair = o.straight_line_configurations
+        if pair is not None and (not isinstance(pair, (tuple, list)) or len(pair) != 2):
+            raise InvalidParameterError("config.optimizer.straight_line_configurations: expected "
+                                        f"None or a pair of configurations (n,), got {pair!r:.60}")
         for name in ("relative_error_tol", "absolute_error_tol"):
             as_scalar(getattr(o, name), f"config.optimizer.{name}", minimum=0.0)
         for name in ("lambda_initial", "lambda_upper_bound"):

@@ -30,6 +30,16 @@ class InsufficientDemonstrationsError(ClampError):
     """Too few demonstrations to learn the requested model."""
 
 
+class DegenerateDemonstrationsError(InsufficientDemonstrationsError):
+    """The demonstrations do not vary at some step (identical demonstrations): a prior learned
+    from them would claim certainty it does not have."""
+
+
+class ArgumentTypeError(ClampError, TypeError):
+    """An argument of the wrong kind altogether (e.g. a dict where a PlannerConfig is
+    expected, a str where a signed distance field is expected); also a TypeError."""
+
+
 class PriorFileError(ClampError):
     """A saved prior file is missing, unreadable or inconsistent."""
 

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from clamp.validation import as_array, as_count, as_scalar
+
 INITIALISATIONS = ("prior_mean", "straight_line")
 
 
@@ -61,7 +63,12 @@ def joint_velocities(q: np.ndarray, dt: float) -> np.ndarray:
 def prior_mean_initialisation(robot, mean_path: np.ndarray, dt: float, q_start: np.ndarray,
                               goal: np.ndarray | None = None, blend: bool = True,
                               tolerance: float = 1e-4) -> Initialisation:
-    """IK of the shifted mean path, seeded at ``q_start`` (n,) whose end effector is the start."""
+    """IK of the shifted mean path (T, 3) [m], seeded at ``q_start`` (n,) whose end effector is
+    the start; goal (3,) [m] or None; dt [s]."""
+    mean_path = as_array(mean_path, "mean_path", (None, 3))
+    dt = as_scalar(dt, "dt", strictly_positive=True)
+    q_start = as_array(q_start, "q_start", (robot.n,))
+    goal = None if goal is None else as_array(goal, "goal", (3,))
     start = robot.fk(q_start)
     path = shifted_mean_path(mean_path, start, goal, blend)
     ik = robot.ik_trajectory(path, seed=q_start, tol=tolerance)
@@ -74,7 +81,12 @@ def prior_mean_initialisation(robot, mean_path: np.ndarray, dt: float, q_start: 
 
 def straight_line_initialisation(robot, q_first: np.ndarray, q_last: np.ndarray, T: int,
                                  dt: float) -> Initialisation:
-    """q_i on the straight line from q_first to q_last (n,), constant velocity."""
+    """q_i on the straight line from q_first to q_last (n,) [rad], constant velocity; T >= 2
+    states dt [s] apart."""
+    q_first = as_array(q_first, "q_first", (robot.n,))
+    q_last = as_array(q_last, "q_last", (robot.n,))
+    T = as_count(T, "T", minimum=2)
+    dt = as_scalar(dt, "dt", strictly_positive=True)
     s = np.linspace(0.0, 1.0, T)[:, None]
     q = (1.0 - s) * q_first + s * q_last
     qdot = np.broadcast_to((q_last - q_first) / (dt * (T - 1)), q.shape).copy()

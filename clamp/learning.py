@@ -33,12 +33,19 @@ from typing import Any, cast
 
 import numpy as np
 
-from clamp.errors import (ClampWarning, InsufficientDemonstrationsError, InvalidParameterError,
-                          ShapeError)
+from clamp.errors import (ClampWarning, DegenerateDemonstrationsError,
+                          InsufficientDemonstrationsError, InvalidParameterError, ShapeError)
 from clamp.conjugate import ConjugatePosterior
 from clamp.obstacle_weighting import ObstacleWeighting, as_weighting, demonstration_weights
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
-from clamp.validation import as_array, as_scalar, as_time
+from clamp.validation import as_array, as_bool, as_scalar, as_time
+from scenes.validation import MAX_COORDINATE
+
+#: Smallest spread (largest standard deviation over the state's coordinates, across the
+#: demonstrations; m, m/s or rad, rad/s) accepted at every step. Identical demonstrations have 0
+#: and would give a prior of zero variance (Q = jitter); the real recordings in
+#: shared/datasets spread by 3 mm or more at every step.
+MIN_SPREAD = 1e-6
 
 __all__ = ["learn_prior", "learn_joint_prior", "update_prior", "fit_transitions", "state_groups",
            "METHODS"]
@@ -175,14 +182,16 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
     jitter = as_scalar(jitter, "jitter", minimum=0.0)
     if method not in METHODS:
         raise InvalidParameterError(f"method: expected one of {list(METHODS)}, got {method!r}")
+    coupled = as_bool(coupled, "coupled")
     M, T, D = states.shape
     if M < 2:
         raise InsufficientDemonstrationsError(
             f"demonstrations: expected at least 2 demonstrations, got {M}")
     if T < 2:
         raise ShapeError(f"demonstrations: expected at least 2 time steps, got {T}")
-    groups = state_groups(D // 2, bool(coupled))
-    info: dict[str, Any] = {"method": method, "coupled": bool(coupled), "jitter": jitter,
+    check_spread(states)
+    groups = state_groups(D // 2, coupled)
+    info: dict[str, Any] = {"method": method, "coupled": coupled, "jitter": jitter,
                             "num_demos": int(M),
                             "obstacle_weighting": weighting.to_dict() if weighting else None}
     if method == "incremental":
@@ -206,11 +215,24 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
                        state_names=state_names)
 
 
+def check_spread(states: np.ndarray) -> None:
+    """Refuse demonstrations (M, T, D) that coincide at some step (spread below MIN_SPREAD)."""
+    spread = states.std(axis=0).max(axis=1)                    # (T,)
+    step = int(np.argmin(spread))
+    if spread[step] < MIN_SPREAD:
+        flat = int(np.count_nonzero(spread < MIN_SPREAD))
+        raise DegenerateDemonstrationsError(
+            f"demonstrations: the {states.shape[0]} demonstrations do not vary at {flat} of "
+            f"{states.shape[1]} steps (e.g. step {step}: largest standard deviation across them "
+            f"{spread[step]:.3g}); a prior needs demonstrations that differ by at least "
+            f"{MIN_SPREAD:g} at every step (identical demonstrations give zero variance)")
+
+
 def _stack_states(positions: object, velocities: object, time: object, names: tuple[str, str],
                   axes: int | None) -> tuple[np.ndarray, np.ndarray]:
     """Validate (M, T, A) positions and velocities and (T,) time -> states (M, T, 2A), time."""
-    p = as_array(positions, names[0], (None, None, axes))
-    v = as_array(velocities, names[1], p.shape)
+    p = as_array(positions, names[0], (None, None, axes), MAX_COORDINATE)
+    v = as_array(velocities, names[1], p.shape, MAX_COORDINATE)
     t = as_time(time, "time", p.shape[1])
     return np.concatenate([p, v], axis=2), t
 

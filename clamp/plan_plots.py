@@ -17,12 +17,22 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from clamp.errors import InvalidParameterError
+from clamp.errors import ArgumentTypeError, InvalidParameterError
 from clamp.prior_plots import covariance_tube
 from scenes.plotting import draw_obstacle, set_equal_axes_3d
 
 #: probability mass inside the drawn posterior tube / band
 LEVEL = 0.95
+
+
+def _check_result(result: Any, *fields: str) -> Any:
+    """``result`` itself when it has a plan's ``q``, ``ee_path`` and ``fields`` (a clamp
+    PlanResult); ArgumentTypeError naming it otherwise."""
+    missing = [f for f in ("q", "ee_path", *fields) if not hasattr(result, f)]
+    if missing:
+        raise ArgumentTypeError(f"result: expected a clamp PlanResult (from clamp.plan), got "
+                                f"{type(result).__name__} without {missing}")
+    return result
 
 
 def plot_plan_3d(result: Any, robot: Any, scene: Any = None, *, prior: Any = None,
@@ -36,6 +46,7 @@ def plot_plan_3d(result: Any, robot: Any, scene: Any = None, *, prior: Any = Non
     demonstrations in grey); others: extra (label, PlanResult) paths to compare.
     Writes a PNG to ``path`` if given; returns the figure.
     """
+    _check_result(result)
     fig = Figure(figsize=(7.5, 6.5))
     ax = fig.add_subplot(projection="3d")
     if scene is not None:
@@ -76,7 +87,7 @@ def plot_plan_uncertainty(result: Any, path: str | os.PathLike[str] | None = Non
                           title: str | None = None, dpi: int = 120) -> Figure:
     """End-effector position x, y, z [m] against time [s] with the posterior 95 % band
     (+- 1.96 standard deviations from ``result.ee_covariance``), one panel per axis."""
-    std = result.ee_std
+    std = _check_result(result, "ee_std").ee_std
     if std is None:
         raise InvalidParameterError("result: no posterior covariance (plan with covariance=True)")
     fig = Figure(figsize=(7.5, 6.0))

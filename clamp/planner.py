@@ -29,12 +29,12 @@ from clamp.initialisation import (Initialisation, joint_velocities, prior_mean_i
 from clamp.keys import state_key
 from clamp.optimizers import optimize
 from clamp.problem import PlanningProblem
-from clamp.request import (Request, Target, as_config, as_scene, check_prior, check_robot,
-                           has_obstacles, make_request)
+from clamp.request import (Request, Target, as_config, as_extras, as_scene, as_sdf, check_prior,
+                           check_robot, has_obstacles, make_request)
 from clamp.result import PlanInputs, PlanResult
 from clamp.targets import constraint_violations, target_problems
 from clamp.uncertainty import plan_covariances
-from clamp.validation import as_array
+from clamp.validation import as_array, as_bool
 from clamp.verdict import evaluate, failed_result, start_problems
 from scenes.threads import single_blas_thread
 
@@ -86,6 +86,7 @@ def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None) -> Callab
     """The signed-distance query the obstacle family uses: ``sdf.query`` when given, else the
     scene's (exact for primitives, a grid cached by the scene otherwise); None without
     obstacles or with obstacle factors off."""
+    sdf = as_sdf(sdf, scene)
     if not config.model.obstacle_factors or not has_obstacles(scene):
         return None
     if sdf is not None:
@@ -130,7 +131,7 @@ def _families(prior: Any, robot: Any, request: Request, config: PlannerConfig,
 def _extras(extra_factors: Sequence[ExtraFactor], T: int
             ) -> tuple[list[Family], list[gtsam.NonlinearFactor]]:
     families, factors = [], []
-    for k, extra in enumerate(extra_factors):
+    for k, extra in enumerate(as_extras(extra_factors)):
         if isinstance(extra, Family):
             if len(extra) and (extra.first.min() < 0 or extra.first.max() + extra.arity > T):
                 raise InvalidParameterError(f"extra_factors[{k}]: family {extra.name!r} uses "
@@ -213,6 +214,7 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
           covariance, q_start: np.ndarray | None = None, model_prior: Any = None) -> PlanResult:
     t0 = time.perf_counter()
     config = as_config(config)
+    covariance = as_bool(covariance, "covariance")
     check_prior(prior)
     check_robot(robot)
     scene = as_scene(scene)

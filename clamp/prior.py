@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -27,8 +28,9 @@ import numpy as np
 from scipy import stats
 
 from clamp.conjugate import POSTERIOR_KEYS, ConjugatePosterior
-from clamp.errors import InvalidParameterError, PriorFileError, ShapeError
+from clamp.errors import ArgumentTypeError, InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time
+from scenes.validation import as_file, as_path
 
 FILE_FORMAT = "clamp-linear-gaussian-prior/1"
 _ARRAY_KEYS = ("time", "Phi", "u", "Q", "mean0", "cov0")
@@ -316,7 +318,7 @@ class LinearGaussianPrior:
         """Write the prior (and its conjugate posterior, if any, as ``posterior_*`` entries:
         M, K, S, N and the factor learning resumes from) to an ``.npz`` file (suffix added if
         missing). The file is written next to the target and moved over it when complete."""
-        path = Path(path)
+        path = Path(as_path(path, "path", ArgumentTypeError))
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
         extra = {} if self.posterior is None else {
@@ -336,13 +338,11 @@ class LinearGaussianPrior:
         ``LinearGaussianPrior.load`` returns a :class:`WorkspacePrior` for workspace files;
         ``WorkspacePrior.load`` rejects files of any other kind. Raises PriorFileError.
         """
-        path = Path(path)
-        if not path.is_file():
-            raise PriorFileError(f"path: no prior file at '{path}'")
+        path = as_file(path, "path", PriorFileError, ArgumentTypeError)
         try:
             with np.load(path, allow_pickle=False) as data:
                 contents = {key: data[key] for key in data.files}
-        except (OSError, ValueError, EOFError) as exc:
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
             raise PriorFileError(f"path: '{path}' is not a readable .npz prior file ({exc})") \
                 from None
         fmt = str(contents.get("format", ""))
@@ -360,8 +360,15 @@ class LinearGaussianPrior:
                                  f"'{target.default_kind}'")
         try:
             info = json.loads(str(contents["info"]))
-        except json.JSONDecodeError as exc:
+        except (json.JSONDecodeError, RecursionError) as exc:
             raise PriorFileError(f"path: '{path}' has unreadable info ({exc})") from None
+        if not isinstance(info, dict):
+            raise PriorFileError(f"path: '{path}' has info {type(info).__name__}, expected a JSON "
+                                 "object of learning settings")
+        names = contents["state_names"]
+        if names.ndim != 1 or names.dtype.kind not in "US":
+            raise PriorFileError(f"path: '{path}' has state_names of dtype {names.dtype} and shape "
+                                 f"{names.shape}, expected a list of names")
         posterior = None
         if "posterior_factor" in contents:
             try:
@@ -372,7 +379,7 @@ class LinearGaussianPrior:
                                      f"{exc})") from None
         try:
             return target(*(contents[k] for k in _ARRAY_KEYS), kind=kind, info=info,
-                          state_names=tuple(str(s) for s in contents["state_names"]),
+                          state_names=tuple(str(s) for s in names),
                           posterior=posterior)
         except (ShapeError, InvalidParameterError, ValueError) as exc:
             raise PriorFileError(f"path: '{path}' holds an invalid prior: {exc}") from None

@@ -17,7 +17,7 @@ import os
 import numpy as np
 from matplotlib.figure import Figure
 
-from clamp.errors import ShapeError
+from clamp.errors import ArgumentTypeError, ShapeError
 from clamp.prior import LinearGaussianPrior, envelope_quantile
 from clamp.validation import as_array, as_count
 from scenes.command_line import save_figure
@@ -38,8 +38,16 @@ def _demo_states(demos: object, prior: LinearGaussianPrior) -> np.ndarray | None
         states = np.concatenate([np.asarray(demos.positions, dtype=float),
                                  np.asarray(demos.velocities, dtype=float)], axis=2)
     else:
-        states = np.asarray(demos, dtype=float)
+        states = demos
     return as_array(states, "demos", (None, prior.T, prior.D))
+
+
+def check_prior(prior: object) -> LinearGaussianPrior:
+    """``prior`` itself when it is a learned prior (ArgumentTypeError naming it otherwise)."""
+    if not isinstance(prior, LinearGaussianPrior):
+        raise ArgumentTypeError(f"prior: expected a clamp prior (learn_prior(...) or "
+                                f"WorkspacePrior.load(path)), got {type(prior).__name__}")
+    return prior
 
 
 def _finish(fig: Figure, path: str | os.PathLike[str] | None, dpi: int) -> Figure:
@@ -120,6 +128,7 @@ def plot_prior_3d(prior: LinearGaussianPrior, demos: object = None, *, level: fl
     demos: Demonstrations-like object or states (M, T, 6), optional. Writes a PNG to ``path``
     if given; returns the figure.
     """
+    check_prior(prior)
     fig = Figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
     _draw_prior_3d(ax, prior, _demo_states(demos, prior), level)
@@ -185,7 +194,7 @@ def plot_prior_time(prior: LinearGaussianPrior, demos: object = None, *, level: 
     Shows demonstrations (optional; Demonstrations-like or states (M, T, D)), the prior mean
     and its marginal ``level`` envelope. Writes a PNG to ``path`` if given.
     """
-    lower, upper = prior.envelope(level)
+    lower, upper = check_prior(prior).envelope(level)
     states = _demo_states(demos, prior)
     A = prior.num_axes
     fig = Figure(figsize=(3.2 * A, 5.2))

@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 
 from clamp.config import PlannerConfig
-from clamp.errors import InvalidParameterError, ShapeError
+from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
 from clamp.validation import as_array, as_count
+from scenes.validation import as_sequence
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,7 @@ class Request:
 def check_prior(prior: Any) -> None:
     for attr in ("Phi", "u", "Q", "mean0", "cov0", "mean", "dt"):
         if not hasattr(prior, attr):
-            raise InvalidParameterError(f"prior: expected a clamp.WorkspacePrior, "
+            raise ArgumentTypeError(f"prior: expected a clamp.WorkspacePrior, "
                                         f"got {type(prior).__name__} without '{attr}'")
     if np.shape(prior.Phi)[1:] != (6, 6):
         raise ShapeError(f"prior: expected a workspace prior over x = [p, v] (D = 6), "
@@ -49,7 +50,7 @@ def check_prior(prior: Any) -> None:
 def check_robot(robot: Any) -> None:
     for attr in ("n", "ee_kinematics", "sphere_centres", "fk", "ik", "ik_trajectory"):
         if not hasattr(robot, attr):
-            raise InvalidParameterError(f"robot: expected a robots.Robot, got "
+            raise ArgumentTypeError(f"robot: expected a robots.Robot, got "
                                         f"{type(robot).__name__} without '{attr}'")
 
 
@@ -57,7 +58,7 @@ def as_config(config: Any) -> PlannerConfig:
     if config is None:
         return PlannerConfig()
     if not isinstance(config, PlannerConfig):
-        raise InvalidParameterError(f"config: expected a clamp.PlannerConfig (e.g. "
+        raise ArgumentTypeError(f"config: expected a clamp.PlannerConfig (e.g. "
                                     f"PlannerConfig().with_(sigma_obs=0.005)), got "
                                     f"{type(config).__name__}")
     return config.validate()
@@ -73,10 +74,39 @@ def as_scene(scene: Any) -> Any:
         return Scene([scene])
     if isinstance(scene, (str, Path)):
         return Scene.load(scene)
-    if isinstance(scene, (list, tuple)) and all(isinstance(o, Obstacle) for o in scene):
+    if isinstance(scene, (list, tuple)):
+        for k, item in enumerate(scene):
+            if not isinstance(item, Obstacle):
+                raise ArgumentTypeError(f"scene[{k}]: expected a scenes obstacle (Box, Sphere, "
+                                        f"Cylinder, Capsule), got {type(item).__name__}")
         return Scene(list(scene))
-    raise InvalidParameterError(f"scene: expected a scenes.Scene, an obstacle, a list of "
+    raise ArgumentTypeError(f"scene: expected a scenes.Scene, an obstacle, a list of "
                                 f"obstacles, a scene file path or None, got {type(scene).__name__}")
+
+
+def as_sdf(sdf: Any, scene: Any) -> Any:
+    """A signed distance field (anything with ``query(points) -> (distance, gradient)``) given
+    with a scene that has obstacles (the verdict measures clearance on the scene), or None."""
+    if sdf is None:
+        return None
+    if not callable(getattr(sdf, "query", None)):
+        raise ArgumentTypeError(f"sdf: expected a scenes.SignedDistanceField (or an object with "
+                                f"query(points)), got {type(sdf).__name__} {sdf!r:.40}")
+    if not has_obstacles(scene):
+        raise InvalidParameterError("sdf: given without a scene with obstacles; pass the scene "
+                                    "the field was built from (clearance is checked on it)")
+    return sdf
+
+
+def as_extras(extra_factors: Any) -> list:
+    """extra_factors as a list: a sequence as is, a single family / factor / maker wrapped."""
+    import gtsam
+
+    from clamp.factors import Family
+    if isinstance(extra_factors, (Family, gtsam.NonlinearFactor)) or callable(extra_factors):
+        return [extra_factors]
+    return as_sequence(extra_factors, "extra_factors", "a list of clamp Families, GTSAM factors "
+                       "or makers", ArgumentTypeError)
 
 
 def as_target(value: Any, name: str, n: int) -> Target:
@@ -93,6 +123,8 @@ def as_target(value: Any, name: str, n: int) -> Target:
 def _via_targets(via_points: Sequence[tuple[int, Any]], T: int,
                  n: int) -> tuple[tuple[int, Target], ...]:
     out = []
+    via_points = as_sequence(via_points, "via_points", f"a list of pairs (index, position (3,) "
+                             f"or configuration ({n},))", ArgumentTypeError)
     for k, item in enumerate(via_points):
         if not isinstance(item, (tuple, list)) or len(item) != 2:
             raise ShapeError(f"via_points[{k}]: expected a pair (index, position (3,) or "

@@ -26,6 +26,7 @@ from clamp.banded import band_layout
 from clamp.errors import InvalidParameterError
 
 from clamp.prior import prefix_compose
+from clamp.validation import as_array
 from clamp.problem import PlanningProblem
 from scenes.threads import single_blas_thread
 
@@ -69,10 +70,14 @@ def block_tridiagonal_inverse(D: np.ndarray, E: np.ndarray) -> np.ndarray:
     O(T d^3), no dense (T d)^2 matrix. Raises InvalidParameterError naming the first state
     where H is not positive definite.
     """
+    D = as_array(D, "D", (None, "d", "d"))
     T, d = D.shape[0], D.shape[1]
+    E = as_array(E, "E", (T - 1, d, d))
     diagonal = np.einsum("tii->ti", D)
-    if np.any(~np.isfinite(D)) or np.any(~np.isfinite(E)) or np.any(diagonal <= 0.0):
-        raise InvalidParameterError("information matrix: non-finite or non-positive diagonal")
+    if np.any(diagonal <= 0.0):
+        state = int(np.flatnonzero(np.any(diagonal <= 0.0, axis=1))[0])
+        raise InvalidParameterError(f"D: information matrix not positive definite: non-positive "
+                                    f"diagonal entry at support state {state}")
     s = 1.0 / np.sqrt(diagonal)                                         # (T, d)
     layout = band_layout(T, d)
     band = layout.band(D * s[:, :, None] * s[:, None, :], E * s[:-1, :, None] * s[1:, None, :])

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from clamp.config import PlannerConfig
+from clamp.limit_report import limit_violations
 from clamp.optimizers import Optimized
 from clamp.plausibility import plausibility_details
 from clamp.problem import PlanningProblem
@@ -48,6 +49,9 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
         return [f"start position {np.round(start.value, 4).tolist()} is out of reach (IK "
                 f"error {request.start_ik_error * 1000:.1f} mm)"]
     reasons = []
+    if start.kind == "joint":
+        reasons += limit_violations(robot, request.q_start[None], None,
+                                    config.checks.limit_tolerance, what="start configuration")
     if has_obstacles(scene):
         if start.kind == "position" and float(scene.distance(start.value)) < 0:
             reasons.append("start position is inside an obstacle")
@@ -84,8 +88,7 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
         goal_error = float(np.linalg.norm(reached - request.goal.value))
     via_errors = [float(np.linalg.norm((position[i] if t.kind == "position" else q[i]) - t.value))
                   for i, t in request.vias]
-    within = bool(np.all(robot.within_limits(q, checks.limit_tolerance)) and np.all(
-        np.abs(qdot) <= np.asarray(robot.velocity_limits) + checks.velocity_tolerance))
+    limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
     score = plausibility_details(prior, x, start=request.start_position,
                                  goal=_target_position(robot, request.goal),
@@ -104,8 +107,7 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                            f"{checks.via_tolerance:.4g}")
     if clearance < 0:
         reasons.append(f"collision: minimum clearance {clearance * 1000:.1f} mm")
-    if not within:
-        reasons.append("joint position or velocity limits violated")
+    reasons += limits
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float), timings=timings,
                       iterations=out.iterations, initial_error=out.initial_error,
@@ -114,7 +116,7 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       start_error=start_error, goal_error=goal_error,
                       log_likelihood=log_likelihood, plausibility=float(score.score),
                       plausibility_z=float(score.z),
-                      within_limits=within, success=not reasons, reasons=reasons,
+                      within_limits=not limits, success=not reasons, reasons=reasons,
                       initialisation=config.optimizer.initialisation, trials=out.trials,
                       optimizer=out.optimizer, stop_reason=out.stop_reason,
                       via_errors=via_errors)

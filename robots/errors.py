@@ -11,6 +11,11 @@ class RobotError(InvalidArgumentError):
     """Base class for bad input to the robots package."""
 
 
+class ArgumentTypeError(RobotError, TypeError):
+    """An argument of the wrong kind altogether (e.g. a list where a robot name is expected);
+    also a TypeError."""
+
+
 class UnknownRobotError(RobotError):
     """A built-in robot name that does not exist."""
 

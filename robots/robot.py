@@ -9,10 +9,10 @@ import pinocchio as pin
 
 from scenes.command_line import native_stderr_logged
 
-from .errors import RobotError, UnknownFrameError, URDFParseError
+from .errors import InvalidArrayError, RobotError, UnknownFrameError, URDFParseError
 from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain, frame_index, frame_names
 from .sphere_model import SphereModel, load_sphere_file
-from .validation import as_joint_array
+from .validation import as_file, as_joint_array, as_scalar
 
 
 def _chain_to(model: pin.Model, frame_id: int) -> list[int]:
@@ -88,9 +88,7 @@ class Robot:
                   base_frame: str | None = None) -> "Robot":
         """Load an arm from a URDF file; `package_dirs` resolve package:// mesh URIs (only needed
         for the collision geometry). Raises URDFParseError when the file is missing or invalid."""
-        path = Path(path)
-        if not path.is_file():
-            raise URDFParseError(f"path: URDF file {str(path)!r} does not exist")
+        path = as_file(path, "path", URDFParseError)
         try:
             with native_stderr_logged():  # urdfdom prints parse errors on fd 2
                 model = pin.buildModelFromUrdf(str(path))
@@ -152,6 +150,7 @@ class Robot:
     def within_limits(self, q, tolerance: float = 0.0) -> np.ndarray | bool:
         """Whether each configuration (..., n) lies inside the position limits (bool (...))."""
         q = as_joint_array(q, "q", self.n)
+        tolerance = as_scalar(tolerance, "tolerance", minimum=0.0, error=RobotError)
         inside = np.all((q >= self.lower_limits - tolerance) & (q <= self.upper_limits + tolerance), axis=-1)
         return bool(inside) if inside.ndim == 0 else inside
 
@@ -198,7 +197,8 @@ class Robot:
         else:
             qdot_flat, lead_dot = self._batch(qdot, "qdot")
             if lead_dot != lead:
-                raise RobotError(f"qdot: expected shape {lead + (self.n,)} like q, got {lead_dot + (self.n,)}")
+                raise InvalidArrayError(f"qdot: expected shape {lead + (self.n,)} like q, got "
+                                        f"{lead_dot + (self.n,)}")
         frames = self.chain.joint_frames(flat)
         pos, columns, angular = self.chain.point(frames, self._ee.joint, self._ee.translation, True)
         shape3, shape3n = lead + (3,), lead + (3, self.n)

@@ -145,6 +145,9 @@ def load_sphere_file(path: str | Path) -> SphereModel:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SphereFileError(f"path: cannot read sphere file {str(path)!r} ({exc.strerror or exc})") from exc
+    except UnicodeDecodeError as exc:
+        raise SphereFileError(f"path: {str(path)!r} is not UTF-8 text, expected a JSON sphere "
+                              f"file ({exc})") from None
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:

@@ -38,7 +38,7 @@ import numpy as np
 from scenes import validation as _checks
 from scenes.command_line import atomic_write_text as _atomic_write_text
 
-from .errors import TrajectoryError, TrajectoryExistsError, TrajectoryFileError
+from .errors import ArgumentTypeError, TrajectoryError, TrajectoryExistsError, TrajectoryFileError
 
 #: ``format`` field of every trajectory file; files from a later major version are refused.
 FORMAT = "skillplan.joint_trajectory"
@@ -207,6 +207,9 @@ class JointTrajectory:
         (see the module docstring). joint_names, robot name, URDF path and units come from
         the robot; verdict is a JSON-ready dict (e.g. {"success": ..., "reasons": [...]}).
         """
+        if not all(hasattr(robot, a) for a in ("n", "joint_names", "name")):
+            raise ArgumentTypeError(f"robot: expected a robots.Robot (n, joint_names, name), got "
+                                    f"{type(robot).__name__} {robot!r:.40}")
         n = int(robot.n)
         time = _check_time(time, "time")
         q = _as_matrix(q, "q", (time.shape[0], n))

@@ -2,11 +2,13 @@
 the project's checks (:mod:`scenes.validation`) raising robots errors."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from scenes import validation as _checks
 
-from .errors import InvalidArrayError, RobotError
+from .errors import ArgumentTypeError, InvalidArrayError, RobotError
 
 
 def as_array(value, name: str, last_dims: tuple[int, ...], max_leading: int | None = None) -> np.ndarray:
@@ -39,3 +41,14 @@ def as_generator(rng, error: type[RobotError] = RobotError, default_seed: int = 
     Anything else (bools included) raises `error` naming the argument rng.
     """
     return _checks.as_generator(rng, "rng", default_seed, error)
+
+
+def as_scalar(x, name: str, minimum: float | None = None, error: type[RobotError] = RobotError) -> float:
+    """A finite real number >= ``minimum`` (bools refused); `error` naming `name`."""
+    return _checks.as_scalar(x, name, minimum=minimum, error=error)
+
+
+def as_file(path, name: str, error: type[RobotError]) -> Path:
+    """An existing regular file (`error` for a missing path or a directory, ArgumentTypeError
+    for something that is not a path)."""
+    return _checks.as_file(path, name, error, ArgumentTypeError)

@@ -4,6 +4,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from .errors import ArgumentTypeError, InvalidArgumentError
+from .validation import as_instance
+
 #: Environment variable naming a folder that holds <name>.mat data sets.
 DATASETS_ENV = "SKILLPLAN_DATASETS"
 
@@ -14,6 +17,10 @@ def shared_dataset(name: str) -> Path | None:
     Looked up in $SKILLPLAN_DATASETS if set, else in ``shared/datasets`` beside the
     repository checkout (``Path(__file__).resolve().parents[2] / "shared" / "datasets"``).
     """
+    as_instance(name, "name", str, "a data set name such as 'box_closing' (str)", ArgumentTypeError)
+    if not name or Path(name).name != name or name in (".", ".."):
+        raise InvalidArgumentError(f"name: expected a plain data set name such as 'box_closing' "
+                                   f"(no folders), got {name!r}")
     stem = name[:-4] if name.endswith(".mat") else name
     roots = []
     if os.environ.get(DATASETS_ENV):

@@ -9,9 +9,10 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .alignment import dtw_warp
-from .errors import InvalidDemonstrationsError, InvalidObstacleError
+from .errors import ArgumentTypeError, InvalidDemonstrationsError, InvalidObstacleError
 from .obstacles import Obstacle, obstacle_from_dict
-from .validation import as_array, as_count, as_positive, as_vector
+from .validation import (MAX_COORDINATE, as_array, as_count, as_path, as_positive, as_sequence,
+                         as_time, as_vector)
 
 #: Duration (s) given to demonstrations recorded without time stamps (e.g. TLGC smoothData).
 NOMINAL_DURATION = 10.0
@@ -26,22 +27,19 @@ def _check_time(time: Any, name: str, length: int) -> np.ndarray:
         t = t.reshape(-1)
     if t.shape != (length,):
         raise _E(f"{name}: expected shape ({length},) to match the positions, got {t.shape}")
-    if np.any(np.diff(t) <= 0):
-        first = int(np.argmax(np.diff(t) <= 0))
-        raise _E(f"{name}: expected strictly increasing time stamps, "
-                 f"but {name}[{first + 1}] = {t[first + 1]} <= {name}[{first}] = {t[first]}")
-    return t
+    return as_time(t, name, length, _E)
 
 
 def _check_obstacles(obstacles: Any, count: int) -> list[list[Obstacle]] | None:
     if obstacles is None:
         return None
-    obstacles = list(obstacles)
+    obstacles = as_sequence(obstacles, "obstacles", "one list of obstacles per demonstration", _E)
     if len(obstacles) != count:
         raise _E(f"obstacles: expected one list per demonstration ({count}), got {len(obstacles)}")
     out = []
     for m, group in enumerate(obstacles):
-        group = list(group)
+        group = as_sequence(group, f"obstacles[{m}]", "a list of the obstacles of demonstration "
+                            f"{m} (obstacles holds one list per demonstration)", _E)
         for k, ob in enumerate(group):
             if not isinstance(ob, Obstacle):
                 raise _E(f"obstacles[{m}][{k}]: expected a Box, Sphere or Cylinder, got {type(ob).__name__}")
@@ -59,7 +57,7 @@ class Demonstrations:
 
     def __init__(self, positions: Any, velocities: Any, time: Any,
                  obstacles: Sequence[Sequence[Obstacle]] | None = None, name: str = ""):
-        p = as_array(positions, "positions", _E)
+        p = as_array(positions, "positions", _E, MAX_COORDINATE)
         if p.ndim != 3:
             raise _E(f"positions: expected rank 3 (M demonstrations, T steps, 3), got shape {p.shape}")
         if p.shape[-1] != 3:
@@ -68,7 +66,7 @@ class Demonstrations:
             raise _E(f"positions: expected at least 2 demonstrations, got {p.shape[0]}")
         if p.shape[1] < 2:
             raise _E(f"positions: expected at least 2 time steps, got {p.shape[1]}")
-        v = as_array(velocities, "velocities", _E)
+        v = as_array(velocities, "velocities", _E, MAX_COORDINATE)
         if v.shape != p.shape:
             raise _E(f"velocities: expected shape {p.shape} like positions, got {v.shape}")
         self.positions = p
@@ -173,17 +171,18 @@ class Demonstrations:
         Velocities: given ones (T_m,3) are spline-resampled and scaled by D_m / D_mean so they
         stay the derivative of the re-timed positions; otherwise the spline's time derivative.
         """
-        trajectories = list(trajectories)
+        trajectories = as_sequence(trajectories, "trajectories", "a list of (T_m, 3) position "
+                                   "arrays", ArgumentTypeError)
         if len(trajectories) < 2:
             raise _E(f"trajectories: expected at least 2 demonstrations, got {len(trajectories)}")
         paths = []
         for m, traj in enumerate(trajectories):
-            p = as_array(traj, f"trajectories[{m}]", _E)
+            p = as_array(traj, f"trajectories[{m}]", _E, MAX_COORDINATE)
             if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 2:
                 raise _E(f"trajectories[{m}]: expected shape (T_m >= 2, 3), got {p.shape}")
             paths.append(p)
         if times is not None:
-            times = list(times)
+            times = as_sequence(times, "times", "one (T_m,) time array per trajectory", _E)
             if len(times) != len(paths):
                 raise _E(f"times: expected {len(paths)} arrays (one per trajectory), got {len(times)}")
             stamps = [_check_time(t, f"times[{m}]", len(p)) for m, (t, p) in enumerate(zip(times, paths))]
@@ -191,10 +190,11 @@ class Demonstrations:
             total = NOMINAL_DURATION if duration is None else as_positive(duration, "duration", _E)
             stamps = [np.linspace(0.0, total, len(p)) for p in paths]
         if velocities is not None:
-            velocities = list(velocities)
+            velocities = as_sequence(velocities, "velocities", "one (T_m, 3) array per trajectory", _E)
             if len(velocities) != len(paths):
                 raise _E(f"velocities: expected {len(paths)} arrays, got {len(velocities)}")
-            velocities = [as_array(v, f"velocities[{m}]", _E) for m, v in enumerate(velocities)]
+            velocities = [as_array(v, f"velocities[{m}]", _E, MAX_COORDINATE)
+                          for m, v in enumerate(velocities)]
             for m, (v, p) in enumerate(zip(velocities, paths)):
                 if v.shape != p.shape:
                     raise _E(f"velocities[{m}]: expected shape {p.shape} like trajectories[{m}], got {v.shape}")
@@ -205,7 +205,7 @@ class Demonstrations:
         pos = np.empty((len(paths), T, 3))
         vel = np.empty_like(pos)
         for m, (p, t) in enumerate(zip(paths, stamps)):
-            s = (t - t[0]) / durations[m]
+            s = as_time((t - t[0]) / durations[m], f"times[{m}] / duration", len(t), _E)
             spline = CubicSpline(s, p, axis=0)
             pos[m] = spline(phase)
             if velocities is None:
@@ -219,7 +219,7 @@ class Demonstrations:
         """Write positions, velocities, time, name and obstacles (JSON text) to an .npz file."""
         obstacles = "null" if self.obstacles is None else json.dumps(
             [[ob.to_dict() for ob in group] for group in self.obstacles])
-        np.savez_compressed(path, positions=self.positions, velocities=self.velocities, time=self.time,
+        np.savez_compressed(as_path(path, "path", ArgumentTypeError), positions=self.positions, velocities=self.velocities, time=self.time,
                             name=np.array(self.name), obstacles=np.array(obstacles))
 
     @classmethod
@@ -230,12 +230,18 @@ class Demonstrations:
             if missing:
                 raise _E(f"{path}: missing array(s) {sorted(missing)}; found {sorted(data.files)}")
             name = str(data["name"]) if "name" in data.files else Path(path).stem
-            raw = json.loads(str(data["obstacles"])) if "obstacles" in data.files else None
+            try:
+                raw = json.loads(str(data["obstacles"])) if "obstacles" in data.files else None
+            except (json.JSONDecodeError, RecursionError) as exc:
+                raise _E(f"{path}: obstacles: expected JSON text of per-demonstration obstacle "
+                         f"lists ({exc})") from None
             obstacles = None
             if raw is not None:
+                if not isinstance(raw, list) or not all(isinstance(g, list) for g in raw):
+                    raise _E(f"{path}: obstacles: expected a list of lists of obstacle objects")
                 try:
                     obstacles = [[obstacle_from_dict(d, f"obstacles[{m}][{k}]") for k, d in enumerate(group)]
                                  for m, group in enumerate(raw)]
-                except (InvalidObstacleError, TypeError) as exc:
+                except InvalidObstacleError as exc:
                     raise _E(f"{path}: {exc}") from None
             return cls(data["positions"], data["velocities"], data["time"], obstacles, name)

@@ -19,6 +19,11 @@ class ScenesError(InvalidArgumentError):
     demonstrations, skills)."""
 
 
+class ArgumentTypeError(ScenesError, TypeError):
+    """An argument is of the wrong kind altogether (e.g. a number where a list of obstacles or a
+    file path is expected); also a TypeError."""
+
+
 class InvalidObstacleError(ScenesError):
     """An obstacle has a non-positive size or radius, or a bad centre/axis/rotation."""
 

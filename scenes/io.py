@@ -30,9 +30,11 @@ import scipy.io
 from scipy.interpolate import CubicSpline
 
 from .demonstrations import NOMINAL_DURATION, Demonstrations
-from .errors import DemonstrationFileError, InvalidDemonstrationsError, InvalidObstacleError
+from .errors import (ArgumentTypeError, DemonstrationFileError, InvalidDemonstrationsError,
+                     InvalidObstacleError)
 from .obstacles import Box
 from .scene import Scene
+from .validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_time
 
 CSV_COLUMNS = ("demo", "t", "x", "y", "z")
 CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
@@ -47,9 +49,7 @@ def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None) -
     or content, malformed fields, a scene count that is not the demonstration count) naming
     the file and what was expected; SceneFileError for a bad scene file.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise DemonstrationFileError(f"{path}: no such file")
+    path = as_file(path, "path", DemonstrationFileError, ArgumentTypeError)
     suffix = path.suffix.lower()
     readers = {".mat": _load_mat, ".npz": _load_npz, ".csv": _load_csv}
     if suffix not in readers:
@@ -84,11 +84,30 @@ def _load_mat(path: Path) -> Demonstrations:
 
 
 def _field(path: Path, item: Any, index: int, field: str, required: bool = True) -> Any:
+    """Field ``field`` of dataset(index + 1); an optional field that is absent or empty (a
+    struct array element without it, as MATLAB stores it) is None."""
+    if not required and hasattr(item, field) and np.size(getattr(item, field)) == 0:
+        return None
     if not hasattr(item, field):
         if required:
             raise DemonstrationFileError(f"{path}: dataset({index + 1}) has no field '{field}'")
         return None
     return getattr(item, field)
+
+
+def _numbers(path: Path, value: Any, name: str) -> np.ndarray:
+    """A finite float array read from a file (DemonstrationFileError naming the file and field)."""
+    return as_array(value, f"{path}: {name}", DemonstrationFileError, MAX_COORDINATE)
+
+
+def _trajectory(path: Path, value: Any, name: str, length: int | None = None,
+                rows: str = "T") -> np.ndarray:
+    """A (T, 3) array read from a file (T = ``length`` when given), finite, |x| <= MAX_COORDINATE."""
+    arr = _numbers(path, value, name)
+    if arr.ndim != 2 or arr.shape[1] != 3 or (length is not None and len(arr) != length):
+        expected = f"({length}, 3) like pos" if length is not None else f"({rows}, 3)"
+        raise DemonstrationFileError(f"{path}: {name}: expected shape {expected}, got {arr.shape}")
+    return arr
 
 
 def _from_clamp(path: Path, data: dict[str, Any]) -> Demonstrations:
@@ -98,20 +117,25 @@ def _from_clamp(path: Path, data: dict[str, Any]) -> Demonstrations:
     dt = data.get("dt")
     positions, velocities, times, obstacles = [], [], [], []
     for m, item in enumerate(entries):
-        pos = np.asarray(_field(path, item, m, "pos"), dtype=float)
-        if pos.ndim != 2 or pos.shape[1] != 3:
-            raise DemonstrationFileError(f"{path}: dataset({m + 1}).pos: expected shape (T, 3), got {pos.shape}")
+        where = f"dataset({m + 1})"
+        pos = _trajectory(path, _field(path, item, m, "pos"), f"{where}.pos")
         vel = _field(path, item, m, "vel", required=False)
+        if vel is not None:
+            vel = _trajectory(path, vel, f"{where}.vel", len(pos))
         time = _field(path, item, m, "time", required=False)
         if time is None:
             if dt is None:
-                raise DemonstrationFileError(f"{path}: dataset({m + 1}) has neither 'time' nor a file-level 'dt'")
-            time = np.arange(len(pos)) * float(dt)
+                raise DemonstrationFileError(f"{path}: {where} has neither 'time' nor a file-level 'dt'")
+            step = _numbers(path, dt, "dt")
+            if step.shape != () or not step > 0:
+                raise DemonstrationFileError(f"{path}: dt: expected one positive number [s], got {dt!r:.60}")
+            time = np.arange(len(pos)) * float(step)
+        time = as_array(time, f"{path}: {where}.time", DemonstrationFileError).reshape(-1)
         obs = _field(path, item, m, "obs", required=False)
         boxes = []
         if obs is not None and np.size(obs):
-            rows = np.atleast_2d(np.asarray(obs, dtype=float))
-            if rows.shape[1] != 6:
+            rows = np.atleast_2d(_numbers(path, obs, f"{where}.obs"))
+            if rows.ndim != 2 or rows.shape[1] != 6:
                 raise DemonstrationFileError(f"{path}: dataset({m + 1}).obs: expected shape (K, 6) "
                                              f"[cx,cy,cz,sx,sy,sz], got {rows.shape}")
             for k, row in enumerate(rows):
@@ -120,8 +144,8 @@ def _from_clamp(path: Path, data: dict[str, Any]) -> Demonstrations:
                 except InvalidObstacleError as exc:
                     raise DemonstrationFileError(f"{path}: dataset({m + 1}).obs row {k + 1}: {exc}") from None
         positions.append(pos)
-        velocities.append(None if vel is None else np.asarray(vel, dtype=float))
-        times.append(np.asarray(time, dtype=float).reshape(-1))
+        velocities.append(vel)
+        times.append(time)
         obstacles.append(boxes)
     has_obstacles = any(obstacles)
     return _assemble(positions, velocities, times, obstacles if has_obstacles else None, path.stem)
@@ -130,13 +154,11 @@ def _from_clamp(path: Path, data: dict[str, Any]) -> Demonstrations:
 def _from_tlgc(path: Path, data: dict[str, Any]) -> Demonstrations:
     cells = np.atleast_1d(data["smoothData"])
     if cells.dtype != object:
+        if cells.dtype.kind not in "fiu" or cells.ndim not in (2, 3):
+            raise DemonstrationFileError(f"{path}: smoothData: expected a cell array of (N, 3) "
+                                         f"position arrays, got {cells.dtype} of shape {cells.shape}")
         cells = cells[None] if cells.ndim == 2 else cells
-    positions = []
-    for m, cell in enumerate(cells):
-        pos = np.asarray(cell, dtype=float)
-        if pos.ndim != 2 or pos.shape[1] != 3:
-            raise DemonstrationFileError(f"{path}: smoothData{{{m + 1}}}: expected shape (N, 3), got {pos.shape}")
-        positions.append(pos)
+    positions = [_trajectory(path, cell, f"smoothData{{{m + 1}}}", rows="N") for m, cell in enumerate(cells)]
     times = [np.linspace(0.0, NOMINAL_DURATION, len(p)) for p in positions]
     return _assemble(positions, [None] * len(positions), times, None, path.stem)
 
@@ -146,6 +168,11 @@ def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], 
     """Demonstrations as they are when all share one time axis, else resampled."""
     if len(positions) < 2:
         raise InvalidDemonstrationsError(f"expected at least 2 demonstrations, got {len(positions)}")
+    for m, (p, t) in enumerate(zip(positions, times)):
+        if len(p) < 2:
+            raise InvalidDemonstrationsError(f"demonstrations[{m}]: has {len(p)} sample(s), "
+                                             "expected at least 2 (a trajectory needs two time stamps)")
+        as_time(t, f"demonstrations[{m}].time", len(p), InvalidDemonstrationsError)
     same_time = all(len(t) == len(times[0]) and np.array_equal(t, times[0]) for t in times)
     if same_time and all(len(p) == len(times[0]) for p in positions):
         pos = np.stack(positions)
@@ -159,7 +186,7 @@ def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], 
 def _load_npz(path: Path) -> Demonstrations:
     try:
         return Demonstrations.load_npz(path)
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         if isinstance(exc, InvalidDemonstrationsError):
             raise
         raise DemonstrationFileError(f"{path}: not a readable demonstrations .npz ({exc})") from None
@@ -167,7 +194,7 @@ def _load_npz(path: Path) -> Demonstrations:
 
 def _load_csv(path: Path) -> Demonstrations:
     try:
-        lines = path.read_text().splitlines()
+        lines = path.read_text(encoding="utf-8").splitlines()
     except (OSError, UnicodeDecodeError) as exc:
         raise DemonstrationFileError(f"{path}: not a readable text CSV file ({exc})") from None
     header = tuple(c.strip() for c in lines[0].split(",")) if lines else ()
@@ -185,6 +212,8 @@ def _load_csv(path: Path) -> Demonstrations:
         raise DemonstrationFileError(f"{path}: expected {len(header)} columns, got {table.shape[1]}")
     if not np.all(np.isfinite(table)):
         raise DemonstrationFileError(f"{path}: contains NaN/inf values")
+    if np.any(table[:, 0] != np.round(table[:, 0])):
+        raise DemonstrationFileError(f"{path}: column demo: expected integer labels")
     labels, first = np.unique(table[:, 0], return_index=True)
     order = labels[np.argsort(first)]
     groups = [table[table[:, 0] == label] for label in order]
@@ -201,7 +230,8 @@ def save_csv(demos: Demonstrations, path: str | Path) -> list[Path]:
     ``<stem>.scene<m>.json`` beside the CSV; returns their paths (empty without obstacles),
     in the order :func:`load_demonstrations` takes them as ``scenes``.
     """
-    path = Path(path)
+    as_instance(demos, "demos", Demonstrations, "a scenes.Demonstrations", ArgumentTypeError)
+    path = as_path(path, "path", ArgumentTypeError)
     scene_paths = []
     for m, group in enumerate(demos.obstacles or []):
         scene_paths.append(path.with_name(f"{path.stem}.scene{m}.json"))

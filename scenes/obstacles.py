@@ -38,7 +38,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .errors import InvalidObstacleError
-from .validation import as_array, as_points, as_positive, as_vector
+from .validation import MAX_COORDINATE, as_array, as_points, as_scalar, as_vector
 
 
 def _frozen(arr: np.ndarray) -> np.ndarray:
@@ -51,6 +51,17 @@ def _frozen(arr: np.ndarray) -> np.ndarray:
 #: Distance (m) from a centre plane, axis, centre or segment below which a point counts as on it
 #: when picking the subgradient (see the module docstring).
 ON_MEDIAL = 1e-12
+
+
+def _point(x: Any, name: str) -> np.ndarray:
+    """A centre (3,) [m] of magnitude <= MAX_COORDINATE (InvalidObstacleError naming it)."""
+    return as_vector(x, name, 3, InvalidObstacleError, MAX_COORDINATE)
+
+
+def _length(x: Any, name: str) -> float:
+    """A radius / height [m] in (0, MAX_COORDINATE] (InvalidObstacleError naming it)."""
+    return as_scalar(x, name, maximum=MAX_COORDINATE, strictly_positive=True,
+                     error=InvalidObstacleError)
 
 
 def as_coords(points: Any, name: str = "points") -> tuple[np.ndarray, tuple[int, ...]]:
@@ -176,8 +187,8 @@ class Box(_FramedObstacle):
     primitive = True
 
     def __init__(self, center: Any, size: Any, rotation: Any | None = None):
-        self.center = _frozen(as_vector(center, "Box center", 3, InvalidObstacleError))
-        self.size = _frozen(as_vector(size, "Box size", 3, InvalidObstacleError))
+        self.center = _frozen(_point(center, "Box center"))
+        self.size = _frozen(as_vector(size, "Box size", 3, InvalidObstacleError, MAX_COORDINATE))
         if np.any(self.size <= 0):
             raise InvalidObstacleError(f"Box size: expected three positive edge lengths, got {self.size}")
         if rotation is None:
@@ -276,8 +287,8 @@ class Sphere(Obstacle):
     primitive = True
 
     def __init__(self, center: Any, radius: Any):
-        self.center = _frozen(as_vector(center, "Sphere center", 3, InvalidObstacleError))
-        self.radius = as_positive(radius, "Sphere radius", InvalidObstacleError)
+        self.center = _frozen(_point(center, "Sphere center"))
+        self.radius = _length(radius, "Sphere radius")
         self._column = self.center[:, None]
 
     def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
@@ -316,9 +327,9 @@ class Cylinder(_FramedObstacle):
     primitive = True
 
     def __init__(self, center: Any, radius: Any, height: Any, axis: Any = (0.0, 0.0, 1.0)):
-        self.center = _frozen(as_vector(center, "Cylinder center", 3, InvalidObstacleError))
-        self.radius = as_positive(radius, "Cylinder radius", InvalidObstacleError)
-        self.height = as_positive(height, "Cylinder height", InvalidObstacleError)
+        self.center = _frozen(_point(center, "Cylinder center"))
+        self.radius = _length(radius, "Cylinder radius")
+        self.height = _length(height, "Cylinder height")
         self.axis = _frozen(_unit_axis(axis, "Cylinder"))
         self._set_frame(axis_frame(self.axis))
 
@@ -386,13 +397,10 @@ class Capsule(_FramedObstacle):
     primitive = True
 
     def __init__(self, center: Any, radius: Any, height: Any, axis: Any = (0.0, 0.0, 1.0)):
-        self.center = _frozen(as_vector(center, "Capsule center", 3, InvalidObstacleError))
-        self.radius = as_positive(radius, "Capsule radius", InvalidObstacleError)
-        h = as_array(height, "Capsule height", InvalidObstacleError)
-        if h.shape != () or not h >= 0:
-            raise InvalidObstacleError(f"Capsule height: expected a non-negative number "
-                                       f"(segment length, m), got {height!r}")
-        self.height = float(h)
+        self.center = _frozen(_point(center, "Capsule center"))
+        self.radius = _length(radius, "Capsule radius")
+        self.height = as_scalar(height, "Capsule height (segment length, m)", minimum=0.0,
+                                maximum=MAX_COORDINATE, error=InvalidObstacleError)
         self.axis = _frozen(_unit_axis(axis, "Capsule"))
         self._set_frame(axis_frame(self.axis))
 
@@ -525,7 +533,7 @@ def obstacle_from_dict(data: Any, where: str = "obstacle") -> Obstacle:
     if not isinstance(data, dict):
         raise InvalidObstacleError(f"{where}: expected an object with a 'type' field, got {type(data).__name__}")
     kind = data.get("type")
-    if kind not in OBSTACLE_TYPES:
+    if not isinstance(kind, str) or kind not in OBSTACLE_TYPES:
         raise InvalidObstacleError(f"{where}.type: expected one of {sorted(OBSTACLE_TYPES)}, got {kind!r}")
     fields = dict(data)
     fields.pop("type")

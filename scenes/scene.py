@@ -26,10 +26,10 @@ from typing import Any
 import numpy as np
 
 from .command_line import atomic_write_text
-from .errors import InvalidArgumentError, InvalidObstacleError, SceneFileError
+from .errors import ArgumentTypeError, InvalidArgumentError, InvalidObstacleError, SceneFileError
 from .obstacles import Nearest, Obstacle, as_coords, obstacle_from_dict
 from .sdf import DEFAULT_CELL_SIZE, SignedDistanceField, check_cell_size
-from .validation import as_bounds
+from .validation import MAX_COORDINATE, as_bounds, as_instance, as_path, as_sequence
 
 #: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3))
 DistanceQuery = Callable[[Any], tuple[np.ndarray, np.ndarray]]
@@ -47,11 +47,15 @@ class Scene:
     """Obstacles and workspace bounds (2,3) [m]; immutable (see the module docstring).
 
     Default bounds (``bounds=None``): :data:`DEFAULT_WORKSPACE`, grown where needed to contain
-    every obstacle's bounding box plus :data:`OBSTACLE_MARGIN`.
+    every obstacle's bounding box plus :data:`OBSTACLE_MARGIN`. ``obstacles`` may also be a
+    single obstacle.
     """
 
-    def __init__(self, obstacles: Sequence[Obstacle] = (), bounds: Any | None = None):
-        obstacles = tuple(obstacles)
+    def __init__(self, obstacles: Sequence[Obstacle] | Obstacle = (), bounds: Any | None = None):
+        if isinstance(obstacles, Obstacle):
+            obstacles = (obstacles,)
+        obstacles = tuple(as_sequence(obstacles, "obstacles", "a list of scenes obstacles (Box, "
+                                      "Sphere, Cylinder, Capsule) or one obstacle", ArgumentTypeError))
         for i, ob in enumerate(obstacles):
             if not isinstance(ob, Obstacle):
                 raise InvalidObstacleError(f"obstacles[{i}]: expected a scenes Obstacle (Box, Sphere, "
@@ -65,6 +69,9 @@ class Scene:
                 bounds[0] = np.minimum(bounds[0], box[0] - OBSTACLE_MARGIN)
                 bounds[1] = np.maximum(bounds[1], box[1] + OBSTACLE_MARGIN)
         bounds = np.array(as_bounds(bounds, "bounds"))
+        if np.max(np.abs(bounds)) > MAX_COORDINATE:
+            raise InvalidArgumentError(f"bounds: expected coordinates of magnitude <= "
+                                       f"{MAX_COORDINATE:g} m, got {bounds.tolist()}")
         bounds.setflags(write=False)
         self._bounds = bounds
         self._grids: dict[tuple[float, bool], SignedDistanceField] = {}
@@ -165,19 +172,23 @@ class Scene:
     @classmethod
     def load(cls, path: str | Path) -> "Scene":
         """Read a JSON scene file; SceneFileError on unreadable or malformed content."""
-        path = Path(path)
+        path = as_path(path, "path", ArgumentTypeError)
+        if path.is_dir():
+            raise SceneFileError(f"{path}: is a directory, expected a scene JSON file")
         try:
-            data = json.loads(path.read_text())
+            data = json.loads(path.read_text(encoding="utf-8"))
         except OSError as exc:
             raise SceneFileError(f"{path}: cannot read scene file ({exc})") from None
-        except json.JSONDecodeError as exc:
+        except UnicodeDecodeError as exc:
+            raise SceneFileError(f"{path}: not UTF-8 text, expected a JSON scene file ({exc})") from None
+        except (json.JSONDecodeError, RecursionError) as exc:
             raise SceneFileError(f"{path}: not valid JSON ({exc})") from None
         return cls.from_dict(data, source=str(path))
 
     def save(self, path: str | Path, overwrite: bool = True) -> None:
         """Write this scene as JSON, atomically (OutputPathError if the file exists and not
         ``overwrite``)."""
-        atomic_write_text(path, json.dumps(self.to_dict(), indent=2) + "\n", overwrite=overwrite)
+        atomic_write_text(as_path(path, "path", ArgumentTypeError), json.dumps(self.to_dict(), indent=2) + "\n", overwrite=overwrite)
 
     def __repr__(self) -> str:
         return f"Scene(obstacles={list(self._obstacles)!r}, bounds={self._bounds.tolist()})"
@@ -190,6 +201,7 @@ def available_scenes() -> tuple[str, ...]:
 
 def builtin_scene(name: str) -> Scene:
     """A scene shipped with the package (see :func:`available_scenes`), e.g. ``"box_closing"``."""
+    as_instance(name, "name", str, "a scene name (str)", ArgumentTypeError)
     names = available_scenes()
     if name not in names:
         raise SceneFileError(f"scene name: unknown {name!r}; expected one of {list(names)}")

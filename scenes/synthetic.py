@@ -23,7 +23,7 @@ from scipy.interpolate import CubicSpline
 from .demonstrations import Demonstrations
 from .errors import InvalidArgumentError, UnknownSkillError
 from .obstacles import Box, Obstacle
-from .validation import as_count, as_positive
+from .validation import as_count, as_positive, as_seed
 
 
 @dataclass(frozen=True)
@@ -81,7 +81,7 @@ SKILLS: tuple[str, ...] = ("box_closing", "reach_from_above", "needle_threading"
 
 def skill_spec(skill: str) -> SkillSpec:
     """Waypoints and spreads of a named skill; UnknownSkillError lists the valid names."""
-    if skill not in _SPECS:
+    if not isinstance(skill, str) or skill not in _SPECS:
         raise UnknownSkillError(f"skill: unknown {skill!r}; expected one of {list(SKILLS)}")
     return _SPECS[skill]
 
@@ -108,11 +108,12 @@ def _skill_paths(spec: SkillSpec, M: int, T: int, step: float,
     return positions, velocities, tau
 
 
-def _checked(skill: str, num_demos: int, num_points: int, dt: float) -> tuple[SkillSpec, int, int, float]:
+def _checked(skill: str, num_demos: int, num_points: int, dt: float,
+             seed: Any) -> tuple[SkillSpec, int, int, float, int]:
     spec = skill_spec(skill)
     M = as_count(num_demos, "num_demos", 2, InvalidArgumentError)
     T = as_count(num_points, "num_points", 4, InvalidArgumentError)
-    return spec, M, T, as_positive(dt, "dt")
+    return spec, M, T, as_positive(dt, "dt"), as_seed(seed, "seed")
 
 
 def make_demonstrations(skill: str, num_demos: int = 6, num_points: int = 250, dt: float = 0.16,
@@ -122,7 +123,7 @@ def make_demonstrations(skill: str, num_demos: int = 6, num_points: int = 250, d
     Returns Demonstrations (M=num_demos, T=num_points), time = arange(T) * dt, named after the
     skill; skills shown around an obstacle record it for every demonstration.
     """
-    spec, M, T, step = _checked(skill, num_demos, num_points, dt)
+    spec, M, T, step, seed = _checked(skill, num_demos, num_points, dt, seed)
     positions, velocities, tau = _skill_paths(spec, M, T, step, np.random.default_rng(seed))
     obstacles = [list(spec.obstacles) for _ in range(M)] if spec.obstacles else None
     return Demonstrations(positions, velocities, tau * (T - 1) * step, obstacles, skill)
@@ -139,7 +140,7 @@ def make_cluttered_demonstrations(skill: str, num_demos: int = 10, num_points: i
     own box as its obstacles. The clutter-free skill is ``make_demonstrations`` with the
     same arguments.
     """
-    spec, M, T, step = _checked(skill, num_demos, num_points, dt)
+    spec, M, T, step, seed = _checked(skill, num_demos, num_points, dt, seed)
     detour = as_positive(detour, "detour")
     box_size = as_positive(box_size, "box_size")
     width = as_positive(width, "width")

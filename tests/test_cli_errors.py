@@ -78,10 +78,7 @@ CATALOGUE: list[tuple[list[str], str]] = [
     (CLAMP + ["plan", "--demos", "{w}/missing.npz", "--robot", "jaco", *START, "--out", "o"], "missing.npz"),
     (CLAMP + ["plan", "--demos", "{w}/a_dir", "--robot", "jaco", *START, "--out", "o"], "a_dir"),
     (CLAMP + ["plan", "--demos", "{w}/bad.csv", "--robot", "jaco", *START, "--out", "o"], "header"),
-    pytest.param(CLAMP + ["plan", "--demos", "{w}/empty.npz", "--robot", "jaco", *START, "--out", "o"],
-                 "empty.npz", marks=pytest.mark.xfail(
-                     reason="scenes.load_demonstrations lets numpy's EOFError out on an empty .npz "
-                            "(the loaders' part of issue 10)", strict=True)),
+    (CLAMP + ["plan", "--demos", "{w}/empty.npz", "--robot", "jaco", *START, "--out", "o"], "empty.npz"),
     (CLAMP + ["plan", "--demos", "{w}/demos.npz", "--robot", "jaco", "--start", "1", "2", "--out", "o"], "start"),
     (CLAMP + ["plan", "--demos", "{w}/demos.npz", "--robot", "jaco", "--start", "1", "x", "2", "--out", "o"],
      "'x'"),

@@ -197,16 +197,16 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
     ({"start": [np.nan, 0.2, 0.3]}, "start"),
     ({"start": [0.3, -0.3, 0.2], "goal": np.zeros(5)}, "goal"),
     ({"start": [0.3, -0.3, 0.2], "via_points": [(10_000, [0.3, 0.2, 0.1])]}, "via_points"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(initialisation="magic")}, "prior_mean"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(sigma_obs=-1.0)}, "sigma_obs"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(workspace_correction=-1)},
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(initialisation="magic")}, "prior_mean"),
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(sigma_obs=-1.0)}, "sigma_obs"),
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(workspace_correction=-1)},
      "workspace_correction"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(optimizer="lu")}, "gtsam_dogleg"),
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(optimizer="lu")}, "gtsam_dogleg"),
     ({"start": [0.3, -0.3, 0.2], "config": {"sigma_obs": 0.005}}, "config"),
     ({"start": [0.3, -0.3, 0.2], "scene": 42}, "scene"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(convergence_patience=0)},
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(convergence_patience=0)},
      "convergence_patience"),
-    ({"start": [0.3, -0.3, 0.2], "config": PlannerConfig().with_(limit_tolerance=-1.0)},
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(limit_tolerance=-1.0)},
      "limit_tolerance"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [42]}, "extra_factors"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [gtsam.PriorFactorVector(
@@ -217,6 +217,8 @@ def test_bad_input_raises_clamp_error(jaco, synthetic, kwargs, match):
     kwargs = dict(kwargs)
     _, prior = synthetic
     with pytest.raises(ClampError, match=match):
+        if callable(kwargs.get("config")):   # configurations are checked when made
+            kwargs["config"] = kwargs["config"]()
         plan(prior, jaco, kwargs.pop("scene", None), **kwargs)
 
 

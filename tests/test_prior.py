@@ -157,7 +157,7 @@ def test_workspace_prior_save_load_round_trip(tmp_path):
 
 
 def test_load_rejects_bad_files(tmp_path, prior):
-    with pytest.raises(errors.PriorFileError, match="no prior file"):
+    with pytest.raises(errors.PriorFileError, match="does not exist"):
         LinearGaussianPrior.load(tmp_path / "missing.npz")
     text = tmp_path / "text.npz"
     text.write_text("not a zip archive")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clamp.errors import InvalidParameterError
+from clamp.errors import InvalidParameterError, NonFiniteError
 from clamp.uncertainty import block_tridiagonal_inverse
 
 
@@ -62,5 +62,5 @@ def test_singular_information_names_the_state():
     D, E = blocks(H, T, d)
     with pytest.raises(InvalidParameterError, match="state 5"):
         block_tridiagonal_inverse(D, E)
-    with pytest.raises(InvalidParameterError, match="non-finite"):
+    with pytest.raises(NonFiniteError, match="D: contains"):
         block_tridiagonal_inverse(np.full((2, 2, 2), np.nan), np.zeros((1, 2, 2)))

@@ -13,10 +13,11 @@ its own section by construction.
 """
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass
 from functools import cached_property
 from os import PathLike
-from typing import Any, Sequence
+from typing import Any, BinaryIO, Sequence
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -27,9 +28,11 @@ from .errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrati
                      TooFewDemonstrationsError)
 from .frames import bishop_frames, unit_tangents
 from scenes.threads import single_blas_thread
-from .validation import as_array, as_count, as_points
+from .validation import as_array, as_count, as_file, as_path, as_points, as_trailing
 
 MIN_DEMONSTRATIONS = 2
+MIN_SPREAD = 1e-6          # [m] smallest spread of the demonstrations about the directrix accepted
+                           # at the first section (and somewhere along the cylinder)
 CONTAINMENT_WINDOW = 4     # sections either side of the nearest directrix point searched first
 CONTAINMENT_BLOCK = 512    # points per block in the full search (block x N offsets at a time)
 INSIDE_TOLERANCE = 1e-9    # inclusive boundary test: inside when ratio <= 1 + this (round-off)
@@ -224,7 +227,7 @@ class GeneralizedCylinder:
 
     def radius(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
         """Boundary radius [m] of sections ``index`` (...) at ``angle`` (...) [rad], broadcast."""
-        return self.cross_sections.radius(index, angle)
+        return self.cross_sections.radius(index, as_array(angle, "angle"))
 
     def largest_radius(self, indices: np.ndarray | None = None) -> np.ndarray:
         """Largest boundary radius (K,) [m] of sections ``indices`` (K,) (default all N),
@@ -240,7 +243,7 @@ class GeneralizedCylinder:
 
     def radius_derivative(self, index: np.ndarray, angle: np.ndarray) -> np.ndarray:
         """Slope d radius / d angle [m/rad] of sections ``index`` (...) at ``angle`` (...) [rad]."""
-        return self.cross_sections.radius_derivative(index, angle)
+        return self.cross_sections.radius_derivative(index, as_array(angle, "angle"))
 
     # ------------------------------------------------------------------ coordinates
     def to_local(self, points: np.ndarray, index: np.ndarray) -> np.ndarray:
@@ -253,7 +256,7 @@ class GeneralizedCylinder:
     def to_world(self, local: np.ndarray, index: np.ndarray) -> np.ndarray:
         """World points (..., 3) [m] of in-plane coordinates (..., 2) in sections ``index`` (...)."""
         idx = self.cross_sections.check_index(index)
-        q = np.asarray(local, dtype=float)
+        q = as_trailing(local, "local", (2,))
         return (self.directrix[idx] + q[..., :1] * self.normals[idx]
                 + q[..., 1:2] * self.binormals[idx])
 
@@ -446,23 +449,25 @@ class GeneralizedCylinder:
         return moved
 
     # ------------------------------------------------------------------ files
-    def save(self, path: str | PathLike) -> None:
-        """Write the cylinder to an .npz file."""
+    def save(self, path: str | PathLike | BinaryIO) -> None:
+        """Write the cylinder to an .npz file (a path, or a binary file opened for writing)."""
         arrays = {f"section_{k}": v for k, v in self.cross_sections.to_arrays().items()}
         if self.effective_points is not None:
             arrays["effective_points"] = self.effective_points
         if self.demonstrations is not None:
             arrays["demonstrations"] = self.demonstrations
-        np.savez(path, directrix=self.directrix, frames=self.frames,
+        target = path if hasattr(path, "write") else as_path(path)
+        np.savez(target, directrix=self.directrix, frames=self.frames,
                  cross_section=np.array(self.cross_section), **arrays)
 
     @classmethod
     def load(cls, path: str | PathLike) -> "GeneralizedCylinder":
         """Read a cylinder written by :meth:`save`."""
+        path = as_file(path, CylinderFileError)
         try:
             with np.load(path, allow_pickle=False) as data:
                 files = {k: data[k] for k in data.files}
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
             raise CylinderFileError(f"path: cannot read cylinder file {path}: {exc}") from None
         missing = {"directrix", "frames", "cross_section"} - files.keys()
         if missing:
@@ -481,6 +486,14 @@ class GeneralizedCylinder:
     def __repr__(self) -> str:
         m = None if self.effective_points is None else len(self.effective_points)
         return f"GeneralizedCylinder(N={self.num_sections}, cross_section={self.cross_section!r}, M={m})"
+
+
+def check_cylinder(cyl: object, name: str = "cyl") -> GeneralizedCylinder:
+    """``cyl`` itself when it is a GeneralizedCylinder (InvalidArgumentError naming it)."""
+    if not isinstance(cyl, GeneralizedCylinder):
+        raise InvalidArgumentError(f"{name}: expected a GeneralizedCylinder (tlgc.fit_cylinder), "
+                                   f"got {type(cyl).__name__}")
+    return cyl
 
 
 def _minimal_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -513,4 +526,11 @@ def fit_cylinder(demos: Any, cross_section: str = "spline",
     d = x - directrix
     effective = np.stack([np.einsum("mni,ni->mn", d, frames[:, 1]),
                           np.einsum("mni,ni->mn", d, frames[:, 2])], axis=-1)
+    spread = np.linalg.norm(effective, axis=-1).max(axis=0)          # (N,) [m]
+    if spread[0] < MIN_SPREAD or np.all(spread < MIN_SPREAD):
+        where = "every section" if np.all(spread < MIN_SPREAD) else "the first section"
+        raise InvalidDemonstrationsError(
+            f"demos: the demonstrations coincide at {where} (largest distance from their mean "
+            f"{spread[0]:.3g} m at section 0); a cylinder needs demonstrations that differ by at "
+            f"least {MIN_SPREAD:g} m there (starts are taken in the first section)")
     return GeneralizedCylinder(directrix, frames, kind.fit(effective), effective, x)

@@ -70,7 +70,7 @@ from scipy.interpolate import RBFInterpolator
 from scipy.spatial.transform import Rotation
 
 from .cross_sections import fit_cross_sections
-from .cylinder import GeneralizedCylinder
+from .cylinder import GeneralizedCylinder, check_cylinder
 from .errors import GeneralizationError, InvalidArgumentError
 from .validation import as_points, as_scalar, as_count
 
@@ -474,11 +474,6 @@ def shape_distortion(original: np.ndarray, deformed: np.ndarray) -> float:
 SECTION_SAMPLES = 32      # boundary samples standing in for effective points when a cylinder has none
 
 
-def _check_cylinder(cyl: Any) -> None:
-    if not isinstance(cyl, GeneralizedCylinder):
-        raise InvalidArgumentError(f"cyl: expected a GeneralizedCylinder, got {type(cyl).__name__}")
-
-
 def _section_points(cyl: GeneralizedCylinder) -> np.ndarray:
     """In-plane points (M, N, 2) [m] that define the cross-sections: the effective points, or
     boundary samples (one per angle) for a cylinder built without them."""
@@ -536,7 +531,7 @@ def tps_generalize(cyl: GeneralizedCylinder, source_landmarks: np.ndarray,
     anchor and the map fades in over ``fade`` of the arc length (module docstring); landmarks
     beyond the fade are met exactly. See the module docstring for too few landmarks.
     """
-    _check_cylinder(cyl)
+    check_cylinder(cyl)
     fade = as_scalar(fade, "fade", minimum=0.0, maximum=1.0)
     extra = [] if anchors is None else [as_points(anchors, "anchors").reshape(-1, 3)]
     if keep_start:
@@ -573,7 +568,7 @@ def landmark_constraints(cyl: GeneralizedCylinder, source_landmarks: np.ndarray,
     landmark's displacement. ``keep_start`` pins the directrix start unless a landmark is
     attached to it (with one moving landmark alone, LTE could only translate the path).
     """
-    _check_cylinder(cyl)
+    check_cylinder(cyl)
     src = as_points(source_landmarks, "source_landmarks").reshape(-1, 3)
     dst = as_points(target_landmarks, "target_landmarks").reshape(-1, 3)
     if src.shape != dst.shape or len(src) == 0:
@@ -615,7 +610,7 @@ def lte_generalize(cyl: GeneralizedCylinder, constraints: Mapping[int, np.ndarra
     constraint the similarity is exact for a skill moved, turned and scaled as a whole. Pass
     ``mode="similarity"`` or ``"rigid"`` to have a kept-start skill turn (and scale) anyway.
     """
-    _check_cylinder(cyl)
+    check_cylinder(cyl)
     fade = as_scalar(fade, "fade", minimum=0.0, maximum=1.0)
     as_count(iterations, "iterations", minimum=0)
     constraints = dict(constraints) if isinstance(constraints, Mapping) else constraints

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from .bounding_sphere import BoundingSphere, bounding_sphere
-from .cylinder import GeneralizedCylinder
+from .cylinder import GeneralizedCylinder, check_cylinder
 from .errors import InvalidArgumentError, ObstacleAvoidanceError
 from .generalization import ANCHORED_SECTIONS, lte_generalize
 from .reproduction import PLANE_TOLERANCE, check_starts, reproduce
@@ -77,8 +77,7 @@ def cylinder_clearance(cyl: GeneralizedCylinder, obstacle: Any, num_angles: int 
 def _clearance_and_centre(cyl: GeneralizedCylinder, obstacle: Any, num_angles: int,
                           num_radii: int, step: int) -> tuple[float, np.ndarray]:
     """Sampled clearance [m] (see cylinder_clearance) and a point (3,) inside ``obstacle``."""
-    if not isinstance(cyl, GeneralizedCylinder):
-        raise InvalidArgumentError(f"cyl: expected a GeneralizedCylinder, got {type(cyl).__name__}")
+    check_cylinder(cyl)
     distance, centre = _distance_function(obstacle)
     pts = _solid_samples(cyl, as_count(num_angles, "num_angles", 3),
                          as_count(num_radii, "num_radii", 2), as_count(step, "step"))

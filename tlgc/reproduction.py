@@ -18,10 +18,10 @@ from __future__ import annotations
 import numpy as np
 
 from .cross_sections import polar
-from .cylinder import GeneralizedCylinder
+from .cylinder import GeneralizedCylinder, check_cylinder
 from .errors import InvalidArgumentError, StartOffPlaneError, StartOutsideError
 from scenes.threads import single_blas_thread
-from .validation import as_count, as_generator, as_points, as_scalar
+from .validation import as_array, as_bool, as_count, as_generator, as_points, as_scalar
 
 DEFAULT_GAMMA = 10.0     # decay constant of eq. 10: exp(-10) = 4.5e-5 of the gap is left at the end
 OUTSIDE_TOLERANCE = 1e-9  # a start is inside the first section when its ratio <= 1 + this
@@ -77,7 +77,11 @@ def check_starts(cyl: GeneralizedCylinder, starts: np.ndarray,
 def ratio_schedule(eta0: np.ndarray, arc_length: np.ndarray, eta_final: float | None,
                    gamma: float) -> np.ndarray:
     """Ratios (R, N) along the cylinder: fixed eta0 (R,) if eta_final is None, else eq. 10."""
-    eta0 = np.asarray(eta0, dtype=float)[:, None]
+    eta0 = as_array(eta0, "eta0").reshape(-1)[:, None]
+    arc_length = as_array(arc_length, "arc_length")
+    gamma = as_scalar(gamma, "gamma", minimum=0.0)
+    if eta_final is not None:
+        eta_final = as_scalar(eta_final, "eta_final", minimum=0.0)
     if eta_final is None:
         return np.broadcast_to(eta0, (eta0.shape[0], len(arc_length)))
     return (eta0 - eta_final) * np.exp(-gamma * arc_length)[None, :] + eta_final
@@ -95,8 +99,8 @@ def reproduce(cyl: GeneralizedCylinder, starts: np.ndarray, eta_final: float | N
     the first boundary (ratio > 1) raises StartOutsideError unless ``allow_outside``.
     Point i of every reproduction lies on section i's plane.
     """
-    if not isinstance(cyl, GeneralizedCylinder):
-        raise InvalidArgumentError(f"cyl: expected a GeneralizedCylinder, got {type(cyl).__name__}")
+    check_cylinder(cyl)
+    allow_outside = as_bool(allow_outside, "allow_outside")
     p = as_points(starts, "starts")
     single = p.ndim == 1
     if p.ndim not in (1, 2):
@@ -143,6 +147,7 @@ def random_starts(cyl: GeneralizedCylinder, count: int, rng: np.random.Generator
     Angles are drawn with density proportional to r(angle)^2 (rejection), radii as
     r(angle) sqrt(U); ``rng`` is a numpy Generator or an integer seed.
     """
+    check_cylinder(cyl)
     count = as_count(count, "count", minimum=0)
     rng = as_generator(rng)
     idx = int(cyl.cross_sections.check_index(np.asarray(index)))

@@ -1,6 +1,7 @@
 """Small input checks for tlgc: the shared checks of scenes.validation, raising TLGC errors."""
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -16,8 +17,31 @@ def as_array(x: Any, name: str, error: type[TLGCError] = InvalidArgumentError) -
 
 
 def as_points(x: Any, name: str, error: type[TLGCError] = InvalidArgumentError) -> np.ndarray:
-    """Finite points of shape (..., 3) in metres."""
-    return _checks.as_points(x, name, error)
+    """Finite points of shape (..., 3) in metres, |coordinate| <= scenes.validation.MAX_COORDINATE."""
+    return _checks.as_trailing(x, name, (3,), None, error, _checks.MAX_COORDINATE)
+
+
+def as_trailing(x: Any, name: str, last_dims: tuple[int, ...],
+                error: type[TLGCError] = InvalidArgumentError) -> np.ndarray:
+    """Finite array of shape (..., *last_dims)."""
+    return _checks.as_trailing(x, name, last_dims, None, error)
+
+
+def as_bool(x: Any, name: str) -> bool:
+    """True or False (numpy bools included); InvalidArgumentError otherwise."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise InvalidArgumentError(f"{name}: expected True or False, got {x!r:.60}")
+    return bool(x)
+
+
+def as_path(x: Any, name: str = "path") -> Path:
+    """A file path (str or os.PathLike); InvalidArgumentError otherwise."""
+    return _checks.as_path(x, name, InvalidArgumentError)
+
+
+def as_file(x: Any, error: type[TLGCError], name: str = "path") -> Path:
+    """An existing regular file (``error`` for a missing path or a directory)."""
+    return _checks.as_file(x, name, error, InvalidArgumentError)
 
 
 def as_scalar(x: Any, name: str, minimum: float | None = None, maximum: float | None = None,
