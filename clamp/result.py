@@ -17,8 +17,15 @@ class PlanResult:
     iterations accepted steps, trials solved steps (0 for GTSAM's optimizers), stop_reason;
     errors are graph errors in nats (0.5 sum of squared whitened residuals); family_errors per
     factor family; collision_cost = error of the obstacle factors; min_clearance [m] smallest
-    exact distance between any collision sphere and any obstacle over all states (+inf without
-    obstacles); start_error, goal_error [m] (rad for joint targets; None without goal),
+    distance between the robot's collision geometry and any obstacle, at every state and in
+    between (no link point moves more than 5 mm between checks; negative: penetration depth;
+    +inf without obstacles), measured on ``collision_geometry`` ("urdf": the URDF's collision
+    meshes; "spheres": the robot has none, its collision spheres; None without obstacles);
+    nearest_contact: where min_clearance occurs (link, geometry, obstacle, fractional state
+    index, time [s], distance [m]); attempts: the solves of the collision constraint loop
+    (:mod:`clamp.continuation`: candidate, hinge sigma [m], min_distance [m], feasible,
+    prior_cost [nats], iterations; one entry when the first solve was collision-free, none
+    without obstacle factors); start_error, goal_error [m] (rad for joint targets; None without goal),
     via_errors [m or rad] one per via point;
     log_likelihood of the plan's workspace path under the prior (initial-state term left out);
     plausibility: the probability that a path of the skill's prior (noise floored at 0.5 mm
@@ -62,6 +69,9 @@ class PlanResult:
     ee_covariance: np.ndarray | None = None
     via_errors: list[float] = field(default_factory=list)
     covariance_floor: float = 0.0
+    collision_geometry: str | None = None
+    nearest_contact: dict[str, Any] | None = None
+    attempts: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def ee_std(self) -> np.ndarray | None:
@@ -76,6 +86,8 @@ class PlanResult:
             return None if value is None or not np.isfinite(value) else float(value)
         return {"success": bool(self.success), "reasons": list(self.reasons),
                 "min_clearance_m": number(self.min_clearance),
+                "collision_geometry": self.collision_geometry,
+                "nearest_contact": self.nearest_contact,
                 "start_error": number(self.start_error), "goal_error": number(self.goal_error),
                 "via_errors": [float(e) for e in self.via_errors],
                 "within_limits": bool(self.within_limits)}
