@@ -13,7 +13,9 @@ class PlanResult:
 
     q, qdot (T, n) [rad, rad/s]; ee_path, ee_velocity (T, 3) [m, m/s]; time (T,) [s];
     timings [s] ("build" (incl. initialisation and distance field), "optimize", "marginals",
-    "total"; the fast solver adds its phases "linearize", "solve", "correction", "error");
+    "total"; the fast solver adds its phases "linearize", "solve", "correction", "error" (of
+    the chosen solve); with obstacles "constraint_loop" (every solve and check) and "clearance"
+    (the real-geometry checks, the verdict's included));
     iterations accepted steps, trials solved steps (0 for GTSAM's optimizers), stop_reason;
     errors are graph errors in nats (0.5 sum of squared whitened residuals); family_errors per
     factor family; collision_cost = error of the obstacle factors; min_clearance [m] smallest
