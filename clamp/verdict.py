@@ -70,6 +70,19 @@ def _target_position(robot: Any, target: Any) -> np.ndarray | None:
     return target.value if target.kind == "position" else robot.fk(target.value)
 
 
+def _limit_reason(robot: Any, q: np.ndarray, qdot: np.ndarray) -> str:
+    """Which limit is exceeded most, where and by how much (position [rad], velocity [rad/s])."""
+    position = np.maximum(np.asarray(robot.lower_limits) - q, q - np.asarray(robot.upper_limits))
+    speed = np.abs(qdot) - np.asarray(robot.velocity_limits)
+    parts = []
+    for kind, unit, excess in (("position", "rad", position), ("velocity", "rad/s", speed)):
+        i, j = np.unravel_index(np.argmax(excess), excess.shape)
+        if excess[i, j] > 0:
+            parts.append(f"{kind} of joint {robot.joint_names[j]} by {excess[i, j]:.3g} {unit} "
+                         f"at state {i}")
+    return "joint limits violated: " + "; ".join(parts)
+
+
 def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
              out: Optimized, config: PlannerConfig, timings: dict[str, float],
              report: CollisionReport | None = None) -> PlanResult:
@@ -114,7 +127,7 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     if collision:
         reasons.append(collision)
     if not within:
-        reasons.append("joint position or velocity limits violated")
+        reasons.append(_limit_reason(robot, q, qdot))
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float), timings=timings,
                       iterations=out.iterations, initial_error=out.initial_error,
