@@ -16,7 +16,9 @@ class PlanResult:
     "total"; the fast solver adds its phases "linearize", "solve", "correction", "error" (of
     the chosen solve); with obstacles "constraint_loop" (every solve and check) and "clearance"
     (the real-geometry checks, the verdict's included));
-    iterations accepted steps, trials solved steps (0 for GTSAM's optimizers), stop_reason;
+    iterations accepted steps, trials solved steps (0 for GTSAM's optimizers; both summed over
+    the constraint loop's solves), stop_reason (the optimizer's, or "infeasible" when the plan
+    fails its verdict: never "converged" on a failing plan);
     errors are graph errors in nats (0.5 sum of squared whitened residuals); family_errors per
     factor family; collision_cost = error of the obstacle factors; min_clearance [m] smallest
     distance between the robot's collision geometry and any obstacle, at every state and in

@@ -138,7 +138,10 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       plausibility_z=float(score.z),
                       within_limits=within, success=not reasons, reasons=reasons,
                       initialisation=config.optimizer.initialisation, trials=out.trials,
-                      optimizer=out.optimizer, stop_reason=out.stop_reason,
+                      optimizer=out.optimizer,
+                      # a plan that violates what it was asked to meet never reports convergence
+                      stop_reason="infeasible" if reasons and out.stop_reason == "converged"
+                      else out.stop_reason,
                       via_errors=via_errors,
                       collision_geometry=None if report is None else report.geometry,
                       nearest_contact=None if report is None else report.nearest.to_dict())

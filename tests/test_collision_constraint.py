@@ -115,6 +115,16 @@ def test_a_weak_weight_still_gives_a_collision_free_plan(jaco, prior):
     assert result.iterations == sum(a["iterations"] for a in result.attempts)
 
 
+def test_goal_inside_an_obstacle_fails_with_reasons_never_converged(jaco, prior):
+    start = prior.mean[0, :3]
+    goal = plan(prior, jaco, None, start=start, covariance=False).ee_path[-1]
+    result = plan(prior, jaco, Scene([Box(goal, [0.06] * 3)]), start=start, goal=goal,
+                  covariance=False)
+    assert not result.success and result.stop_reason == "infeasible"
+    assert any(r.startswith("goal error") for r in result.reasons) or any(
+        r.startswith("collision") for r in result.reasons), result.reasons
+
+
 def test_first_feasible_solve_is_kept_alone(jaco, prior):
     result = plan(prior, jaco, Scene([README_BOX]), start=START, covariance=False)
     assert [a["candidate"] for a in result.attempts] == ["configured"]
