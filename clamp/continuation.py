@@ -27,6 +27,7 @@ import logging
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
+from itertools import chain
 
 import numpy as np
 
@@ -71,10 +72,6 @@ class ConstrainedSolve:
     report: CollisionReport
     attempts: list[Attempt]
 
-    @property
-    def feasible(self) -> bool:
-        return not self.report.collision
-
 
 def with_obstacle_sigma(problem: PlanningProblem, sigma: float, initial: np.ndarray
                         ) -> PlanningProblem:
@@ -118,15 +115,15 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
     if report.collision and rounds > 0:
         # the optimum continued first; the restarts run only while fewer than WANTED
         # candidates are feasible, and once one is, only at the weight that made it feasible
-        candidates = iter([("continuation", out.theta, 1)])
-        pending = iter(restarts(report))
+        candidates = chain([("continuation", out.theta, 1)],
+                           ((name, theta, 0) for name, theta in restarts(report)))
         first_ok = None
-        while sum(not s[1].collision for s in solved) < WANTED:
-            name, theta, k = next(candidates, None) or (*next(pending, (None, None)), 0)
-            if name is None:
+        for name, theta, k in candidates:
+            if sum(not s[1].collision for s in solved) >= WANTED:
                 break
+            first = k if first_ok is None else first_ok
             last = rounds if first_ok is None else first_ok
-            for r in range(k if first_ok is None else first_ok, last + 1):
+            for r in range(first, last + 1):
                 out, report = attempt(name, sigma0 * SHRINK ** r, theta)
                 if not report.collision:
                     first_ok = r if first_ok is None else first_ok
@@ -140,7 +137,7 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
         best, report, _ = max(solved, key=lambda s: s[1].min_distance)
         stop = "infeasible"
         if len(solved) > 1:
-            log.info("no collision-free plan after %d attempts; deepest remaining contact "
+            log.info("no collision-free plan after %d attempts; the closest still penetrates "
                      "%.1f mm", len(solved), -1e3 * report.min_distance)
     timings = dict(best.timings)
     timings["constraint_loop"] = time.perf_counter() - start
