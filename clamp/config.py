@@ -83,6 +83,10 @@ class OptimizerConfig:
     absolute_error_tol: float = 1e-2
     #: ... for this many consecutive accepted steps
     convergence_patience: int = 2
+    #: collision-free as a constraint (:mod:`clamp.continuation`): when the optimum collides
+    #: (on the robot's collision geometry), rounds of 4x stiffer obstacle hinges per candidate
+    #: start (the optimum, detours, a straight line); 0: the weighted solve only
+    constraint_rounds: int = 3
     #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
     #: workspace states (0 = plain LM, which crawls against stiff learned priors)
     workspace_correction: int = 2
@@ -191,6 +195,7 @@ class PlannerConfig:
             as_scalar(getattr(o, name), f"config.optimizer.{name}", strictly_positive=True)
         as_count(o.max_iterations, "config.optimizer.max_iterations", minimum=0)
         as_count(o.workspace_correction, "config.optimizer.workspace_correction", minimum=0)
+        as_count(o.constraint_rounds, "config.optimizer.constraint_rounds", minimum=0)
         as_count(o.convergence_patience, "config.optimizer.convergence_patience", minimum=1)
         from clamp.optimizers import OPTIMIZERS
         for name, valid in (("optimizer", OPTIMIZERS), ("initialisation", INITIALISATIONS)):

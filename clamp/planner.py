@@ -13,13 +13,16 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import asdict
 from typing import Any, Union
 
 import gtsam
 import numpy as np
 
+from clamp.clearance import check_clearance, contact_obstacle
 from clamp.conditioning import planning_prior
 from clamp.config import PlannerConfig
+from clamp.continuation import detour_restarts, solve_collision_free
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
                            JointTargetFamily, ObstacleFamily, WorkspaceGPFamily,
@@ -68,6 +71,19 @@ def _initialise(prior: Any, robot: Any, request: Request, config: PlannerConfig)
             last = np.asarray(robot.ik(end, seed=first, tol=config.checks.ik_tolerance).q,
                               dtype=float)
     return straight_line_initialisation(robot, first, last, T, dt)
+
+
+def _restarts(prior, robot, scene, request: Request, config: PlannerConfig, init: Initialisation,
+              report: Any):
+    """Other starting trajectories when the plan collides: detours of the initial path around
+    the obstacle of the deepest contact, then a straight line in joint space."""
+    yield from detour_restarts(robot, init.path, request.q_start, float(prior.dt),
+                               contact_obstacle(robot, scene, report.nearest),
+                               config.model.epsilon, report.nearest.index,
+                               config.checks.ik_tolerance)
+    if config.optimizer.initialisation != "straight_line":
+        line = _initialise(prior, robot, request, config.with_(initialisation="straight_line"))
+        yield "straight_line", line.theta
 
 
 def warm_start(robot: Any, initial: Any, T: int, dt: float) -> Initialisation:
@@ -229,7 +245,19 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
                                                  extra_factors, config, sdf, initial, request,
                                                  model_prior)
     t_opt = time.perf_counter()
-    out = optimize(problem, config)
+    report, attempts = None, []
+    if any(f.name == ObstacleFamily.name for f in problem.families):
+        # collision-free is a constraint: continuation on the hinge and restarts (see
+        # clamp.continuation), judged on the robot's own collision geometry
+        solved = solve_collision_free(
+            problem, config,
+            lambda theta: check_clearance(robot, scene, theta[:, :robot.n], prior.time),
+            lambda found: _restarts(prior, robot, scene, request, config, init, found),
+            config.optimizer.constraint_rounds)
+        out, report = solved.out, solved.report
+        attempts = [asdict(a) for a in solved.attempts]
+    else:
+        out = optimize(problem, config)
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
     floor = 0.0
@@ -238,8 +266,9 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     t_end = time.perf_counter()
     timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
                **out.timings}
-    result = evaluate(prior, robot, scene, problem, request, out, config, timings)
+    result = evaluate(prior, robot, scene, problem, request, out, config, timings, report)
     result.initial_q = init.q
+    result.attempts = attempts
     result.state_covariance, result.ee_covariance = state_cov, ee_cov
     result.covariance_floor = floor
     result.inputs = PlanInputs(prior, robot, scene, start, goal, tuple(via_points),
@@ -248,5 +277,7 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     if broken:
         result.reasons += broken
         result.success = False
+        if result.stop_reason == "converged":   # never "converged" on a violated constraint
+            result.stop_reason = "infeasible"
     result.timings["total"] = time.perf_counter() - t0
     return result

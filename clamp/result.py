@@ -31,12 +31,23 @@ class PlanResult:
 
     q, qdot (T, n) [rad, rad/s]; ee_path, ee_velocity (T, 3) [m, m/s]; time (T,) [s];
     timings [s] ("build" (incl. initialisation and distance field), "optimize", "marginals",
-    "total"; the fast solver adds its phases "linearize", "solve", "correction", "error");
-    iterations accepted steps, trials solved steps (0 for GTSAM's optimizers), stop_reason;
+    "total"; the fast solver adds its phases "linearize", "solve", "correction", "error" (of
+    the chosen solve); with obstacles "constraint_loop" (every solve and check) and "clearance"
+    (the real-geometry checks, the verdict's included));
+    iterations accepted steps, trials solved steps (0 for GTSAM's optimizers; both summed over
+    the constraint loop's solves), stop_reason (the optimizer's, or "infeasible" when the plan
+    fails its verdict: never "converged" on a failing plan);
     errors are graph errors in nats (0.5 sum of squared whitened residuals); family_errors per
     factor family; collision_cost = error of the obstacle factors; min_clearance [m] smallest
-    exact distance between any collision sphere and any obstacle over all states (+inf without
-    obstacles); start_error, goal_error [m] (rad for joint targets; None without goal),
+    distance between the robot's collision geometry and any obstacle, at every state and in
+    between (no link point moves more than 5 mm between checks; negative: penetration depth;
+    +inf without obstacles), measured on ``collision_geometry`` ("urdf": the URDF's collision
+    meshes; "spheres": the robot has none, its collision spheres; None without obstacles);
+    nearest_contact: where min_clearance occurs (link, geometry, obstacle, fractional state
+    index, time [s], distance [m]); attempts: the solves of the collision constraint loop
+    (:mod:`clamp.continuation`: candidate, hinge sigma [m], min_distance [m], feasible,
+    prior_cost [nats], iterations; one entry when the first solve was collision-free, none
+    without obstacle factors); start_error, goal_error [m] (rad for joint targets; None without goal),
     via_errors [m or rad] one per via point;
     log_likelihood of the plan's workspace path under the prior (initial-state term left out);
     plausibility: the probability that a path of the skill's prior (noise floored at 0.5 mm
@@ -82,6 +93,9 @@ class PlanResult:
     via_errors: list[float] = field(default_factory=list)
     covariance_floor: float = 0.0
     violations: dict[str, float] = field(default_factory=dict)
+    collision_geometry: str | None = None
+    nearest_contact: dict[str, Any] | None = None
+    attempts: list[dict[str, Any]] = field(default_factory=list)
     #: the request (not a dataclass field: left out of to_dict / asdict); set by clamp.plan
     inputs = None
 
@@ -98,6 +112,8 @@ class PlanResult:
             return None if value is None or not np.isfinite(value) else float(value)
         return {"success": bool(self.success), "reasons": list(self.reasons),
                 "min_clearance_m": number(self.min_clearance),
+                "collision_geometry": self.collision_geometry,
+                "nearest_contact": self.nearest_contact,
                 "start_error": number(self.start_error), "goal_error": number(self.goal_error),
                 "via_errors": [float(e) for e in self.via_errors],
                 "violations": {k: float(v) for k, v in self.violations.items()},

@@ -1,14 +1,17 @@
 """The verdict of a plan: what was asked of it (start, goal, via points, clearance, limits) checked
 on the optimised trajectory, with the figures behind every reason; and the early failures
-(start out of reach or in collision) that stop before planning.
+(start out of reach or in collision) that stop before planning. Clearance is measured on the
+robot's own collision geometry (:mod:`clamp.clearance`), never on the optimiser's spheres.
 """
 from __future__ import annotations
 
+import math
 import time
 from typing import Any
 
 import numpy as np
 
+from clamp.clearance import check_clearance, collision_reason, describe_contact
 from clamp.config import PlannerConfig
 from clamp.limit_report import limit_violations
 from clamp.optimizers import Optimized
@@ -16,6 +19,7 @@ from clamp.plausibility import plausibility_details
 from clamp.problem import PlanningProblem
 from clamp.request import Request, has_obstacles
 from clamp.result import PlanResult
+from robots.collision_check import CollisionReport
 
 
 def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
@@ -55,12 +59,11 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     if has_obstacles(scene):
         if start.kind == "position" and float(scene.distance(start.value)) < 0:
             reasons.append("start position is inside an obstacle")
-        clearance = sphere_clearance(robot, scene, request.q_start[None])
-        if np.min(clearance) < 0:
-            reasons.append(f"start configuration is in collision (clearance "
-                           f"{np.min(clearance) * 1000:.1f} mm)")
+        report = check_clearance(robot, scene, request.q_start[None])
+        if report.collision:
+            reasons.append("start configuration is in collision: "
+                           + describe_contact(report.nearest, report.geometry))
     return reasons
-
 
 
 def _target_position(robot: Any, target: Any) -> np.ndarray | None:
@@ -71,14 +74,18 @@ def _target_position(robot: Any, target: Any) -> np.ndarray | None:
 
 
 def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
-              out: Optimized, config: PlannerConfig, timings: dict[str, float]) -> PlanResult:
-    """Metrics and success checks of an optimised plan."""
+             out: Optimized, config: PlannerConfig, timings: dict[str, float],
+             report: CollisionReport | None = None) -> PlanResult:
+    """Metrics and success checks of an optimised plan; report: the real-geometry check of
+    ``out.theta`` when the caller already has it (else computed here)."""
     n, checks = robot.n, config.checks
     q, qdot = out.theta[:, :n], out.theta[:, n:]
     x, _ = problem.window(out.theta).workspace()
     position = x[:, :3]
     families = problem.family_errors(out.theta)
-    clearance = float(np.min(sphere_clearance(robot, scene, q)))
+    if report is None:
+        report = check_clearance(robot, scene, q, np.asarray(prior.time, dtype=float))
+    clearance = math.inf if report is None else float(report.min_distance)
     start = request.start
     start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
                                        - start.value))
@@ -105,8 +112,9 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
         if error > checks.via_tolerance:
             reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
                            f"{checks.via_tolerance:.4g}")
-    if clearance < 0:
-        reasons.append(f"collision: minimum clearance {clearance * 1000:.1f} mm")
+    collision = collision_reason(report)
+    if collision:
+        reasons.append(collision)
     reasons += limits
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float), timings=timings,
@@ -118,5 +126,10 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       plausibility_z=float(score.z),
                       within_limits=not limits, success=not reasons, reasons=reasons,
                       initialisation=config.optimizer.initialisation, trials=out.trials,
-                      optimizer=out.optimizer, stop_reason=out.stop_reason,
-                      via_errors=via_errors)
+                      optimizer=out.optimizer,
+                      # a plan that violates what it was asked to meet never reports convergence
+                      stop_reason="infeasible" if reasons and out.stop_reason == "converged"
+                      else out.stop_reason,
+                      via_errors=via_errors,
+                      collision_geometry=None if report is None else report.geometry,
+                      nearest_contact=None if report is None else report.nearest.to_dict())

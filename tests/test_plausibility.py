@@ -269,6 +269,26 @@ def test_plan_scores_box_closing(box_closing, jaco):
     assert box.d2 > empty.d2 and box.score <= empty.score
 
 
+def test_plan_forced_around_an_obstacle_on_the_path_scores_lower(synthetic_prior, jaco):
+    # a cube on the demonstrated (mean) path: the plan has to leave the skill to avoid it
+    from clamp import plan
+    from scenes import Box, Scene
+    prior, start = synthetic_prior, synthetic_prior.mean[0, :3]
+    empty = plan(prior, jaco, None, start=start, covariance=False)
+    mean_path = prior.mean[:, :3]
+    assert np.linalg.norm(empty.ee_path - mean_path, axis=1).max() < 0.01
+    box = Box(mean_path[len(mean_path) // 2], [0.05, 0.05, 0.05])
+    forced = plan(prior, jaco, Scene([box]), start=start, covariance=False)
+    assert forced.success, forced.reasons
+    assert float(box.distance(forced.ee_path).min()) > 0.0          # it did go around
+    print(f"\nempty plan: {empty.plausibility:.3g} (z {empty.plausibility_z:.1f}); around the "
+          f"box: {forced.plausibility:.3g} (z {forced.plausibility_z:.1f})")
+    # the tail probability may saturate at 1 for both (the floored prior is generous); the
+    # standardised distance still ranks them
+    assert forced.plausibility_z > empty.plausibility_z
+    assert forced.plausibility <= empty.plausibility
+
+
 # ------------------------------------------------------------------------------ arguments
 def test_floored_prior(synthetic_prior):
     fp = floored_prior(synthetic_prior, 1e-3, 2e-3)

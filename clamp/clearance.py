@@ -1,0 +1,70 @@
+"""The verdict's clearance: distances from the robot's own collision geometry to the scene.
+
+The optimiser plans with collision spheres; the verdict never trusts them. :func:`check_clearance`
+measures a joint trajectory on the robot's URDF collision geometry (coal, through
+:class:`robots.collision_check.CollisionChecker`) against the scene's exact obstacles, at every
+support state and in between (segments subdivided so that no link point moves more than
+:data:`MAX_MOTION` between checks). A robot without collision geometry falls back to its
+collision spheres (``report.geometry == "spheres"``, which the result repeats).
+
+One checker is built per (robot, scene) and kept while both live (a scene is immutable), so a
+planner that checks several candidate plans in one scene pays for the set-up once.
+"""
+from __future__ import annotations
+
+import weakref
+from typing import Any
+
+import numpy as np
+
+from clamp.request import has_obstacles
+from robots.collision_check import CollisionChecker, CollisionReport, Contact
+from scenes.coal_shapes import coal_obstacles
+
+#: [m] largest motion of any link point between two checked configurations of a segment
+MAX_MOTION = 0.005
+
+_CHECKERS: "weakref.WeakKeyDictionary[Any, weakref.WeakKeyDictionary]" = weakref.WeakKeyDictionary()
+
+
+def checker(robot: Any, scene: Any) -> CollisionChecker:
+    """The collision checker of ``robot`` against the obstacles of ``scene`` (cached per pair;
+    obstacles are named "<kind>_<index>" in the scene's order, e.g. "box_0")."""
+    per_robot = _CHECKERS.setdefault(scene, weakref.WeakKeyDictionary())
+    found = per_robot.get(robot)
+    if found is None:
+        found = per_robot[robot] = CollisionChecker(robot, coal_obstacles(scene))
+    return found
+
+
+def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | None = None
+                    ) -> CollisionReport | None:
+    """Real-geometry check of q (T, n) [rad] (linear in joint space between states) against the
+    scene; time (T,) [s] only dates the nearest contact. None when the scene has no obstacles."""
+    if not has_obstacles(scene):
+        return None
+    return checker(robot, scene).check(q, time, margin=0.0, max_motion=MAX_MOTION)
+
+
+def contact_obstacle(robot: Any, scene: Any, contact: Contact) -> Any:
+    """The scene obstacle a contact of :func:`check_clearance` names."""
+    return scene.obstacles[checker(robot, scene).obstacle_names.index(contact.obstacle)]
+
+
+def describe_contact(contact: Contact, geometry: str) -> str:
+    """One phrase naming link, obstacle, where and how far, e.g. "link j2s6s200_link_finger_tip_1
+    1.2 mm inside box_0 at state 12.25 (t = 3.10 s), on the URDF collision geometry"."""
+    depth = contact.distance * 1000.0
+    how = f"{-depth:.1f} mm inside" if depth < 0 else f"{depth:.1f} mm from"
+    index = f"{round(contact.index, 2):g}"
+    when = "" if contact.time is None else f" (t = {contact.time:.2f} s)"
+    source = ("the URDF collision geometry" if geometry == "urdf"
+              else "the collision spheres (the robot has no collision geometry)")
+    return f"link {contact.link} {how} {contact.obstacle} at state {index}{when}, on {source}"
+
+
+def collision_reason(report: CollisionReport | None) -> str | None:
+    """The verdict's reason when ``report`` found a collision, else None."""
+    if report is None or not report.collision:
+        return None
+    return f"collision: {describe_contact(report.nearest, report.geometry)}"

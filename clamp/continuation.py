@@ -1,0 +1,196 @@
+"""Collision-free as a constraint: penalty continuation on the obstacle hinge, with restarts.
+
+The learned prior is nearly rigid given the start (per-step noise of micrometres), so no fixed
+obstacle weight suits every scene. :func:`solve_collision_free` treats "no collision" (measured
+on the robot's own collision geometry, :mod:`clamp.clearance`) as a constraint:
+
+1. solve the problem as configured (obstacle hinge noise ``sigma_obs``); a collision-free plan
+   is returned as it is (one real-geometry check, which the verdict reuses);
+2. otherwise run candidates, each a penalty continuation: solve with the hinge noise multiplied
+   by ``SHRINK`` per round (``rounds`` rounds at most, each warm-started from the last), stop
+   at the first collision-free solution. The candidates, in order: the infeasible optimum
+   itself (from round 1), then the restarts the caller gives (e.g. detours of the prior mean
+   around the offending obstacle, a straight line in joint space; from round 0). Once one
+   candidate is collision-free at round r, the others get one solve each, at round r (cheap:
+   the restarts only compete, they do not search);
+3. stop once ``WANTED`` candidates are collision-free and keep the one with the best prior cost
+   (graph error without the obstacle hinges); when none is, return the one that comes
+   closest, with ``stop_reason`` "infeasible" (never "converged"): the report names the link,
+   obstacle, state and depth of the remaining collision.
+
+Every candidate calls the configured optimizer (:func:`clamp.optimizers.optimize`) on a problem
+that differs from the original only by the obstacle hinge's noise.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, replace
+from itertools import chain
+
+import numpy as np
+
+from clamp.config import PlannerConfig
+from clamp.factors import ObstacleFamily
+from clamp.initialisation import joint_velocities
+from clamp.optimizers import Optimized, optimize
+from clamp.problem import PlanningProblem
+from robots.collision_check import CollisionReport
+
+log = logging.getLogger(__name__)
+
+#: factor applied to the obstacle hinge noise each continuation round (4x stiffer per round)
+SHRINK = 0.25
+#: collision-free candidates after which the restarts stop
+WANTED = 2
+
+Check = Callable[[np.ndarray], CollisionReport]
+Restarts = Callable[[CollisionReport], Iterable[tuple[str, np.ndarray]]]
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One solve: the candidate's name, the hinge noise sigma [m], the real-geometry minimum
+    distance [m] of its optimum, whether it is collision-free, its prior cost [nats] (graph
+    error without the obstacle hinges) and accepted iterations."""
+
+    candidate: str
+    sigma: float
+    min_distance: float
+    feasible: bool
+    prior_cost: float
+    iterations: int
+
+
+@dataclass(frozen=True)
+class ConstrainedSolve:
+    """The chosen optimum (``out``; iterations and trials summed over every attempt), its
+    real-geometry report and every attempt made (the first is the configured solve)."""
+
+    out: Optimized
+    report: CollisionReport
+    attempts: list[Attempt]
+
+
+def with_obstacle_sigma(problem: PlanningProblem, sigma: float, initial: np.ndarray
+                        ) -> PlanningProblem:
+    """The same problem with the obstacle hinges' noise set to sigma [m], starting at initial
+    (T, 2n)."""
+    families = [ObstacleFamily(f.first, f.radii, f.query, f.epsilon, sigma)
+                if isinstance(f, ObstacleFamily) else f for f in problem.families]
+    return PlanningProblem(problem.robot, problem.num_states, families, problem.foreign, initial)
+
+
+def _prior_cost(problem: PlanningProblem, theta: np.ndarray) -> float:
+    return float(sum(v for name, v in problem.family_errors(theta).items()
+                     if name != ObstacleFamily.name))
+
+
+def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check: Check,
+                         restarts: Restarts, rounds: int) -> ConstrainedSolve:
+    """Optimise ``problem`` (which has an obstacle family) until ``check(theta)`` finds no
+    collision (see the module docstring); rounds: continuation rounds per candidate (0: the
+    configured solve only)."""
+    sigma0 = float(config.model.sigma_obs)
+    attempts: list[Attempt] = []
+    solved: list[tuple[Optimized, CollisionReport, float]] = []
+    totals = {"iterations": 0, "trials": 0, "clearance": 0.0}
+
+    def attempt(name: str, sigma: float, theta0: np.ndarray) -> tuple[Optimized, CollisionReport]:
+        out = optimize(with_obstacle_sigma(problem, sigma, theta0), config)
+        started = time.perf_counter()
+        report = check(out.theta)
+        totals["clearance"] += time.perf_counter() - started
+        cost = _prior_cost(problem, out.theta)
+        totals["iterations"] += out.iterations
+        totals["trials"] += out.trials
+        attempts.append(Attempt(name, sigma, float(report.min_distance), not report.collision,
+                                cost, out.iterations))
+        solved.append((out, report, cost))
+        return out, report
+
+    start = time.perf_counter()
+    out, report = attempt("configured", sigma0, problem.initial)
+    if report.collision and rounds > 0:
+        # the optimum continued first; the restarts run only while fewer than WANTED
+        # candidates are feasible, and once one is, only at the weight that made it feasible
+        candidates = chain([("continuation", out.theta, 1)],
+                           ((name, theta, 0) for name, theta in restarts(report)))
+        first_ok = None
+        for name, theta, k in candidates:
+            if sum(not s[1].collision for s in solved) >= WANTED:
+                break
+            first = k if first_ok is None else first_ok
+            last = rounds if first_ok is None else first_ok
+            for r in range(first, last + 1):
+                out, report = attempt(name, sigma0 * SHRINK ** r, theta)
+                if not report.collision:
+                    first_ok = r if first_ok is None else first_ok
+                    break
+                theta = out.theta
+    feasible = [s for s in solved if not s[1].collision]
+    if feasible:
+        best, report, _ = min(feasible, key=lambda s: s[2])
+        stop = best.stop_reason
+    else:
+        best, report, _ = max(solved, key=lambda s: s[1].min_distance)
+        stop = "infeasible"
+        if len(solved) > 1:
+            log.info("no collision-free plan after %d attempts; the closest still penetrates "
+                     "%.1f mm", len(solved), -1e3 * report.min_distance)
+    timings = dict(best.timings)
+    timings["constraint_loop"] = time.perf_counter() - start
+    timings["clearance"] = totals["clearance"]
+    chosen = replace(best, iterations=totals["iterations"], trials=totals["trials"],
+                     stop_reason=stop, timings=timings)
+    return ConstrainedSolve(chosen, report, attempts)
+
+
+def detour_paths(path: np.ndarray, centre: np.ndarray, radius: float, clearance: float,
+                 index: float) -> list[tuple[str, np.ndarray]]:
+    """End-effector paths (T, 3) [m] that leave ``path`` (T, 3) around an obstacle (bounding
+    sphere ``centre`` (3,), ``radius`` [m]) met near state ``index``: "detour_away" pushes the
+    path away from the centre across its direction of travel, "detour_over" lifts it (+z), each
+    by radius + clearance at the contact, faded in and out (raised cosine) over the states within
+    radius + 2 clearance of the centre (at least a tenth of the path each side)."""
+    T = len(path)
+    i = int(np.clip(round(index), 0, T - 1))
+    near = np.flatnonzero(np.linalg.norm(path - centre, axis=1) < radius + 2.0 * clearance)
+    half = max(T // 10, int(np.max(np.abs(near - i))) if near.size else 0, 1)
+    s = np.clip((np.arange(T) - i) / half, -1.0, 1.0)
+    window = 0.5 * (1.0 + np.cos(np.pi * s))
+    window[0] = 0.0                                   # the start stays where it was asked
+    tangent = path[min(i + 1, T - 1)] - path[max(i - 1, 0)]
+    tangent /= max(np.linalg.norm(tangent), 1e-12)
+    away = path[i] - centre
+    away -= tangent * (away @ tangent)
+    if np.linalg.norm(away) < 1e-9:
+        away = np.cross(tangent, [0.0, 0.0, 1.0])
+        if np.linalg.norm(away) < 1e-9:
+            away = np.array([1.0, 0.0, 0.0])
+    away /= np.linalg.norm(away)
+    amplitude = radius + clearance
+    out = []
+    for name, direction in (("detour_away", away), ("detour_over", np.array([0.0, 0.0, 1.0]))):
+        out.append((name, path + amplitude * window[:, None] * direction))
+    return out
+
+
+def bounding_sphere(obstacle) -> tuple[np.ndarray, float]:
+    """Centre (3,) and radius [m] of a ball containing a scene obstacle (from its AABB)."""
+    box = np.asarray(obstacle.aabb(), dtype=float)
+    return 0.5 * (box[0] + box[1]), 0.5 * float(np.linalg.norm(box[1] - box[0]))
+
+
+def detour_restarts(robot, path: np.ndarray, q_start: np.ndarray, dt: float, obstacle,
+                    clearance: float, index: float, tolerance: float
+                    ) -> Iterable[tuple[str, np.ndarray]]:
+    """Joint-state trajectories (T, 2n) of :func:`detour_paths` around ``obstacle`` (a scene
+    obstacle met near state ``index``), by inverse kinematics seeded at q_start (n,); generated
+    lazily (each costs an IK of the path)."""
+    centre, radius = bounding_sphere(obstacle)
+    for name, detour in detour_paths(path, centre, radius, clearance, index):
+        q = np.array(robot.ik_trajectory(detour, seed=q_start, tol=tolerance).q, dtype=float)
+        q[0] = q_start
+        yield name, np.concatenate([q, joint_velocities(q, dt)], axis=1)

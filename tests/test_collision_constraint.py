@@ -1,0 +1,172 @@
+"""Plans judged on the real collision geometry and collision-free as a constraint (issue 9):
+clamp.clearance (the verdict's check) and clamp.continuation (the constraint loop).
+
+Collision-freeness is checked independently of the planner's own search: coal on every
+link-obstacle pair (CollisionChecker.distances, brute force) at the support states and at four
+configurations per segment."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from clamp import PlannerConfig, learn_prior, plan
+from clamp.clearance import check_clearance, checker
+from clamp.continuation import detour_paths
+from clamp.verdict import sphere_clearance
+from robots import Robot
+from robots.collision_check import CollisionChecker
+from robots.registry import example_robot_data_share
+from scenes import Box, Scene, make_demonstrations
+from scenes.coal_shapes import coal_obstacles
+
+# the probe of issue 9: the fingertip mesh reaches into the box the collision spheres clear
+PROBE_Q = np.array([0.8342, 2.7134, 4.9144, 0.894, 2.2859, 0.0])
+PROBE_BOX = Box([0.2271, -0.3773, 0.1763], [0.04, 0.04, 0.04])
+README_BOX = Box.from_reference([0.32, -0.32, 0.13, 0.09, 0.06, 0.28])
+START = np.array([0.2054, -0.4722, 0.2625])
+
+
+@pytest.fixture(scope="module")
+def prior():
+    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
+
+
+def brute_force_clearance(robot, scene, q: np.ndarray, per_segment: int = 2) -> float:
+    """Least coal distance over every link-obstacle pair at the states of q (T, n) and at
+    per_segment - 1 configurations inside every segment."""
+    s = np.linspace(0.0, 1.0, per_segment + 1)[:-1]
+    dense = np.concatenate([(1 - a) * q[:-1] + a * q[1:] for a in s] + [q[-1:]], axis=0)
+    return float(CollisionChecker(robot, coal_obstacles(scene)).distances(dense).min())
+
+
+# ----------------------------------------------------------------------------- the verdict
+def test_probe_fails_naming_the_fingertip_and_the_box(jaco, prior):
+    scene = Scene([PROBE_BOX])
+    assert sphere_clearance(jaco, scene, PROBE_Q[None]).min() > 0.005     # the spheres clear it
+    result = plan(prior, jaco, scene, start=PROBE_Q, covariance=False)
+    assert not result.success and result.stop_reason == "not started"
+    reason = " ".join(result.reasons)
+    assert "finger_tip" in reason and "box_0" in reason and "mm inside" in reason, reason
+
+
+def test_verdict_measures_the_urdf_geometry_at_and_between_states(jaco, prior):
+    scene = Scene([README_BOX])
+    result = plan(prior, jaco, scene, start=START, covariance=False)
+    assert result.success, result.reasons
+    assert result.collision_geometry == "urdf"
+    contact = result.nearest_contact
+    assert contact["obstacle"] == "box_0" and contact["link"] in checker(jaco, scene).link_names
+    assert contact["distance"] == result.min_clearance > 0.0
+    # the least distance over support states and in-between configurations: not above the
+    # support states' own (brute force) and not below a denser brute-force sampling by more
+    # than what a link point can move between the verdict's checks (5 mm)
+    at_states = float(CollisionChecker(jaco, coal_obstacles(scene)).distances(result.q).min())
+    assert result.min_clearance <= at_states + 1e-9
+    assert result.min_clearance >= brute_force_clearance(jaco, scene, result.q, 2) - 0.005
+    verdict = result.verdict()
+    assert verdict["collision_geometry"] == "urdf" and verdict["nearest_contact"] == contact
+    assert check_clearance(jaco, scene, result.q) is not None
+    assert checker(jaco, scene) is checker(jaco, scene)                     # built once
+    assert check_clearance(jaco, Scene(), result.q) is None
+
+
+def test_robot_without_collision_geometry_says_the_verdict_used_spheres(jaco, prior):
+    bare = Robot(jaco.model, jaco.end_effector, spheres=jaco.spheres, base_frame=jaco.base_frame)
+    result = plan(prior, bare, Scene([README_BOX]), start=START, covariance=False)
+    assert result.collision_geometry == "spheres"
+    assert "#" in result.nearest_contact["geometry"]
+    assert result.min_clearance == pytest.approx(
+        sphere_clearance(bare, Scene([README_BOX]), result.q).min(), abs=0.003)
+
+
+# ------------------------------------------------------------------ constraint, not weight
+def box_in_the_path(prior, robot, side: float = 0.05) -> Scene:
+    """A cube centred on the empty-scene plan's end-effector path, half way along it."""
+    empty = plan(prior, robot, None, start=prior.mean[0, :3], covariance=False)
+    assert empty.success, empty.reasons
+    scene = Scene([Box(empty.ee_path[len(empty.ee_path) // 2], [side] * 3)])
+    assert brute_force_clearance(robot, scene, empty.q) < 0.0
+    return scene
+
+
+def test_a_weak_weight_still_gives_a_collision_free_plan(jaco, prior):
+    weak = PlannerConfig().with_(sigma_obs=0.5)              # ten times the reference's weight
+    scene = box_in_the_path(prior, jaco)
+    START = prior.mean[0, :3]
+    given_up = plan(prior, jaco, scene, start=START, covariance=False,
+                    config=weak.with_(constraint_rounds=0))
+    # the weighted optimum collides: reported as such, never as converged
+    assert brute_force_clearance(jaco, scene, given_up.q) < 0.0
+    assert not given_up.success and given_up.stop_reason == "infeasible"
+    assert given_up.min_clearance < 0.0
+    contact = given_up.nearest_contact
+    reason = next(r for r in given_up.reasons if r.startswith("collision"))
+    assert contact["link"] in reason and "box_0" in reason and "mm inside" in reason
+    assert f"{-contact['distance'] * 1e3:.1f} mm" in reason and "state" in reason
+
+    result = plan(prior, jaco, scene, start=START, covariance=False, config=weak)
+    assert result.success, result.reasons
+    assert brute_force_clearance(jaco, scene, result.q) > 0.0
+    first, *rest = result.attempts
+    assert first["candidate"] == "configured" and not first["feasible"] and rest
+    feasible = [a for a in result.attempts if a["feasible"]]
+    chosen = min(feasible, key=lambda a: a["prior_cost"])
+    assert result.min_clearance == pytest.approx(chosen["min_distance"])
+    assert result.iterations == sum(a["iterations"] for a in result.attempts)
+
+
+def test_goal_inside_an_obstacle_fails_with_reasons_never_converged(jaco, prior):
+    start = prior.mean[0, :3]
+    goal = plan(prior, jaco, None, start=start, covariance=False).ee_path[-1]
+    result = plan(prior, jaco, Scene([Box(goal, [0.06] * 3)]), start=start, goal=goal,
+                  covariance=False)
+    assert not result.success and result.stop_reason == "infeasible"
+    assert any(r.startswith("goal error") for r in result.reasons) or any(
+        r.startswith("collision") for r in result.reasons), result.reasons
+
+
+def test_first_feasible_solve_is_kept_alone(jaco, prior):
+    result = plan(prior, jaco, Scene([README_BOX]), start=START, covariance=False)
+    assert [a["candidate"] for a in result.attempts] == ["configured"]
+    assert result.stop_reason == "converged"
+
+
+def test_detours_leave_the_obstacle_and_keep_the_ends():
+    T = 101
+    path = np.stack([np.linspace(0.0, 1.0, T), np.zeros(T), np.zeros(T)], axis=1)
+    centre = np.array([0.5, 0.02, 0.0])
+    for name, detour in detour_paths(path, centre, 0.1, 0.05, 50):
+        np.testing.assert_allclose(detour[[0, -1]], path[[0, -1]])
+        assert np.linalg.norm(detour[50] - centre) >= 0.15 - 0.02 - 1e-9, name
+        assert np.all(np.abs(np.diff(detour, axis=0)) < 0.05)              # smooth, no jump
+    away = dict(detour_paths(path, centre, 0.1, 0.05, 50))["detour_away"]
+    assert away[50, 1] < -0.1                                              # away from the centre
+
+
+# ----------------------------------------------------------------------- long trajectories
+def test_long_trajectory_is_collision_free_or_says_why(jaco):
+    prior = learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0)
+                        .resample(1000))
+    scene = box_in_the_path(prior, jaco)
+    result = plan(prior, jaco, scene, start=prior.mean[0, :3], covariance=False)
+    clearance = brute_force_clearance(jaco, scene, result.q, 1)
+    print(f"\nT = 1000: success {result.success}, {result.stop_reason}, brute-force clearance "
+          f"{clearance * 1e3:.1f} mm, attempts {[a['candidate'] for a in result.attempts]}")
+    if result.success:
+        assert clearance > 0.0
+    else:
+        assert result.stop_reason != "converged" or clearance > 0.0
+        assert result.reasons
+    assert not (result.stop_reason == "converged" and clearance < 0.0)
+
+
+# ------------------------------------------------------------------------ third-party arms
+def test_third_party_arm_avoids_a_box_in_the_skill_path(prior):
+    share = example_robot_data_share()
+    urdf = share / "example-robot-data" / "robots" / "panda_description" / "urdf" / "panda.urdf"
+    robot = Robot.from_urdf(urdf, end_effector="panda_hand", package_dirs=[share])
+    scene = box_in_the_path(prior, robot)
+    result = plan(prior, robot, scene, start=prior.mean[0, :3], covariance=False)
+    assert result.success, result.reasons
+    assert result.collision_geometry == "urdf"
+    assert brute_force_clearance(robot, scene, result.q) > 0.0
