@@ -236,8 +236,8 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     scene = as_scene(scene)
     request = make_request(prior, robot, start, goal, via_points, config, q_start)
     T = prior.Phi.shape[0] + 1
-    reasons = start_problems(robot, scene, request, config) + target_problems(robot, request,
-                                                                              config)
+    reasons = (start_problems(robot, scene, request, config)
+               + target_problems(robot, request, config, scene))
     if reasons:
         return failed_result(prior, robot, np.repeat(request.q_start[None], T, axis=0), reasons, t0,
                        request.start_ik_error, config)

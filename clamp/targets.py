@@ -4,7 +4,9 @@ planning, and the violations of constraint families (orientation), checked after
 An end-effector target (goal or via point) that inverse kinematics cannot reach within the
 check's tolerance cannot be met by any plan: the plan fails at once with a reason naming the
 target, its position and how far the arm's closest reach is. Joint-space targets are checked
-against the joint limits.
+against the joint limits. A target inside an obstacle of the scene (an end-effector position
+with a negative signed distance, like the start's check) cannot be met without collision: it
+fails at once too, with its depth.
 """
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from clamp.config import PlannerConfig
-from clamp.request import Request, Target
+from clamp.request import Request, Target, has_obstacles
 
 
 def _problem(robot: Any, name: str, target: Target, tolerance: float,
@@ -30,12 +32,24 @@ def _problem(robot: Any, name: str, target: Target, tolerance: float,
     return None
 
 
-def target_problems(robot: Any, request: Request, config: PlannerConfig) -> list[str]:
-    """Reasons (empty: none) why the goal or a via point of ``request`` cannot be met."""
+def _inside(scene: Any, name: str, target: Target) -> str | None:
+    if target.kind != "position" or not has_obstacles(scene):
+        return None
+    depth = -float(scene.distance(target.value))
+    if depth <= 0.0:
+        return None
+    return (f"{name} position {np.round(target.value, 4).tolist()} is inside an obstacle "
+            f"({depth * 1000:.1f} mm deep)")
+
+
+def target_problems(robot: Any, request: Request, config: PlannerConfig,
+                    scene: Any = None) -> list[str]:
+    """Reasons (empty: none) why the goal or a via point of ``request`` cannot be met: out of
+    reach, outside the joint limits, or inside an obstacle of ``scene``."""
     checks = config.checks
     named = [("goal", request.goal, checks.goal_tolerance)] if request.goal is not None else []
     named += [(f"via point at state {i}", t, checks.via_tolerance) for i, t in request.vias]
-    reasons = [_problem(robot, name, target, tol, request.q_start)
+    reasons = [_inside(scene, name, target) or _problem(robot, name, target, tol, request.q_start)
                for name, target, tol in named]
     return [r for r in reasons if r is not None]
 
