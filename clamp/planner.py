@@ -211,7 +211,8 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
 
 
 def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf, initial,
-          covariance, q_start: np.ndarray | None = None, model_prior: Any = None) -> PlanResult:
+          covariance, q_start: np.ndarray | None = None, model_prior: Any = None,
+          warm_start: Any = None) -> PlanResult:
     t0 = time.perf_counter()
     config = as_config(config)
     covariance = as_bool(covariance, "covariance")
@@ -229,7 +230,7 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
                                                  extra_factors, config, sdf, initial, request,
                                                  model_prior)
     t_opt = time.perf_counter()
-    out = optimize(problem, config)
+    out = optimize(problem, config, warm_start)
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
     floor = 0.0

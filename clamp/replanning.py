@@ -8,6 +8,8 @@ change of the planning prior: the new conditioned prior mean minus the previous 
 when only the scene changed) is added to the previous plan's workspace states, and a few
 per-state Gauss-Newton updates (:class:`clamp.solver.WorkspaceCorrection`) carry the joints
 onto them. The previous plan's own deviations from its prior (around obstacles) are kept.
+The fast solver then runs with its warm-start rule (:class:`clamp.solver.WarmStart`: small
+first damping, one small step or a small predicted decrease stops).
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ from clamp.factors.states import StateWindow
 from clamp.planner import _plan
 from clamp.request import as_config, as_scene, make_request
 from clamp.result import PlanResult
-from clamp.solver import WorkspaceCorrection
+from clamp.solver import WarmStart, WorkspaceCorrection
 from scenes.threads import single_blas_thread
 
 _KEEP = object()
@@ -73,4 +75,4 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         initial = _shifted_start(previous, robot, shift)
         return _plan(prior, robot, scene, inputs.start, goal, via_points, inputs.extra_factors,
                      config, inputs.sdf if scene is inputs.scene else None, initial, covariance,
-                     q_start=q_start, model_prior=model_prior)
+                     q_start=q_start, model_prior=model_prior, warm_start=WarmStart())
