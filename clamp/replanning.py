@@ -68,7 +68,8 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         prior, robot = inputs.prior, inputs.robot
         q_start = np.asarray(previous.q[0], dtype=float)
         request = make_request(prior, robot, inputs.start, goal, via_points, config, q_start)
-        if goal is inputs.goal and via_points == inputs.via_points and config == inputs.config:
+        if (goal is inputs.goal and via_points == inputs.via_points
+                and config.model == inputs.config.model):
             model_prior = inputs.model_prior          # same targets: the same conditioned prior
         else:
             model_prior = planning_prior(prior, robot, request, config)
