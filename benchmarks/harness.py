@@ -26,6 +26,23 @@ def median_seconds(function: Callable[[], object], repeats: int, warmup: int = 1
     return float(np.median(times))
 
 
+def interleaved_median_seconds(functions: dict[str, Callable[[], object]], repeats: int,
+                               warmup: int = 1) -> dict[str, float]:
+    """Median wall time [s] of each ``functions[name]()``, the calls interleaved (one of each per
+    round) so a drifting load on a shared machine hits all alike; ratios between them are
+    then far steadier than those of back-to-back blocks of repeats."""
+    for _ in range(warmup):
+        for function in functions.values():
+            function()
+    times = {name: np.empty(repeats) for name in functions}
+    for k in range(repeats):
+        for name, function in functions.items():
+            start = time.perf_counter()
+            function()
+            times[name][k] = time.perf_counter() - start
+    return {name: float(np.median(t)) for name, t in times.items()}
+
+
 def median_ms(function: Callable[[], object], repeats: int, warmup: int = 1) -> float:
     """Median wall time of ``function()`` in milliseconds (see ``median_seconds``)."""
     return 1e3 * median_seconds(function, repeats, warmup)

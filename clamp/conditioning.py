@@ -6,12 +6,14 @@ given those observations, again a Markov chain with the same structure:
 
     x_0 | y ~ N(m0', P0'),   x_{i+1} | x_i, y ~ N(Phi'_i x_i + u'_i, Q'_i).
 
-A backward information filter gives it in O(T): the likelihood of the observations at states
+A backward information filter gives it: the likelihood of the observations at states
 > i given x_{i+1} is exp(-0.5 x' L x + e' x) (information L, vector e); with
 K = Q (I + L Q)^-1 = (Q^-1 + L)^-1 the conditioned step is Phi' = (I - K L) Phi,
 u' = (I - K L) u + K e, Q' = (I - K L) Q = K, and the message passed back to x_i is L~ = (I + L Q)^-1 L,
 e~ = (I + L Q)^-1 e, L_i = Phi' L~ Phi (+ H' H / r^2 if state i is observed),
-e_i = Phi' (e~ - L~ u) (+ H' p / r^2).
+e_i = Phi' (e~ - L~ u) (+ H' p / r^2). Between observed states the messages are carried in
+one batched step through the composed transitions (log-depth scan), so only the loop over the
+few observed states is sequential; the conditioned steps are batched over all states.
 
 The planner plans with the conditioned prior when a goal or via points are asked for, so the
 learned workspace GP family itself pulls the plan through them (a soft 1 mm factor alone loses
@@ -26,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from clamp.errors import InvalidParameterError
-from clamp.prior import WorkspacePrior
+from clamp.prior import WorkspacePrior, suffix_compose
 from clamp.validation import as_array, as_scalar
 
 
@@ -54,23 +56,12 @@ def condition_prior(prior: Any, observations: Sequence[tuple[int, Any]],
         L_obs[int(index), np.arange(A), np.arange(A)] += 1.0 / sigma**2
         e_obs[int(index), :A] += p / sigma**2
     eye = np.eye(D)
-    # backward pass: only the information messages are sequential; K_i = (Q_i^-1 + L_{i+1})^-1
-    # (= Q (I + L Q)^-1) and the messages are kept for the batched conditioned steps below
+    L_msg, e_msg = _backward_messages(Phi, u, Q, L_obs, e_obs)
+    L_next, e_next = L_msg[1:], e_msg[1:]
+    # K_i = (Q_i^-1 + L_{i+1})^-1 (= Q (I + L Q)^-1), batched
     Q_inv = np.linalg.inv(Q)
-    Q_inv = 0.5 * (Q_inv + np.swapaxes(Q_inv, 1, 2))
-    gains, L_next, e_next = np.zeros_like(Q), np.zeros_like(Q), np.zeros_like(u)
-    L, e = L_obs[-1], e_obs[-1]
-    for i in range(T - 2, -1, -1):
-        L_next[i], e_next[i] = L, e
-        K = np.linalg.inv(Q_inv[i] + L)
-        gains[i] = K
-        LK = L @ K
-        L_t = L - LK @ L                                           # (I + L Q)^-1 L
-        e_t = e - LK @ e                                           # (I + L Q)^-1 e
-        PhiT = Phi[i].T
-        L = PhiT @ L_t @ Phi[i]
-        L = 0.5 * (L + L.T) + L_obs[i]
-        e = PhiT @ (e_t - L_t @ u[i]) + e_obs[i]
+    gains = np.linalg.inv(0.5 * (Q_inv + np.swapaxes(Q_inv, 1, 2)) + L_next)
+    L, e = L_msg[0], e_msg[0]
     keep = eye - gains @ L_next                                    # (T-1, D, D)
     Phi_c = keep @ Phi
     u_c = np.einsum("tij,tj->ti", keep, u) + np.einsum("tij,tj->ti", gains, e_next)
@@ -86,6 +77,35 @@ def condition_prior(prior: Any, observations: Sequence[tuple[int, Any]],
         "conditioning_sigma": sigma}
     return WorkspacePrior(prior.time, Phi_c, u_c, _floor(Q_c, sigma), mean0,
                           _floor(cov0[None], sigma)[0], info=info)
+
+
+def _backward_messages(Phi: np.ndarray, u: np.ndarray, Q: np.ndarray, L_obs: np.ndarray,
+                       e_obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Information (L (T, D, D), e (T, D)) of the observations at states >= i given x_i.
+
+    Between two observed states a < j the message of x_i (a <= i < j) is the message of x_j
+    carried back through the composed step x_j = A x_i + b + N(0, B) (:func:`suffix_compose`,
+    log depth): L_i = A' (I + L_j B)^-1 L_j A, e_i = A' (I + L_j B)^-1 (e_j - L_j b); only the
+    loop over the observed states is sequential.
+    """
+    T, D = L_obs.shape[:2]
+    L_msg, e_msg = L_obs.copy(), e_obs.copy()
+    observed = np.flatnonzero(np.any(L_obs != 0.0, axis=(1, 2)))
+    j = T - 1
+    while j > 0:
+        a = int(observed[observed < j].max(initial=0))
+        A, b, B = suffix_compose(Phi[a:j], u[a:j], Q[a:j])
+        L_j, e_j = L_msg[j], e_msg[j]
+        rhs = np.broadcast_to(np.hstack([L_j, e_j[:, None]]), (j - a, D, D + 1))
+        carried = np.linalg.solve(np.eye(D) + L_j @ B, rhs)           # (I + L_j B)^-1 [L_j, e_j]
+        L_t, e_t = carried[..., :D], carried[..., D]
+        L_t = 0.5 * (L_t + np.swapaxes(L_t, 1, 2))
+        At = np.swapaxes(A, 1, 2)
+        L_i = At @ L_t @ A
+        L_msg[a:j] += 0.5 * (L_i + np.swapaxes(L_i, 1, 2))
+        e_msg[a:j] += np.einsum("sij,sj->si", At, e_t - np.einsum("sij,sj->si", L_t, b))
+        j = a
+    return L_msg, e_msg
 
 
 def _floor(cov: np.ndarray, sigma: float) -> np.ndarray:

@@ -36,6 +36,7 @@ from clamp.factors import ObstacleFamily
 from clamp.initialisation import joint_velocities
 from clamp.optimizers import Optimized, optimize
 from clamp.problem import PlanningProblem
+from clamp.solver import WarmStart
 from robots.collision_check import CollisionReport
 
 log = logging.getLogger(__name__)
@@ -88,17 +89,20 @@ def _prior_cost(problem: PlanningProblem, theta: np.ndarray) -> float:
 
 
 def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check: Check,
-                         restarts: Restarts, rounds: int) -> ConstrainedSolve:
+                         restarts: Restarts, rounds: int,
+                         warm_start: WarmStart | None = None) -> ConstrainedSolve:
     """Optimise ``problem`` (which has an obstacle family) until ``check(theta)`` finds no
     collision (see the module docstring); rounds: continuation rounds per candidate (0: the
-    configured solve only)."""
+    configured solve only); warm_start: the solver's warm-start rule for the configured solve
+    (its initial trajectory is a previous plan, :func:`clamp.replan`), never for the others."""
     sigma0 = float(config.model.sigma_obs)
     attempts: list[Attempt] = []
     solved: list[tuple[Optimized, CollisionReport, float]] = []
     totals = {"iterations": 0, "trials": 0, "clearance": 0.0}
 
-    def attempt(name: str, sigma: float, theta0: np.ndarray) -> tuple[Optimized, CollisionReport]:
-        out = optimize(with_obstacle_sigma(problem, sigma, theta0), config)
+    def attempt(name: str, sigma: float, theta0: np.ndarray,
+                warm: WarmStart | None = None) -> tuple[Optimized, CollisionReport]:
+        out = optimize(with_obstacle_sigma(problem, sigma, theta0), config, warm)
         started = time.perf_counter()
         report = check(out.theta)
         totals["clearance"] += time.perf_counter() - started
@@ -111,7 +115,7 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
         return out, report
 
     start = time.perf_counter()
-    out, report = attempt("configured", sigma0, problem.initial)
+    out, report = attempt("configured", sigma0, problem.initial, warm_start)
     if report.collision and rounds > 0:
         # the optimum continued first; the restarts run only while fewer than WANTED
         # candidates are feasible, and once one is, only at the weight that made it feasible

@@ -15,7 +15,7 @@ import numpy as np
 from clamp.config import PlannerConfig
 from clamp.keys import values_to_states
 from clamp.problem import PlanningProblem
-from clamp.solver import levenberg_marquardt
+from clamp.solver import WarmStart, levenberg_marquardt
 
 log = logging.getLogger(__name__)
 
@@ -58,11 +58,14 @@ class Optimized:
     optimizer: str
 
 
-def optimize(problem: PlanningProblem, config: PlannerConfig | None = None) -> Optimized:
+def optimize(problem: PlanningProblem, config: PlannerConfig | None = None,
+             warm_start: WarmStart | None = None) -> Optimized:
     """Optimise ``problem`` from its initial trajectory with ``config.optimizer``.
 
     The fast solver needs every factor on one or two neighbouring states; otherwise GTSAM's
-    Levenberg-Marquardt runs on the graph (logged).
+    Levenberg-Marquardt runs on the graph (logged). ``warm_start``: the fast solver's
+    warm-start rule (:class:`clamp.solver.WarmStart`) for an initial trajectory near the
+    optimum; GTSAM's optimizers ignore it.
     """
     config = (config or PlannerConfig()).validate()
     opt = config.optimizer
@@ -79,7 +82,8 @@ def optimize(problem: PlanningProblem, config: PlannerConfig | None = None) -> O
                                   relative_tol=opt.relative_error_tol,
                                   absolute_tol=opt.absolute_error_tol,
                                   patience=opt.convergence_patience,
-                                  workspace_correction=opt.workspace_correction)
+                                  workspace_correction=opt.workspace_correction,
+                                  warm_start=warm_start)
         return Optimized(out.theta, out.iterations, out.trials, out.initial_error,
                          out.final_error, out.stop_reason, out.timings, name)
     optimizer = _gtsam_optimizer(problem, config)

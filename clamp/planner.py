@@ -227,7 +227,8 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
 
 
 def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, sdf, initial,
-          covariance, q_start: np.ndarray | None = None, model_prior: Any = None) -> PlanResult:
+          covariance, q_start: np.ndarray | None = None, model_prior: Any = None,
+          warm_start: Any = None) -> PlanResult:
     t0 = time.perf_counter()
     config = as_config(config)
     covariance = as_bool(covariance, "covariance")
@@ -253,11 +254,11 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
             problem, config,
             lambda theta: check_clearance(robot, scene, theta[:, :robot.n], prior.time),
             lambda found: _restarts(prior, robot, scene, request, config, init, found),
-            config.optimizer.constraint_rounds)
+            config.optimizer.constraint_rounds, warm_start)
         out, report = solved.out, solved.report
         attempts = [asdict(a) for a in solved.attempts]
     else:
-        out = optimize(problem, config)
+        out = optimize(problem, config, warm_start)
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
     floor = 0.0

@@ -62,6 +62,16 @@ def _is_symmetric(cov: np.ndarray) -> bool:
     return bool(np.allclose(cov, np.swapaxes(cov, -1, -2), rtol=0.0, atol=1e-9 * scale))
 
 
+def _compose(late: tuple[np.ndarray, np.ndarray, np.ndarray],
+             early: tuple[np.ndarray, np.ndarray, np.ndarray]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Batched composition (A2, b2, B2) o (A1, b1, B1) = (A2 A1, A2 b1 + b2, A2 B1 A2^T + B2)
+    of affine Gaussian steps (A (S, D, D), b (S, D), B (S, D, D)): ``early`` applied first."""
+    (A2, b2, B2), (A1, b1, B1) = late, early
+    return (A2 @ A1, np.einsum("sij,sj->si", A2, b1) + b2,
+            A2 @ B1 @ np.swapaxes(A2, 1, 2) + B2)
+
+
 def prefix_compose(Phi: np.ndarray, u: np.ndarray,
                    Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Running compositions of the steps x -> Phi_i x + u_i, C -> Phi_i C Phi_i^T + Q_i.
@@ -74,10 +84,24 @@ def prefix_compose(Phi: np.ndarray, u: np.ndarray,
     A, b, B = Phi.copy(), u.copy(), Q.copy()
     shift = 1
     while shift < len(A):
-        late = A[shift:]
-        b[shift:] = np.einsum("sij,sj->si", late, b[:-shift]) + b[shift:]
-        B[shift:] = late @ B[:-shift] @ np.swapaxes(late, 1, 2) + B[shift:]
-        A[shift:] = late @ A[:-shift]
+        A[shift:], b[shift:], B[shift:] = _compose((A[shift:], b[shift:], B[shift:]),
+                                                   (A[:-shift], b[:-shift], B[:-shift]))
+        shift *= 2
+    return A, b, B
+
+
+def suffix_compose(Phi: np.ndarray, u: np.ndarray,
+                   Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Compositions of the steps i..S-1 (as :func:`prefix_compose`, from the other end).
+
+    Returns A (S, D, D), b (S, D), B (S, D, D) with x_S = A_i x_i + b_i + w, w ~ N(0, B_i)
+    for x_{k+1} = Phi_k x_k + u_k + N(0, Q_k), i.e. A_i = Phi_{S-1} ... Phi_i (log depth).
+    """
+    A, b, B = Phi.copy(), u.copy(), Q.copy()
+    shift = 1
+    while shift < len(A):
+        A[:-shift], b[:-shift], B[:-shift] = _compose((A[shift:], b[shift:], B[shift:]),
+                                                      (A[:-shift], b[:-shift], B[:-shift]))
         shift *= 2
     return A, b, B
 

@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clamp import PlannerConfig, errors, learn_prior, plan, replan
+from clamp import PlannerConfig, build, errors, learn_prior, plan, replan
 from clamp.result import PlanResult
+from clamp.solver import WarmStart, levenberg_marquardt
 from scenes import Box, Scene, make_demonstrations
 
 START = [0.2054, -0.4722, 0.2625]
@@ -36,6 +37,33 @@ def test_replan_after_goal_and_obstacle_moves(prior, arm, request):
     assert result.success and result.min_clearance > 0.0, result.reasons
     assert result.inputs.scene is moved and result.inputs.goal is goal
     assert result.goal_error < 0.002
+    fresh = plan(prior, robot, moved, START, goal, covariance=False)
+    assert np.abs(result.ee_path - fresh.ee_path).max() < 0.005
+    # the arm's posture changed too, not only kept: the replan left the old box's posture
+    assert np.abs(result.q - fresh.q).max() < np.abs(previous.q - fresh.q).max()
+
+
+def test_warm_start_rule_stops_at_an_optimum_and_near_one(prior, jaco):
+    """From the cold solver's optimum the warm-start rule takes no step (the linear model
+    predicts less than its tolerance); from a perturbed optimum it ends within a few times the
+    tolerance [nats] of the cold optimum, in fewer iterations than the cold rule."""
+    problem = build(prior, jaco, Scene([BOX]), START, prior.mean[-1, :3])
+    cold = levenberg_marquardt(problem, problem.initial)
+    assert cold.stop_reason == "converged"
+    warm = WarmStart()
+    again = levenberg_marquardt(problem, cold.theta, warm_start=warm)
+    assert (again.iterations, again.stop_reason) == (0, "converged")
+    np.testing.assert_array_equal(again.theta, cold.theta)
+    assert again.final_error == again.initial_error == pytest.approx(cold.final_error)
+    rng = np.random.default_rng(0)
+    n = jaco.n
+    nudged = cold.theta + np.hstack([0.02 * rng.standard_normal((len(cold.theta), n)),
+                                     np.zeros((len(cold.theta), n))])
+    from_nudged = levenberg_marquardt(problem, nudged, warm_start=warm)
+    slow = levenberg_marquardt(problem, nudged)
+    assert from_nudged.initial_error > cold.final_error + 10 * warm.tolerance
+    assert from_nudged.final_error < cold.final_error + 3 * warm.tolerance
+    assert from_nudged.iterations <= slow.iterations
 
 
 def test_replan_needs_a_planned_result(prior, jaco):
