@@ -199,9 +199,27 @@ def _base_inverse(robot, pin) -> np.ndarray:
     return data.oMf[frame_index(model, base)].inverse().homogeneous
 
 
+def _capsule_mesh(mg, radius: float, height: float, segments: int = 24):
+    """A capsule along z (segment length ``height`` [m], ``radius`` [m]) as a triangle mesh:
+    a sphere's latitude rings, the upper half moved up and the lower down by height / 2."""
+    rings = segments // 2 + 1
+    polar = np.linspace(0.0, np.pi, rings)
+    azimuth = np.linspace(0.0, 2.0 * np.pi, segments, endpoint=False)
+    z = np.cos(polar)[:, None] * radius + np.where(polar < np.pi / 2, 0.5, -0.5)[:, None] * height
+    ring = np.sin(polar)[:, None] * radius
+    vertices = np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth),
+                         np.broadcast_to(z, (rings, segments))], axis=-1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(rings - 1), np.arange(segments), indexing="ij")
+    a, b = i * segments + j, i * segments + (j + 1) % segments
+    c, d = a + segments, b + segments
+    faces = np.concatenate([np.stack([a, c, b], -1).reshape(-1, 3),
+                            np.stack([b, c, d], -1).reshape(-1, 3)])
+    return mg.TriangularMeshGeometry(vertices, faces)
+
+
 def _obstacle_geometry(obstacle: Any, index: int, mg, pin) -> tuple[Any, np.ndarray]:
     """meshcat geometry and 4x4 placement of one scenes obstacle."""
-    from scenes import Box, Cylinder, Sphere
+    from scenes import Box, Capsule, Cylinder, Sphere
 
     placement = np.eye(4)
     placement[:3, 3] = obstacle.center
@@ -215,8 +233,12 @@ def _obstacle_geometry(obstacle: Any, index: int, mg, pin) -> tuple[Any, np.ndar
         rotation = pin.Quaternion.FromTwoVectors(np.array([0.0, 1.0, 0.0]), np.asarray(obstacle.axis, float))
         placement[:3, :3] = rotation.toRotationMatrix()
         return mg.Cylinder(float(obstacle.height), float(obstacle.radius)), placement
-    raise AnimationError(f"obstacles[{index}]: expected a scenes Box, Sphere or Cylinder, "
-                         f"got {type(obstacle).__name__}")
+    if isinstance(obstacle, Capsule):   # the mesh runs along z
+        rotation = pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), np.asarray(obstacle.axis, float))
+        placement[:3, :3] = rotation.toRotationMatrix()
+        return _capsule_mesh(mg, float(obstacle.radius), float(obstacle.height)), placement
+    raise AnimationError(f"obstacles[{index}]: expected a scenes Box, Sphere, Cylinder or "
+                         f"Capsule, got {type(obstacle).__name__}")
 
 
 def _line(mg, points: np.ndarray, color: int):

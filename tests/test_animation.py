@@ -13,7 +13,7 @@ pytest.importorskip("meshcat", reason="the animation needs meshcat (pip install 
 
 from clamp.animation import AnimationError, surface_from_grid, write_animation  # noqa: E402
 from clamp.errors import ClampError  # noqa: E402
-from scenes import Box, Cylinder, Scene, Sphere  # noqa: E402
+from scenes import Box, Capsule, Cylinder, Scene, Sphere  # noqa: E402
 
 JACO_A = np.array([0.0, 3.5, 1.8, 0.0, 2.5, 0.0])
 JACO_B = np.array([1.5, 2.5, 2.5, 1.0, 2.0, 1.0])
@@ -37,7 +37,8 @@ def extras(robot, q):
     Y = ee[:, 1, None] + 0.05 * np.sin(angle)
     Z = np.repeat(ee[:, 2, None], len(angle), axis=1)
     scene = Scene([Box([0.45, -0.3, 0.1], [0.2, 0.2, 0.2]), Sphere([-0.3, 0.3, 0.3], 0.08),
-                   Cylinder([0.3, 0.4, 0.2], 0.05, 0.4, axis=[1.0, 0.0, 0.0])])
+                   Cylinder([0.3, 0.4, 0.2], 0.05, 0.4, axis=[1.0, 0.0, 0.0]),
+                   Capsule([-0.3, -0.3, 0.3], 0.04, 0.2, axis=[0.0, 1.0, 1.0])])
     return dict(obstacles=scene, demonstrations=demos, mean_path=demos.mean(axis=0),
                 extra_surface=surface_from_grid(X, Y, Z))
 
@@ -70,6 +71,22 @@ def test_sawyer_without_visual_elements_draws_collision_geometry(tmp_path):
     t, q = plan(q0, q0 + 0.5, T=10)
     path = write_animation(tmp_path / "sawyer.html", sawyer, t, q, frame_rate=10.0)
     assert "MeshCat.Viewer" in path.read_text(encoding="utf-8")
+
+
+def test_capsule_is_drawn_as_its_surface():
+    """The capsule mesh's vertices lie on the capsule: radius from its segment (z in
+    [-height/2, height/2]), both caps and the side present."""
+    import meshcat.geometry as mg
+    from clamp.animation import _capsule_mesh
+    radius, height = 0.04, 0.2
+    mesh = _capsule_mesh(mg, radius, height)
+    v = np.asarray(mesh.vertices)
+    nearest = np.clip(v[:, 2], -height / 2, height / 2)
+    distance = np.hypot(np.hypot(v[:, 0], v[:, 1]), v[:, 2] - nearest)
+    np.testing.assert_allclose(distance, radius, atol=1e-12)
+    assert v[:, 2].max() == pytest.approx(height / 2 + radius)
+    assert v[:, 2].min() == pytest.approx(-height / 2 - radius)
+    assert np.asarray(mesh.faces).max() < len(v)
 
 
 def test_surface_from_grid():
