@@ -13,9 +13,12 @@ import gtsam
 import numpy as np
 
 from clamp.config import PlannerConfig
+from clamp.errors import ArgumentTypeError
 from clamp.keys import values_to_states
 from clamp.problem import PlanningProblem
+from clamp.request import as_config
 from clamp.solver import levenberg_marquardt
+from scenes.validation import as_instance
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +67,9 @@ def optimize(problem: PlanningProblem, config: PlannerConfig | None = None) -> O
     The fast solver needs every factor on one or two neighbouring states; otherwise GTSAM's
     Levenberg-Marquardt runs on the graph (logged).
     """
-    config = (config or PlannerConfig()).validate()
+    as_instance(problem, "problem", PlanningProblem, "a clamp PlanningProblem (from clamp.build)",
+                ArgumentTypeError)
+    config = as_config(config)
     opt = config.optimizer
     name = opt.optimizer
     if name == "fast" and not problem.banded:

@@ -13,10 +13,46 @@ _ERRORS = _checks.ErrorKinds(ShapeError, NonFiniteError, InvalidParameterError)
 
 
 def as_array(x: object, name: str, shape: Sequence[int | str | None],
-             limit: float | None = None) -> np.ndarray:
+             limit: float | None = None, allow_infinite: bool = False) -> np.ndarray:
     """``x`` as a finite float64 array of ``shape`` (ints, None = any, strings = equal sizes),
-    entries of magnitude <= ``limit`` when given."""
-    return _checks.as_shaped(x, name, shape, _ERRORS, limit)
+    entries of magnitude <= ``limit`` when given (+-inf accepted with ``allow_infinite``)."""
+    return _checks.as_shaped(x, name, shape, _ERRORS, limit, allow_infinite)
+
+
+def as_indices(x: object, name: str) -> np.ndarray:
+    """Non-negative integer support-state indices (K,) as an intp array."""
+    return _checks.as_indices(x, name, _ERRORS)
+
+
+def is_symmetric(cov: np.ndarray) -> bool:
+    """Whether a stack (..., D, D) is symmetric to 1e-9 of its largest entry."""
+    scale = max(float(np.max(np.abs(cov))), 1e-300) if cov.size else 1.0
+    return bool(np.allclose(cov, np.swapaxes(cov, -1, -2), rtol=0.0, atol=1e-9 * scale))
+
+
+def cholesky(cov: np.ndarray, name: str, hint: str = "") -> np.ndarray:
+    """Lower Cholesky factors of a stack (..., D, D) of covariances; InvalidParameterError
+    naming the worst matrix and its smallest eigenvalue when one is not positive definite."""
+    try:
+        return np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        flat = cov.reshape(-1, *cov.shape[-2:])
+        smallest = np.linalg.eigvalsh(flat)[:, 0]
+        worst = int(np.argmin(smallest))
+        where = f"{name}[{worst}]" if cov.ndim > 2 else name
+        raise InvalidParameterError(
+            f"{name}: expected positive definite covariances; {where} has smallest eigenvalue "
+            f"{smallest[worst]:.3g}{hint}") from None
+
+
+def as_covariance(x: object, name: str, shape: Sequence[int | str | None]) -> np.ndarray:
+    """``x`` as a finite array of ``shape`` (last two axes square) of symmetric positive
+    definite covariance matrices."""
+    cov = as_array(x, name, shape)
+    if not is_symmetric(cov):
+        raise InvalidParameterError(f"{name}: expected symmetric covariance matrices")
+    cholesky(cov, name)
+    return cov
 
 
 def as_scalar(x: object, name: str, minimum: float | None = None,

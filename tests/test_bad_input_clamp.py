@@ -65,8 +65,6 @@ def _prior_arrays(fx, **changes):
     return arrays
 
 
-FACTORS = ("clamp/factors/ is out of this change's scope (see notes/issue-10.md): the family "
-           "constructors do not check their arguments yet")
 S, NF, P, T, I = ShapeError, NonFiniteError, InvalidParameterError, ArgumentTypeError, \
     InsufficientDemonstrationsError
 
@@ -204,9 +202,7 @@ CATALOGUE: list[Case] = [
     Case("plan-covariance-text", lambda fx: _plan(fx, covariance="no"), P, "covariance"),
     Case("build-start-shape", lambda fx: build(fx.prior, fx.robot, None, [1, 2]), S, "start"),
     Case("build-config-type", lambda fx: build(fx.prior, fx.robot, None, START, config="fast"), T, "config"),
-    Case("optimize-problem-type", lambda fx: optimize("problem"), T, "problem",
-         xfail="clamp.optimizers.optimize does not check its problem (optimizers.py is out of "
-               "this change's scope)"),
+    Case("optimize-problem-type", lambda fx: optimize("problem"), T, "problem"),
     Case("plausibility-shape", lambda fx: plausibility(fx.prior, np.zeros((3, 6))), S, "x"),
     Case("plausibility-start", lambda fx: plausibility(fx.prior, np.asarray(fx.prior.mean), start=[1, 2]),
          S, "start"),
@@ -236,18 +232,16 @@ CATALOGUE: list[Case] = [
     # --- factor families (constructors)
     Case("family-joint-target-sigma", lambda fx: JointTargetFamily([0], np.zeros((1, 6)), [-1.0]), P, "sigma"),
     Case("family-workspace-gp-q", lambda fx: WorkspaceGPFamily(np.zeros((3, 6, 6)), np.zeros((3, 6)),
-                                                               -np.ones((3, 6, 6))), P, "Q", xfail=FACTORS),
-    Case("family-workspace-start-mean", lambda fx: WorkspaceStartFamily(np.zeros(5), np.eye(6)), S, "mean",
-         xfail=FACTORS),
-    Case("family-joint-gp-dt", lambda fx: JointGPFamily(10, 6, -0.1), P, "dt", xfail=FACTORS),
+                                                               -np.ones((3, 6, 6))), P, "Q"),
+    Case("family-workspace-start-mean", lambda fx: WorkspaceStartFamily(np.zeros(5), np.eye(6)), S, "mean"),
+    Case("family-joint-gp-dt", lambda fx: JointGPFamily(10, 6, -0.1), P, "dt"),
     Case("family-joint-target-count", lambda fx: JointTargetFamily([0, 1], np.zeros((3, 6)), [1e-3] * 2), S,
-         "targets", xfail=FACTORS),
-    Case("family-ee-position-shape", lambda fx: EEPositionFamily([0], np.zeros((1, 2)), [1e-3]), S, "targets",
-         xfail=FACTORS),
+         "targets"),
+    Case("family-ee-position-shape", lambda fx: EEPositionFamily([0], np.zeros((1, 2)), [1e-3]), S, "targets"),
     Case("family-obstacle-epsilon", lambda fx: ObstacleFamily(np.arange(3), np.ones(4), Scene().query, -1.0,
-                                                              0.01), P, "epsilon", xfail=FACTORS),
+                                                              0.01), P, "epsilon"),
     Case("family-joint-limits-order", lambda fx: JointLimitFamily(np.arange(3), np.ones(6), np.zeros(6),
-                                                                  np.ones(6), 1e-3), P, "lower", xfail=FACTORS),
+                                                                  np.ones(6), 1e-3), P, "lower"),
     # --- clamp.validation helpers
     Case("validation-array-shape", lambda fx: as_array(np.zeros(4), "x", (3,)), S, "x"),
     Case("validation-scalar-bool", lambda fx: as_scalar(False, "sigma"), P, "sigma"),

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from clamp.errors import InvalidParameterError
-from clamp.validation import as_array, as_scalar
+from clamp.validation import as_array, as_indices, as_scalar
 
 from .family import Family, Linearization
 from .states import StateWindow
@@ -56,10 +56,10 @@ class OrientationFamily(Family):
     def __init__(self, indices: Sequence[int], *, tolerance: float,
                  axis: Any = None, direction: Any = None, rotation: Any = None,
                  sigma: float = 3e-3, margin: float | None = None):
-        indices = np.unique(np.asarray(indices, dtype=np.intp).reshape(-1))
-        if not len(indices) or indices[0] < 0:
-            raise InvalidParameterError(f"indices: expected non-negative state indices, got "
-                                        f"{indices.tolist()}")
+        indices = np.unique(as_indices(indices, "indices"))
+        if not len(indices):
+            raise InvalidParameterError("indices: expected at least one support-state index, "
+                                        "got none")
         if (rotation is None) == (axis is None or direction is None):
             raise InvalidParameterError("orientation target: give either rotation (3, 3) or "
                                         "both axis (3,) and direction (3,)")
