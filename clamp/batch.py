@@ -56,8 +56,9 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from clamp.errors import InvalidParameterError
+from clamp.errors import ArgumentTypeError, InvalidParameterError
 from clamp.problems import Problem, check_unique_ids, iter_json_lines
+from scenes.validation import as_path, as_sequence
 
 log = logging.getLogger(__name__)
 
@@ -437,6 +438,18 @@ def plan_many(problems: Iterable[Problem], executor: Any = None, *, out: str | P
     """
     if not isinstance(retries, int) or isinstance(retries, bool) or retries < 0:
         raise InvalidParameterError(f"retries: expected an integer >= 0, got {retries!r}")
+    problems = as_sequence(problems, "problems", "a list of clamp.problems.Problem",
+                           ArgumentTypeError)
+    if out is not None and as_path(out, "out", ArgumentTypeError).is_dir():
+        raise InvalidParameterError(f"out: {out} is a folder; expected a results file (JSON "
+                                    "Lines, new or from an earlier run)")
+    if base_dir is not None:
+        as_path(base_dir, "base_dir", ArgumentTypeError)
+    if not (isinstance(trajectories, str) and trajectories in TRAJECTORY_MODES):
+        if as_path(trajectories, "trajectories", ArgumentTypeError).exists() \
+                and not Path(trajectories).is_dir():
+            raise InvalidParameterError(f"trajectories: expected 'inline', 'none' or a folder, "
+                                        f"got the existing file {str(trajectories)!r}")
     todo = pending_problems(problems, out)
     folder = _trajectory_mode(trajectories)
     want_trajectory = not (folder is None and trajectories == "none")

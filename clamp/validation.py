@@ -9,19 +9,20 @@ import numpy as np
 from clamp.errors import InvalidParameterError, NonFiniteError, ShapeError
 from scenes import validation as _checks
 
-_ERRORS = _checks.ErrorKinds(ShapeError, NonFiniteError, InvalidParameterError)
+#: the clamp error classes, for calling :mod:`scenes.validation` checks without a wrapper here
+ERRORS = _checks.ErrorKinds(ShapeError, NonFiniteError, InvalidParameterError)
 
 
 def as_array(x: object, name: str, shape: Sequence[int | str | None],
              limit: float | None = None, allow_infinite: bool = False) -> np.ndarray:
     """``x`` as a finite float64 array of ``shape`` (ints, None = any, strings = equal sizes),
     entries of magnitude <= ``limit`` when given (+-inf accepted with ``allow_infinite``)."""
-    return _checks.as_shaped(x, name, shape, _ERRORS, limit, allow_infinite)
+    return _checks.as_shaped(x, name, shape, ERRORS, limit, allow_infinite)
 
 
 def as_indices(x: object, name: str) -> np.ndarray:
     """Non-negative integer support-state indices (K,) as an intp array."""
-    return _checks.as_indices(x, name, _ERRORS)
+    return _checks.as_indices(x, name, ERRORS)
 
 
 def is_symmetric(cov: np.ndarray) -> bool:
@@ -59,7 +60,7 @@ def as_scalar(x: object, name: str, minimum: float | None = None,
               strictly_positive: bool = False, maximum: float | None = None) -> float:
     """``x`` as a finite float, checking ``x >= minimum`` or ``x > 0``, and ``x <= maximum``."""
     return _checks.as_scalar(x, name, minimum=minimum, maximum=maximum,
-                             strictly_positive=strictly_positive, error=_ERRORS)
+                             strictly_positive=strictly_positive, error=ERRORS)
 
 
 def as_bool(x: object, name: str) -> bool:
@@ -71,9 +72,9 @@ def as_bool(x: object, name: str) -> bool:
 
 def as_count(x: object, name: str, minimum: int = 1) -> int:
     """``x`` as an int >= ``minimum`` (bools and non-integral numbers rejected)."""
-    return _checks.as_count(x, name, minimum, _ERRORS)
+    return _checks.as_count(x, name, minimum, ERRORS)
 
 
 def as_time(x: object, name: str, length: int | None = None) -> np.ndarray:
     """A strictly increasing finite time vector (T,) in seconds."""
-    return _checks.as_time(x, name, length, _ERRORS)
+    return _checks.as_time(x, name, length, ERRORS)

@@ -79,10 +79,11 @@ def _finite(arr: np.ndarray, name: str, error: Errors, limit: float | None = Non
 
 
 def as_array(x: Any, name: str, error: Errors = InvalidArgumentError,
-             limit: float | None = None) -> np.ndarray:
+             limit: float | None = None, allow_infinite: bool = False) -> np.ndarray:
     """Float64 array of ``x`` (any shape); raise ``error`` naming ``name`` if not numeric (bools
-    included), not finite, or (with ``limit``) of magnitude above ``limit``."""
-    return _finite(_numeric(x, name, error), name, error, limit)
+    included), not finite (+-inf accepted with ``allow_infinite``, NaN never), or (with
+    ``limit``) of magnitude above ``limit``."""
+    return _finite(_numeric(x, name, error), name, error, limit, allow_infinite)
 
 
 def _describe(shape: Sequence[int | str | None]) -> str:

@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from clamp.errors import InvalidParameterError
-from clamp.validation import as_array, as_indices, as_scalar
+from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
+from clamp.validation import as_array, as_count, as_indices, as_scalar
 
 from .family import Family, Linearization
 from .states import StateWindow
@@ -77,6 +77,7 @@ class OrientationFamily(Family):
     @classmethod
     def window(cls, num_states: int, fraction: float, **target: Any) -> OrientationFamily:
         """The family over the last ``fraction`` (0, 1] of ``num_states`` support states."""
+        num_states = as_count(num_states, "num_states")
         fraction = as_scalar(fraction, "fraction", strictly_positive=True)
         if fraction > 1:
             raise InvalidParameterError(f"fraction: expected at most 1, got {fraction}")
@@ -111,7 +112,13 @@ class OrientationFamily(Family):
     def angles(self, robot: Any, q: np.ndarray) -> np.ndarray:
         """Angle (F,) [rad] from the target at every factor's state, for joint positions q
         (T, n) of the whole plan."""
-        return self._angles(robot, np.asarray(q, dtype=float)[self.first], False)[0]
+        if not callable(getattr(robot, "ee_rotation", None)):
+            raise ArgumentTypeError(f"robot: expected a robots.Robot, got {type(robot).__name__}")
+        q = as_array(q, "q", (None, robot.n))
+        if len(q) <= self.first[-1]:
+            raise ShapeError(f"q: expected the joint positions of every support state (at least "
+                             f"{self.first[-1] + 1} for this family), got {len(q)}")
+        return self._angles(robot, q[self.first], False)[0]
 
     def violation(self, robot: Any, q: np.ndarray) -> float:
         """Largest angle beyond the tolerance [rad] over the window (0.0: met)."""
