@@ -20,7 +20,6 @@ resampled with :meth:`Demonstrations.from_trajectories`.
 """
 from __future__ import annotations
 
-import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -185,12 +184,7 @@ def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], 
 
 
 def _load_npz(path: Path) -> Demonstrations:
-    try:
-        return Demonstrations.load_npz(path)
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        if isinstance(exc, InvalidDemonstrationsError):
-            raise
-        raise DemonstrationFileError(f"{path}: not a readable demonstrations .npz ({exc})") from None
+    return Demonstrations.load_npz(path)
 
 
 def _load_csv(path: Path) -> Demonstrations:
