@@ -40,29 +40,39 @@ def failure_keys(record: dict[str, Any]) -> list[str]:
     return sorted({reason_key(r) for r in record["reasons"]}) or ["failed without a reason"]
 
 
-#: fields a record of each status needs for the summary (see clamp.batch)
-_RECORD_FIELDS = {"done": ("success", "reasons", "timings"), "error": ("error",), "lost": ()}
+def _number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+#: per status, the fields the summary reads: (field, check, what is expected)
+_RECORD_FIELDS: dict[str, tuple[tuple[str, Any, str], ...]] = {
+    "done": (("success", lambda v: isinstance(v, bool), "true or false"),
+             ("reasons", lambda v: isinstance(v, list) and all(isinstance(r, str) for r in v),
+              "a list of texts"),
+             ("timings", lambda v: isinstance(v, dict) and _number(v.get("total")),
+              "an object with a number 'total' [s]")),
+    "error": (("error", lambda v: isinstance(v, dict) and isinstance(v.get("type"), str),
+               "an object with a text 'type'"),),
+    "lost": (),
+}
 
 
 def _check_records(records: Any) -> list[dict[str, Any]]:
     """``records`` as a list of batch records (dicts with a known ``status`` and the fields it
-    needs); ArgumentTypeError / InvalidParameterError naming the first bad one."""
+    needs, see clamp.batch); ArgumentTypeError / InvalidParameterError naming the first bad
+    one."""
     records = as_sequence(records, "records", "a list of batch records (dicts, as "
                           "clamp.batch.read_results returns)", ArgumentTypeError)
     for k, record in enumerate(records):
         as_instance(record, f"records[{k}]", dict, "a batch record (dict)", ArgumentTypeError)
         status = record.get("status")
-        if status not in _RECORD_FIELDS:
+        if not isinstance(status, str) or status not in _RECORD_FIELDS:
             raise InvalidParameterError(f"records[{k}].status: expected one of "
                                         f"{sorted(_RECORD_FIELDS)}, got {status!r:.40}")
-        missing = [f for f in _RECORD_FIELDS[status] if f not in record]
-        timings = record.get("timings")
-        if not missing and status == "done" and not (isinstance(timings, dict)
-                                                     and "total" in timings):
-            missing = ["timings.total"]
-        if missing:
-            raise InvalidParameterError(f"records[{k}]: expected a {status!r} record with "
-                                        f"{', '.join(_RECORD_FIELDS[status])}, missing {missing}")
+        for field, ok, expected in _RECORD_FIELDS[status]:
+            if not ok(record.get(field)):
+                raise InvalidParameterError(f"records[{k}].{field}: expected {expected} in a "
+                                            f"{status!r} record, got {record.get(field)!r:.60}")
     return records
 
 
