@@ -312,6 +312,9 @@ _GOOD_PROBLEM = make_problem("scenes/jaco/0001", {"skill": "box_closing", "seed"
                              config={"sigma_obs": 0.005}, expected="feasible",
                              meta={"note": "x"}).to_dict()
 _PROBLEM_FIELDS = sorted(_GOOD_PROBLEM) + ["colour"]
+# flat JSON values (cheaper to draw than small_json: keeps these two tests fast)
+small_json = st.one_of(scalars, st.lists(scalars, max_size=3),
+                       st.dictionaries(st.text(max_size=4), scalars, max_size=2))
 _GARBAGE_LINES = st.one_of(st.text(max_size=30), st.sampled_from(
     ["", "   ", "# a comment", "{", "[" * 100_000, "NaN", "{}", "null", '{"id": ""}']))
 
@@ -323,15 +326,15 @@ def problem_lines(draw) -> str:
     kind = draw(st.integers(0, 5))
     if kind >= 2:
         data = dict(_GOOD_PROBLEM)
-        data["id"] = draw(st.one_of(st.sampled_from(["a", "b", "c"]), json_values))
+        data["id"] = draw(st.one_of(st.sampled_from(["a", "b", "c"]), small_json))
         for key in draw(st.sets(st.sampled_from(_PROBLEM_FIELDS), max_size=2)):
             data.pop(key, None)
-        for key, value in draw(st.dictionaries(st.sampled_from(_PROBLEM_FIELDS), json_values,
+        for key, value in draw(st.dictionaries(st.sampled_from(_PROBLEM_FIELDS), small_json,
                                                max_size=3)).items():
             data[key] = value
         return json.dumps(data, allow_nan=True)
     if kind == 1:
-        return json.dumps(draw(json_values), allow_nan=True)
+        return json.dumps(draw(small_json), allow_nan=True)
     return draw(_GARBAGE_LINES)
 
 
@@ -350,21 +353,21 @@ def test_problems_file_reader(lines, encoding, tail) -> None:
 
 
 # ------------------------------------------------------------------------ results (JSON Lines)
-_STATUS = st.one_of(st.sampled_from(["done", "error", "lost", "done"]), json_values)
+_STATUS = st.one_of(st.sampled_from(["done", "error", "lost", "done"]), small_json)
 results_records = st.fixed_dictionaries({}, optional={
-    "id": st.one_of(st.text(max_size=4), json_values), "hash": st.text(max_size=4),
-    "status": _STATUS, "success": st.one_of(st.booleans(), json_values),
-    "reasons": st.one_of(st.lists(st.text(max_size=30), max_size=2), json_values),
-    "expected": st.one_of(st.sampled_from([None, "feasible", "impossible"]), json_values),
-    "timings": st.one_of(st.fixed_dictionaries({"total": st.one_of(numbers, json_values)}),
-                         json_values),
+    "id": st.one_of(st.text(max_size=4), small_json), "hash": st.text(max_size=4),
+    "status": _STATUS, "success": st.one_of(st.booleans(), small_json),
+    "reasons": st.one_of(st.lists(st.text(max_size=30), max_size=2), small_json),
+    "expected": st.one_of(st.sampled_from([None, "feasible", "impossible"]), small_json),
+    "timings": st.one_of(st.fixed_dictionaries({"total": st.one_of(numbers, small_json)}),
+                         small_json),
     "error": st.one_of(st.fixed_dictionaries({"type": st.one_of(st.text(max_size=8),
-                                                                json_values)}), json_values)})
+                                                                small_json)}), small_json)})
 
 
 @st.composite
 def results_texts(draw) -> bytes:
-    lines = [json.dumps(draw(st.one_of(results_records, results_records, json_values)),
+    lines = [json.dumps(draw(st.one_of(results_records, results_records, small_json)),
                         allow_nan=True) if draw(st.integers(0, 5)) else draw(_GARBAGE_LINES)
              for _ in range(draw(st.integers(0, 4)))]
     text = "\n".join(lines) + ("\n" if draw(st.integers(0, 3)) else "")  # sometimes a torn line
