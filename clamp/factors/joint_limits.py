@@ -35,9 +35,9 @@ class JointLimitFamily(Family):
             j = int(np.argmax(lower > upper))
             raise InvalidParameterError(f"lower: expected lower <= upper joint limits, got "
                                         f"lower[{j}] = {lower[j]} > upper[{j}] = {upper[j]} rad")
-        if np.any(velocity_limits <= 0):
-            raise InvalidParameterError(f"velocity_limits: expected positive limits [rad/s], "
-                                        f"got {float(velocity_limits.min())}")
+        if np.any(velocity_limits < 0):
+            raise InvalidParameterError(f"velocity_limits: expected limits >= 0 rad/s, got "
+                                        f"{float(velocity_limits.min())}")
         margin = as_scalar(margin, "margin", minimum=0.0)
         velocity_margin = as_scalar(velocity_margin, "velocity_margin", minimum=0.0)
         self.low = lower + margin
