@@ -355,6 +355,11 @@ def _runner(executor: Any) -> tuple[Any, Callable[[], None]]:
 
 
 # =============================================================== output file
+#: how every record line starts (``json.dumps`` of :func:`_record`, "id" first): a torn last
+#: line that does not is not the batch's own and is never cut
+_RECORD_START = b'{"id":'
+
+
 class ResultsFile:
     """The JSON Lines output of a batch: the hashes it holds, appending whole lines."""
 
@@ -364,13 +369,15 @@ class ResultsFile:
         self.path = Path(path)
         self.hashes: set[str] = set()
         if self.path.exists():
-            self._repair()
+            # every complete line checked before anything is cut: a file that is not a results
+            # file is refused untouched
             for k, record in enumerate(iter_json_lines(self.path), 1):
                 if not isinstance(record, dict) or not {"hash", "status"} <= record.keys():
                     raise InvalidParameterError(f"out: {str(self.path)!r} line {k} is not a "
                                                 "batch result (no 'hash' / 'status'); expected "
                                                 "a results file or a new path")
                 self.hashes.add(record["hash"])
+            self._repair()
         self._fd: int | None = None
         self._synced = time.monotonic()
 
@@ -380,6 +387,10 @@ class ResultsFile:
             data = handle.read()
             if data and not data.endswith(b"\n"):
                 keep = data.rfind(b"\n") + 1
+                if not data[keep:].startswith(_RECORD_START[:len(data) - keep]):
+                    raise InvalidParameterError(
+                        f"out: {str(self.path)!r} ends in a line that is not a batch result "
+                        f"({data[keep:keep + 30]!r}); expected a results file or a new path")
                 log.warning("%s: removing a torn last line (%d bytes)", self.path, len(data) - keep)
                 handle.truncate(keep)
 
