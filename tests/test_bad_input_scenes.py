@@ -21,6 +21,7 @@ from scenes.errors import (ArgumentTypeError, DemonstrationFileError, InvalidArg
                            SceneFileError, UnknownSkillError)
 from scenes.obstacles import obstacle_from_dict
 from scenes.progress import progress, set_progress
+from scenes.validation import as_array, as_file, as_indices, as_instance, as_path, as_seed, as_sequence
 
 BOX = Box([0.3, -0.3, 0.2], [0.1, 0.1, 0.1])
 
@@ -342,6 +343,17 @@ CATALOGUE: list[Case] = [
     Case("progress-description", lambda fx: progress([1], description=5), E, "description"),
     Case("progress-total", lambda fx: progress([1], description="x", total=-1), IA, "total"),
     Case("set-progress-text", lambda fx: set_progress("yes"), E, "enabled"),
+    # --- scenes.validation helpers (the one helper the packages wrap)
+    Case("validation-seed-negative", lambda fx: as_seed(-1, "seed"), IA, "seed"),
+    Case("validation-seed-float", lambda fx: as_seed(1.5, "seed"), IA, "seed"),
+    Case("validation-instance", lambda fx: as_instance("x", "scene", Scene, "a Scene", E), E, "scene"),
+    Case("validation-sequence-text", lambda fx: as_sequence("abc", "items", "a list", E), E, "items"),
+    Case("validation-path-number", lambda fx: as_path(42, "path", E), E, "path"),
+    Case("validation-file-missing", lambda fx: as_file(fx.tmp / "none.txt", "path", IA), IA, "does not exist"),
+    Case("validation-file-directory", lambda fx: as_file(fx.tmp, "path", IA), IA, "directory"),
+    Case("validation-indices-negative", lambda fx: as_indices([0, -1], "indices"), IA, "indices"),
+    Case("validation-array-nan-allowing-inf", lambda fx: as_array([np.inf, np.nan], "limits",
+                                                                  allow_infinite=True), IA, "limits"),
 ]
 
 
