@@ -27,8 +27,10 @@ def as_indices(x: object, name: str) -> np.ndarray:
 
 def is_symmetric(cov: np.ndarray) -> bool:
     """Whether a stack (..., D, D) is symmetric to 1e-9 of its largest entry."""
-    scale = max(float(np.max(np.abs(cov))), 1e-300) if cov.size else 1.0
-    return bool(np.allclose(cov, np.swapaxes(cov, -1, -2), rtol=0.0, atol=1e-9 * scale))
+    if not cov.size:
+        return True
+    scale = max(float(np.max(np.abs(cov))), 1e-300)
+    return bool(np.max(np.abs(cov - np.swapaxes(cov, -1, -2))) <= 1e-9 * scale)
 
 
 def cholesky(cov: np.ndarray, name: str, hint: str = "") -> np.ndarray:
@@ -46,13 +48,16 @@ def cholesky(cov: np.ndarray, name: str, hint: str = "") -> np.ndarray:
             f"{smallest[worst]:.3g}{hint}") from None
 
 
-def as_covariance(x: object, name: str, shape: Sequence[int | str | None]) -> np.ndarray:
-    """``x`` as a finite array of ``shape`` (last two axes square) of symmetric positive
-    definite covariance matrices."""
+def as_covariance(x: object, name: str, shape: Sequence[int | str | None],
+                  positive_definite: bool = True) -> np.ndarray:
+    """``x`` as a finite array of ``shape`` (last two axes square) of symmetric covariance
+    matrices, positive definite (checked by a Cholesky factorisation) unless the caller checks
+    that itself (``positive_definite=False``)."""
     cov = as_array(x, name, shape)
     if not is_symmetric(cov):
         raise InvalidParameterError(f"{name}: expected symmetric covariance matrices")
-    cholesky(cov, name)
+    if positive_definite:
+        cholesky(cov, name)
     return cov
 
 

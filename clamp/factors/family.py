@@ -24,7 +24,7 @@ import gtsam
 import numpy as np
 
 from clamp.errors import InvalidParameterError, ShapeError
-from clamp.validation import as_array, as_count, as_indices
+from clamp.validation import as_array, as_count, as_covariance, as_indices, cholesky
 
 from .states import StateWindow
 
@@ -49,6 +49,19 @@ def square_root_information(cov: np.ndarray) -> np.ndarray:
     info = 0.5 * (info + np.swapaxes(info, -1, -2))
     lower = np.linalg.cholesky(info)
     return np.swapaxes(lower, -1, -2)
+
+
+def covariance_root(cov: object, name: str, shape: tuple) -> np.ndarray:
+    """:func:`square_root_information` of covariances ``cov`` of ``shape``, checked: finite and
+    symmetric, and positive definite (InvalidParameterError naming ``name``, the worst matrix
+    and its smallest eigenvalue otherwise: found by the factorisation itself, at no extra cost)."""
+    cov = as_covariance(cov, name, shape, positive_definite=False)
+    try:
+        return square_root_information(cov)
+    except np.linalg.LinAlgError:
+        cholesky(cov, name)                       # raises, naming the worst matrix
+        raise InvalidParameterError(f"{name}: covariances too ill-conditioned to invert") \
+            from None
 
 
 class Family:

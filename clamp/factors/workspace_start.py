@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from clamp.validation import as_array, as_count, as_covariance
+from clamp.validation import as_array, as_count
 
-from .family import Family, Linearization, square_root_information
+from .family import Family, Linearization, covariance_root
 from .states import StateWindow
 
 
@@ -30,9 +30,8 @@ class WorkspaceStartFamily(Family):
 
     def __init__(self, mean: np.ndarray, cov: np.ndarray, index: int = 0):
         self.mean = as_array(mean, "mean", (6,)).reshape(1, 6)
-        cov = as_covariance(cov, "cov", (6, 6))
         super().__init__([as_count(index, "index", minimum=0)], 6,
-                         sqrt_information=square_root_information(cov)[None])
+                         sqrt_information=covariance_root(cov, "cov", (6, 6))[None])
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         x, dx = window.workspace()
