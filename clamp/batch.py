@@ -56,8 +56,9 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from clamp.errors import InvalidParameterError
+from clamp.errors import ArgumentTypeError, InvalidParameterError
 from clamp.problems import Problem, check_unique_ids, iter_json_lines
+from scenes.validation import as_path, as_sequence
 
 log = logging.getLogger(__name__)
 
@@ -354,6 +355,11 @@ def _runner(executor: Any) -> tuple[Any, Callable[[], None]]:
 
 
 # =============================================================== output file
+#: how every record line starts (``json.dumps`` of :func:`_record`, "id" first): a torn last
+#: line that does not is not the batch's own and is never cut
+_RECORD_START = b'{"id":'
+
+
 class ResultsFile:
     """The JSON Lines output of a batch: the hashes it holds, appending whole lines."""
 
@@ -363,13 +369,15 @@ class ResultsFile:
         self.path = Path(path)
         self.hashes: set[str] = set()
         if self.path.exists():
-            self._repair()
+            # every complete line checked before anything is cut: a file that is not a results
+            # file is refused untouched
             for k, record in enumerate(iter_json_lines(self.path), 1):
                 if not isinstance(record, dict) or not {"hash", "status"} <= record.keys():
                     raise InvalidParameterError(f"out: {str(self.path)!r} line {k} is not a "
                                                 "batch result (no 'hash' / 'status'); expected "
                                                 "a results file or a new path")
                 self.hashes.add(record["hash"])
+            self._repair()
         self._fd: int | None = None
         self._synced = time.monotonic()
 
@@ -379,6 +387,10 @@ class ResultsFile:
             data = handle.read()
             if data and not data.endswith(b"\n"):
                 keep = data.rfind(b"\n") + 1
+                if not data[keep:].startswith(_RECORD_START[:len(data) - keep]):
+                    raise InvalidParameterError(
+                        f"out: {str(self.path)!r} ends in a line that is not a batch result "
+                        f"({data[keep:keep + 30]!r}); expected a results file or a new path")
                 log.warning("%s: removing a torn last line (%d bytes)", self.path, len(data) - keep)
                 handle.truncate(keep)
 
@@ -437,6 +449,18 @@ def plan_many(problems: Iterable[Problem], executor: Any = None, *, out: str | P
     """
     if not isinstance(retries, int) or isinstance(retries, bool) or retries < 0:
         raise InvalidParameterError(f"retries: expected an integer >= 0, got {retries!r}")
+    problems = as_sequence(problems, "problems", "a list of clamp.problems.Problem",
+                           ArgumentTypeError)
+    if out is not None and as_path(out, "out", ArgumentTypeError).is_dir():
+        raise InvalidParameterError(f"out: {out} is a folder; expected a results file (JSON "
+                                    "Lines, new or from an earlier run)")
+    if base_dir is not None:
+        as_path(base_dir, "base_dir", ArgumentTypeError)
+    if not (isinstance(trajectories, str) and trajectories in TRAJECTORY_MODES):
+        if as_path(trajectories, "trajectories", ArgumentTypeError).exists() \
+                and not Path(trajectories).is_dir():
+            raise InvalidParameterError(f"trajectories: expected 'inline', 'none' or a folder, "
+                                        f"got the existing file {str(trajectories)!r}")
     todo = pending_problems(problems, out)
     folder = _trajectory_mode(trajectories)
     want_trajectory = not (folder is None and trajectories == "none")

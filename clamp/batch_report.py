@@ -13,6 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from clamp.errors import ArgumentTypeError, InvalidParameterError
+from scenes.validation import as_instance, as_sequence
+
 _DETAIL = re.compile(r"\s*\([^()]*\d[^()]*\)")         # "(clearance -3.0 mm)"
 _LIST = re.compile(r"\[[^\]]*\]")
 _NUMBER = re.compile(r"-?\d+(\.\d+)?(e-?\d+)?")
@@ -21,6 +24,7 @@ _NUMBER = re.compile(r"-?\d+(\.\d+)?(e-?\d+)?")
 def reason_key(reason: str) -> str:
     """A reason with its details in parentheses dropped and its numbers (and bracketed lists)
     replaced, for grouping."""
+    as_instance(reason, "reason", str, "a failure reason (str)", ArgumentTypeError)
     text = _NUMBER.sub("#", _LIST.sub("[..]", _DETAIL.sub("", reason)))
     return re.sub(r"\s+", " ", text).strip()
 
@@ -36,6 +40,42 @@ def failure_keys(record: dict[str, Any]) -> list[str]:
     return sorted({reason_key(r) for r in record["reasons"]}) or ["failed without a reason"]
 
 
+def _number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+#: per status, the fields the summary reads: (field, check, what is expected)
+_RECORD_FIELDS: dict[str, tuple[tuple[str, Any, str], ...]] = {
+    "done": (("success", lambda v: isinstance(v, bool), "true or false"),
+             ("reasons", lambda v: isinstance(v, list) and all(isinstance(r, str) for r in v),
+              "a list of texts"),
+             ("timings", lambda v: isinstance(v, dict) and _number(v.get("total")),
+              "an object with a number 'total' [s]")),
+    "error": (("error", lambda v: isinstance(v, dict) and isinstance(v.get("type"), str),
+               "an object with a text 'type'"),),
+    "lost": (),
+}
+
+
+def _check_records(records: Any) -> list[dict[str, Any]]:
+    """``records`` as a list of batch records (dicts with a known ``status`` and the fields it
+    needs, see clamp.batch); ArgumentTypeError / InvalidParameterError naming the first bad
+    one."""
+    records = as_sequence(records, "records", "a list of batch records (dicts, as "
+                          "clamp.batch.read_results returns)", ArgumentTypeError)
+    for k, record in enumerate(records):
+        as_instance(record, f"records[{k}]", dict, "a batch record (dict)", ArgumentTypeError)
+        status = record.get("status")
+        if not isinstance(status, str) or status not in _RECORD_FIELDS:
+            raise InvalidParameterError(f"records[{k}].status: expected one of "
+                                        f"{sorted(_RECORD_FIELDS)}, got {status!r:.40}")
+        for field, ok, expected in _RECORD_FIELDS[status]:
+            if not ok(record.get(field)):
+                raise InvalidParameterError(f"records[{k}].{field}: expected {expected} in a "
+                                            f"{status!r} record, got {record.get(field)!r:.60}")
+    return records
+
+
 def percentile(values: Sequence[float], q: float) -> float:
     return float(np.percentile(values, q)) if len(values) else float("nan")
 
@@ -43,7 +83,7 @@ def percentile(values: Sequence[float], q: float) -> float:
 def summarize(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
     """Counts, success rate (over all records and over those labelled feasible), failure
     reasons (how many records name each), median / p95 plan time [s]."""
-    records = list(records)
+    records = _check_records(records)
     status = Counter(r["status"] for r in records)
     success = sum(1 for r in records if r["status"] == "done" and r["success"])
     reasons: Counter[str] = Counter()
@@ -64,6 +104,12 @@ def summarize(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
 
 def summary_table(summary: dict[str, Any]) -> str:
     """Plain-text table of :func:`summarize`'s figures."""
+    as_instance(summary, "summary", dict, "the dict clamp.batch_report.summarize returns",
+                ArgumentTypeError)
+    missing = sorted(set(summarize([])) - set(summary))
+    if missing:
+        raise InvalidParameterError(f"summary: expected the dict summarize returns, missing "
+                                    f"{missing}")
     n = summary["problems"]
     status = ", ".join(f"{k} {v}" for k, v in sorted(summary["status"].items()))
     lines = [f"problems          {n}  ({status})",

@@ -27,9 +27,12 @@ from typing import Any
 
 import numpy as np
 
-from clamp.errors import InvalidParameterError
+from clamp.config import PlannerConfig
+from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
 from clamp.prior import WorkspacePrior, suffix_compose
-from clamp.validation import as_array, as_scalar
+from clamp.request import Request, check_prior, check_robot
+from clamp.validation import as_array, as_count, as_scalar
+from scenes.validation import MAX_COORDINATE, as_instance, as_sequence
 
 
 def condition_prior(prior: Any, observations: Sequence[tuple[int, Any]],
@@ -42,17 +45,24 @@ def condition_prior(prior: Any, observations: Sequence[tuple[int, Any]],
     prior's own spread there is much larger). Returns a new WorkspacePrior whose info records
     the conditioning; the original is unchanged.
     """
+    check_prior(prior)
     sigma = as_scalar(sigma, "sigma", strictly_positive=True)
+    observations = as_sequence(observations, "observations", "a list of pairs (state index, "
+                               "position (3,))", ArgumentTypeError)
     Phi, u, Q = (np.asarray(a, dtype=float) for a in (prior.Phi, prior.u, prior.Q))
     T, D = len(Phi) + 1, Phi.shape[1]
     A = D // 2
     L_obs = np.zeros((T, D, D))
     e_obs = np.zeros((T, D))
-    for k, (index, position) in enumerate(observations):
-        if not 0 <= int(index) < T:
+    for k, item in enumerate(observations):
+        if not isinstance(item, (tuple, list)) or len(item) != 2:
+            raise ShapeError(f"observations[{k}]: expected a pair (state index, position "
+                             f"({A},)), got {item!r:.60}")
+        index, position = item
+        if not 0 <= as_count(index, f"observations[{k}] index", minimum=0) < T:
             raise InvalidParameterError(f"observations[{k}]: expected a state index in "
                                         f"[0, {T}), got {index}")
-        p = as_array(position, f"observations[{k}] position", (A,))
+        p = as_array(position, f"observations[{k}] position", (A,), limit=MAX_COORDINATE)
         L_obs[int(index), np.arange(A), np.arange(A)] += 1.0 / sigma**2
         e_obs[int(index), :A] += p / sigma**2
     eye = np.eye(D)
@@ -125,7 +135,12 @@ def planning_prior(prior: Any, robot: Any, request: Any, config: Any) -> Any:
     """The prior a plan for ``request`` uses: ``prior`` conditioned on the start position and
     on the goal and via positions (joint targets through forward kinematics) when the request
     has any and ``config.model.condition_on_targets``; otherwise ``prior`` itself."""
-    model = config.model
+    check_prior(prior)
+    check_robot(robot)
+    as_instance(request, "request", Request, "a clamp.request.Request (from make_request)",
+                ArgumentTypeError)
+    model = as_instance(config, "config", PlannerConfig, "a clamp.PlannerConfig",
+                        ArgumentTypeError).model
     if not model.condition_on_targets or (request.goal is None and not request.vias):
         return prior
     T = len(prior.Phi) + 1

@@ -217,6 +217,7 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
 
 def check_spread(states: np.ndarray) -> None:
     """Refuse demonstrations (M, T, D) that coincide at some step (spread below MIN_SPREAD)."""
+    states = as_array(states, "states", (None, None, None))
     spread = states.std(axis=0).max(axis=1)                    # (T,)
     step = int(np.argmin(spread))
     if spread[step] < MIN_SPREAD:

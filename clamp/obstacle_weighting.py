@@ -16,9 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from clamp.errors import InvalidParameterError
-from clamp.validation import as_scalar
+from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
+from clamp.validation import ERRORS, as_array, as_scalar
 from scenes import Scene
+from scenes import validation as checks
 
 
 @dataclass(frozen=True)
@@ -34,7 +35,8 @@ class ObstacleWeighting:
 
     def weight(self, distance: np.ndarray) -> np.ndarray:
         """Weights (...,) of samples at signed distances (...,) [m] from their obstacles."""
-        c = np.maximum(0.0, self.eps - np.asarray(distance, dtype=float))
+        distance = checks.as_array(distance, "distance", ERRORS, allow_infinite=True)
+        c = np.maximum(0.0, self.eps - distance)
         return np.exp(-0.5 * c * c / self.sigma)
 
     def to_dict(self) -> dict[str, float]:
@@ -62,6 +64,14 @@ def demonstration_weights(positions: np.ndarray, obstacles: Any,
     (M lists; a demonstration without obstacles keeps weight 1); None when nothing is weighted."""
     if weighting is None or obstacles is None:
         return None
+    positions = as_array(positions, "positions", (None, None, 3), limit=checks.MAX_COORDINATE)
+    obstacles = checks.as_sequence(obstacles, "obstacles", "one list of obstacles per "
+                                   "demonstration", ArgumentTypeError)
+    if len(obstacles) != len(positions):
+        raise ShapeError(f"obstacles: expected one list of obstacles per demonstration "
+                         f"({len(positions)}), got {len(obstacles)}")
+    weighting = checks.as_instance(weighting, "weighting", ObstacleWeighting,
+                                   "a clamp.ObstacleWeighting or None", ArgumentTypeError)
     weights = np.ones(positions.shape[:2])
     for m, group in enumerate(obstacles):
         if group:

@@ -13,9 +13,12 @@ import gtsam
 import numpy as np
 
 from clamp.config import PlannerConfig
+from clamp.errors import ArgumentTypeError
 from clamp.keys import values_to_states
 from clamp.problem import PlanningProblem
+from clamp.request import as_config
 from clamp.solver import WarmStart, levenberg_marquardt
+from scenes.validation import as_instance
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +70,9 @@ def optimize(problem: PlanningProblem, config: PlannerConfig | None = None,
     warm-start rule (:class:`clamp.solver.WarmStart`) for an initial trajectory near the
     optimum; GTSAM's optimizers ignore it.
     """
-    config = (config or PlannerConfig()).validate()
+    as_instance(problem, "problem", PlanningProblem, "a clamp PlanningProblem (from clamp.build)",
+                ArgumentTypeError)
+    config = as_config(config)
     opt = config.optimizer
     name = opt.optimizer
     if name == "fast" and not problem.banded:

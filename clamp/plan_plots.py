@@ -18,6 +18,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from clamp.errors import ArgumentTypeError, InvalidParameterError
+from clamp.request import as_scene, check_robot
+from clamp.validation import as_count, as_scalar
 from clamp.prior_plots import covariance_tube
 from scenes.plotting import draw_obstacle, set_equal_axes_3d
 
@@ -35,6 +37,14 @@ def _check_result(result: Any, *fields: str) -> Any:
     return result
 
 
+def _check_inputs(result: Any, robot: Any, scene: Any = None) -> Any:
+    """Checks a figure's plan (:func:`_check_result`) and robot; returns the scene as a
+    scenes.Scene (or None), from anything :func:`clamp.plan` accepts as one."""
+    _check_result(result)
+    check_robot(robot)
+    return as_scene(scene)
+
+
 def plot_plan_3d(result: Any, robot: Any, scene: Any = None, *, prior: Any = None,
                  demos: Any = None, arm_states: int = 5, path: str | os.PathLike[str] | None = None,
                  title: str | None = None, others: Sequence[tuple[str, Any]] = (),
@@ -46,7 +56,8 @@ def plot_plan_3d(result: Any, robot: Any, scene: Any = None, *, prior: Any = Non
     demonstrations in grey); others: extra (label, PlanResult) paths to compare.
     Writes a PNG to ``path`` if given; returns the figure.
     """
-    _check_result(result)
+    scene = _check_inputs(result, robot, scene)
+    arm_states = as_count(arm_states, "arm_states", minimum=0)
     fig = Figure(figsize=(7.5, 6.5))
     ax = fig.add_subplot(projection="3d")
     if scene is not None:
@@ -114,6 +125,11 @@ def plot_orientation(result: Any, robot: Any, family: Any,
                      dpi: int = 120) -> Figure:
     """Angle of the tool from an orientation family's target [deg] against time over the whole
     plan, with the family's window shaded and its tolerance; writes a PNG to ``path``."""
+    from clamp.factors import OrientationFamily
+    _check_inputs(result, robot)
+    if not isinstance(family, OrientationFamily):
+        raise ArgumentTypeError(f"family: expected a clamp.factors.OrientationFamily, got "
+                                f"{type(family).__name__}")
     every = type(family)(np.arange(len(result.q)), tolerance=family.tolerance,
                          axis=family.axis, direction=family.direction,
                          rotation=family.rotation)
@@ -154,6 +170,8 @@ def plot_top_view(result: Any, robot: Any, scene: Any = None, *, prior: Any = No
                   demos: Any = None, arm_states: int = 5, title: str | None = None) -> Figure:
     """Top view (x-y plane, [m], equal axes) of a plan: demonstrations, prior mean, the
     end-effector path, the arm at ``arm_states`` support states, obstacle footprints."""
+    scene = _check_inputs(result, robot, scene)
+    arm_states = as_count(arm_states, "arm_states", minimum=0)
     fig = Figure(figsize=(8.0, 6.0))
     ax = fig.add_subplot()
     extent = [np.zeros((1, 2)), result.ee_path[:, :2]]
@@ -195,6 +213,7 @@ def plot_top_view(result: Any, robot: Any, scene: Any = None, *, prior: Any = No
 def plot_joint_angles(result: Any, robot: Any, title: str | None = None) -> Figure:
     """Every joint angle [rad] against time [s], one panel per joint; the region outside the
     joint's position limits is shaded (continuous joints: no limits)."""
+    _check_inputs(result, robot)
     q, t = np.asarray(result.q), np.asarray(result.time)
     n = q.shape[1]
     cols = 2 if n <= 8 else 3
@@ -241,6 +260,8 @@ def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
     spheres and the obstacles at every support state, the safety distance ``epsilon`` [m]
     (the obstacle factors act below it) and contact (0) marked."""
     from clamp.verdict import sphere_clearance
+    scene = _check_inputs(result, robot, scene)
+    epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
     clearance = np.min(sphere_clearance(robot, scene, np.asarray(result.q)), axis=1)
     t = np.asarray(result.time)
     fig = Figure(figsize=(7.0, 3.6))

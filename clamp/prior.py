@@ -29,25 +29,12 @@ from scipy import stats
 
 from clamp.conjugate import POSTERIOR_KEYS, ConjugatePosterior
 from clamp.errors import ArgumentTypeError, InvalidParameterError, PriorFileError, ShapeError
-from clamp.validation import as_array, as_count, as_scalar, as_time
+from clamp.validation import as_array, as_count, as_scalar, as_time, cholesky, is_symmetric
 from scenes.validation import as_file, as_path
 
 FILE_FORMAT = "clamp-linear-gaussian-prior/1"
 _ARRAY_KEYS = ("time", "Phi", "u", "Q", "mean0", "cov0")
-
-
-def _cholesky(cov: np.ndarray, name: str) -> np.ndarray:
-    """Lower Cholesky factors of a stack (..., D, D) of covariances; ClampError if not PD."""
-    try:
-        return np.linalg.cholesky(cov)
-    except np.linalg.LinAlgError:
-        flat = cov.reshape(-1, *cov.shape[-2:])
-        smallest = np.linalg.eigvalsh(flat)[:, 0]
-        worst = int(np.argmin(smallest))
-        where = f"{name}[{worst}]" if cov.ndim > 2 else name
-        raise InvalidParameterError(
-            f"{name}: expected positive definite covariances; {where} has smallest eigenvalue "
-            f"{smallest[worst]:.3g} (learn with a larger jitter)") from None
+_JITTER_HINT = " (learn with a larger jitter)"
 
 
 def _frozen(arr: np.ndarray) -> np.ndarray:
@@ -55,11 +42,6 @@ def _frozen(arr: np.ndarray) -> np.ndarray:
     out = np.array(arr, dtype=np.float64, copy=True)
     out.flags.writeable = False
     return out
-
-
-def _is_symmetric(cov: np.ndarray) -> bool:
-    scale = max(float(np.max(np.abs(cov))), 1e-300)
-    return bool(np.allclose(cov, np.swapaxes(cov, -1, -2), rtol=0.0, atol=1e-9 * scale))
 
 
 def _compose(late: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -163,7 +145,7 @@ class LinearGaussianPrior:
         self.mean0 = _frozen(as_array(mean0, "mean0", (D,)))
         self.cov0 = _frozen(as_array(cov0, "cov0", (D, D)))
         for name, cov in (("Q", self.Q), ("cov0", self.cov0)):
-            if not _is_symmetric(cov):
+            if not is_symmetric(cov):
                 raise InvalidParameterError(f"{name}: expected symmetric covariance matrices")
         self.T, self.D = steps + 1, D
         self.num_axes = D // 2
@@ -177,8 +159,8 @@ class LinearGaussianPrior:
             raise ShapeError(f"state_names: expected {D} names, got {len(state_names)}")
         self.state_names = tuple(str(s) for s in state_names)
         # Whitening factors: L L^T = cov, W = L^{-1}, so ||W r||^2 is the squared Mahalanobis.
-        chol_Q = _cholesky(self.Q, "Q")
-        chol_0 = _cholesky(self.cov0, "cov0")
+        chol_Q = cholesky(self.Q, "Q", _JITTER_HINT)
+        chol_0 = cholesky(self.cov0, "cov0", _JITTER_HINT)
         eye = np.eye(D)
         self._white_Q = np.linalg.solve(chol_Q, np.broadcast_to(eye, chol_Q.shape))
         self._white_0 = np.linalg.solve(chol_0, eye)

@@ -42,10 +42,10 @@ def _demo_states(demos: object, prior: LinearGaussianPrior) -> np.ndarray | None
     return as_array(states, "demos", (None, prior.T, prior.D))
 
 
-def check_prior(prior: object) -> LinearGaussianPrior:
+def check_prior(prior: object, name: str = "prior") -> LinearGaussianPrior:
     """``prior`` itself when it is a learned prior (ArgumentTypeError naming it otherwise)."""
     if not isinstance(prior, LinearGaussianPrior):
-        raise ArgumentTypeError(f"prior: expected a clamp prior (learn_prior(...) or "
+        raise ArgumentTypeError(f"{name}: expected a clamp prior (learn_prior(...) or "
                                 f"WorkspacePrior.load(path)), got {type(prior).__name__}")
     return prior
 
@@ -168,6 +168,10 @@ def plot_weighted_priors(unweighted: LinearGaussianPrior, weighted: LinearGaussi
     weighting. demos: Demonstrations-like (its recorded obstacles are drawn);
     weights (M, T) sample weights shown on the right; reference (T, 3) [m] e.g. the
     clutter-free skill's mean, dashed on both. Writes a PNG to ``path`` if given."""
+    check_prior(unweighted, "unweighted")
+    states = _demo_states(demos, check_prior(weighted, "weighted"))
+    if weights is not None:
+        weights = as_array(weights, "weights", (len(states), weighted.T))
     fig = Figure(figsize=(13, 6))
     obstacles = [ob for group in (getattr(demos, "obstacles", None) or []) for ob in group]
     for k, (prior, name, w) in enumerate(((unweighted, "unweighted", None),

@@ -32,6 +32,7 @@ from clamp.factors.family import Family
 from clamp.factors.gtsam_adapter import SharedStates, gtsam_factors
 from clamp.factors.states import StateWindow
 from clamp.keys import state_key, states_to_values
+from clamp.validation import as_array
 
 
 @dataclass(frozen=True)
@@ -117,7 +118,8 @@ class PlanningProblem:
 
     def values(self, theta: np.ndarray | None = None) -> gtsam.Values:
         """GTSAM Values of joint states theta (T, 2n) (default: the initial trajectory)."""
-        return states_to_values(self.initial if theta is None else theta, self.keys)
+        theta = self.initial if theta is None else as_array(theta, "theta", self.initial.shape)
+        return states_to_values(theta, self.keys)
 
     # ------------------------------------------------------------------------------ fast face
     def window(self, theta: np.ndarray) -> StateWindow:

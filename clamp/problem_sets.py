@@ -21,9 +21,11 @@ from typing import Any
 
 import numpy as np
 
-from clamp.errors import InvalidParameterError
+from clamp.errors import ArgumentTypeError, InvalidParameterError
 from clamp.problems import Problem, make_problem
-from clamp.validation import as_count, as_scalar
+from clamp.request import check_prior
+from clamp.validation import ERRORS, as_count, as_scalar
+from scenes.validation import as_generator, as_instance, as_path, as_sequence, as_seed
 
 #: skills of the scene benchmark (all synthetic skills that carry no obstacle of their own)
 BENCHMARK_SKILLS = ("box_closing", "reach_from_above", "pick_place", "two_target_press")
@@ -32,13 +34,10 @@ CLEAR_CONFIGURATION = 0.02     # [m] start / goal arm geometry to any obstacle (
 _MAX_TRIES = 200
 
 
-def _rng(seed: Any) -> np.random.Generator:
-    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-
-
 def start_region(prior: Any, scale: float = 2.0, min_half_width: float = 0.01) -> np.ndarray:
     """Axis-aligned box (2, 3) [m] around the prior's initial mean position: +- ``scale``
     initial standard deviations per axis, at least ``min_half_width``."""
+    check_prior(prior)
     scale = as_scalar(scale, "scale", strictly_positive=True)
     min_half_width = as_scalar(min_half_width, "min_half_width", minimum=0.0)
     centre = np.asarray(prior.mean)[0, :3]
@@ -54,6 +53,10 @@ def start_problems(base: Problem, count: int | None = None, *, grid: int | None 
     ``count`` seeded uniform samples, or a ``grid`` x ``grid`` x ``grid`` grid (exactly one of
     the two). Ids ``<base id>/start<k>``; ``meta["start_index"] = k``."""
     from clamp.batch import load_prior
+    _check_problem(base, "base")
+    rng = as_generator(seed, "seed", error=ERRORS)
+    if base_dir is not None:
+        as_path(base_dir, "base_dir", ArgumentTypeError)
     if (count is None) == (grid is None):
         raise InvalidParameterError("count, grid: expected exactly one of them, got "
                                     f"count={count!r}, grid={grid!r}")
@@ -65,7 +68,7 @@ def start_problems(base: Problem, count: int | None = None, *, grid: int | None 
                 for lo, hi in zip(low, high)]
         starts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     else:
-        starts = _rng(seed).uniform(low, high, size=(as_count(count, "count"), 3))
+        starts = rng.uniform(low, high, size=(as_count(count, "count"), 3))
     width = len(str(len(starts) - 1))
     return [base.replace(id=f"{base.id}/start{k:0{width}d}", start=start.tolist(),
                          meta={**base.to_dict()["meta"], "start_index": k})
@@ -76,6 +79,12 @@ def across_robots(problem: Problem, robots: Sequence[str | dict[str, Any]]) -> l
     """``problem`` on each robot (a built-in name or ``{"urdf": .., "end_effector": ..}``);
     ids ``<id>/<robot>``. The start, goal and via points must be end-effector positions (3,):
     a joint configuration belongs to one arm."""
+    _check_problem(problem, "problem")
+    robots = as_sequence(robots, "robots", "a list of robot names or {'urdf': .., "
+                         "'end_effector': ..} objects", ArgumentTypeError)
+    for k, robot in enumerate(robots):
+        as_instance(robot, f"robots[{k}]", (str, dict), "a robot name or a {'urdf': .., "
+                    "'end_effector': ..} object", ArgumentTypeError)
     targets = [("start", problem.start)] + ([("goal", problem.goal)] if problem.goal else [])
     targets += [(f"via_points[{k}]", v) for k, (_, v) in enumerate(problem.via_points)]
     for name, value in targets:
@@ -88,6 +97,10 @@ def across_robots(problem: Problem, robots: Sequence[str | dict[str, Any]]) -> l
         label = robot if isinstance(robot, str) else Path(robot.get("urdf", "robot")).stem
         out.append(problem.replace(id=f"{problem.id}/{label}", robot=robot))
     return out
+
+
+def _check_problem(problem: Any, name: str) -> None:
+    as_instance(problem, name, Problem, "a clamp.problems.Problem", ArgumentTypeError)
 
 
 # ------------------------------------------------------------------ scene benchmark
@@ -143,10 +156,21 @@ def scene_benchmark(count: int, robot: str = "jaco", seed: int = 0, *,
     """
     from clamp.batch import load_prior, load_robot
     from scenes import Scene
+    from scenes.synthetic import SKILLS
     count = as_count(count, "count")
-    share = as_scalar(impossible_share, "impossible_share", minimum=0.0)
-    if share > 1.0:
-        raise InvalidParameterError(f"impossible_share: expected a value in [0, 1], got {share}")
+    share = as_scalar(impossible_share, "impossible_share", minimum=0.0, maximum=1.0)
+    seed = as_seed(seed, "seed", ERRORS)
+    skills = as_sequence(skills, "skills", "a list of skill names", ArgumentTypeError)
+    if not skills or any(s not in SKILLS for s in skills):
+        raise InvalidParameterError(f"skills: expected a non-empty list of skills from "
+                                    f"{list(SKILLS)}, got {skills!r:.100}")
+    num_points = as_count(num_points, "num_points", minimum=2)
+    fewest, most = _obstacle_counts(obstacles)
+    start_offset = as_scalar(start_offset, "start_offset", minimum=0.0)
+    near = as_scalar(near, "near", strictly_positive=True)
+    if config is not None:
+        as_instance(config, "config", dict, "a dict of PlannerConfig field changes or None",
+                    ArgumentTypeError)
     arm = load_robot({"name": robot}, Path("."))
     rng = np.random.default_rng(seed)
     paths = {}
@@ -170,7 +194,7 @@ def scene_benchmark(count: int, robot: str = "jaco", seed: int = 0, *,
             lo, hi = int(0.2 * len(path)), int(0.8 * len(path))
             ends = np.stack([start, goal])
             shapes = []
-            for _ in range(rng.integers(obstacles[0], obstacles[1] + 1)):
+            for _ in range(rng.integers(fewest, most + 1)):
                 for attempt in range(_MAX_TRIES):   # drawn until it leaves the ends clear
                     direction = rng.normal(size=3)
                     reach = near * (1.0 + attempt / _MAX_TRIES)
@@ -189,3 +213,14 @@ def scene_benchmark(count: int, robot: str = "jaco", seed: int = 0, *,
                                 scene=Scene(shapes), goal=goal, config=config,
                                 expected=expected, meta=meta))
     return out
+
+
+def _obstacle_counts(obstacles: Any) -> tuple[int, int]:
+    """``obstacles`` as (fewest, most) obstacles per feasible problem, 0 <= fewest <= most."""
+    pair = as_sequence(obstacles, "obstacles", "a pair (min, max) of obstacle counts",
+                       ArgumentTypeError)
+    if len(pair) != 2:
+        raise InvalidParameterError(f"obstacles: expected a pair (min, max), got {obstacles!r}")
+    fewest = as_count(pair[0], "obstacles[0]", minimum=0)
+    most = as_count(pair[1], "obstacles[1]", minimum=fewest)
+    return fewest, most

@@ -43,7 +43,9 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from clamp.errors import ClampError
+from clamp.errors import ArgumentTypeError, ClampError
+from clamp.validation import as_bool
+from scenes.validation import as_file, as_path, as_sequence
 
 FORMAT = "clamp-problem"
 VERSION = 1
@@ -173,11 +175,8 @@ class Problem:
 
     @classmethod
     def from_json(cls, text: str, source: str = "problem") -> "Problem":
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ProblemFormatError(f"{source}: not valid JSON ({exc})") from None
-        return cls.from_dict(data, source)
+        """A problem from one line of JSON (str or UTF-8 bytes)."""
+        return cls.from_dict(parse_json(text, source), source)
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "problem") -> "Problem":
@@ -201,7 +200,11 @@ class Problem:
             scene = _freeze(_object(scene, f"{where}.scene"))
         goal = data.get("goal")
         vias = []
-        for k, item in enumerate(data.get("via_points") or []):
+        via_points = data.get("via_points") or []
+        if not isinstance(via_points, (list, tuple)):
+            raise ProblemFormatError(f"{where}.via_points: expected a list of [index, [values]], "
+                                     f"got {type(via_points).__name__}")
+        for k, item in enumerate(via_points):
             if (not isinstance(item, (list, tuple)) or len(item) != 2 or not isinstance(item[0], int)
                     or isinstance(item[0], bool)):
                 raise ProblemFormatError(f"{where}.via_points[{k}]: expected [index, [values]], "
@@ -251,12 +254,41 @@ def make_problem(id: str, prior: Any, robot: Any, start: Sequence[float], scene:
     inline), numbers may be numpy arrays."""
     if hasattr(scene, "to_dict"):
         scene = scene.to_dict()
-    data = {"id": id, "prior": prior, "robot": robot, "scene": scene,
-            "start": [float(v) for v in start],
-            "goal": None if goal is None else [float(v) for v in goal],
-            "via_points": [[int(i), [float(v) for v in value]] for i, value in via_points],
-            "config": dict(config or {}), "expected": expected, "meta": dict(meta or {})}
-    return Problem.from_dict(json.loads(json.dumps(data)))
+    via_points = as_sequence(via_points, "via_points", "a list of pairs (index, values)",
+                             ArgumentTypeError)
+    data = {"id": id, "prior": prior, "robot": robot, "scene": scene, "start": start,
+            "goal": goal, "via_points": via_points, "config": config or {},
+            "expected": expected, "meta": meta or {}}
+    return Problem.from_dict({key: _json_value(value, key) for key, value in data.items()})
+
+
+def _json_value(value: Any, name: str) -> Any:
+    """``value`` as JSON data (numpy arrays and scalars as lists and numbers, tuples as
+    lists); ProblemFormatError naming ``name`` when it cannot be written as JSON."""
+    def plain(x: Any) -> Any:
+        if hasattr(x, "tolist"):
+            return x.tolist()
+        if isinstance(x, Path):
+            return str(x)
+        raise TypeError(f"{type(x).__name__} {x!r:.40} is not JSON data")
+    try:
+        return json.loads(json.dumps(value, default=plain))
+    except (TypeError, ValueError, RecursionError) as exc:
+        raise ProblemFormatError(f"{name}: expected JSON data (numbers, text, lists, "
+                                 f"objects), got {type(value).__name__} ({exc})") from None
+
+
+def parse_json(text: Any, source: str) -> Any:
+    """One JSON value from ``text`` (str or UTF-8 bytes); ProblemFormatError naming
+    ``source`` when it is not valid JSON (nesting too deep included)."""
+    if not isinstance(text, (str, bytes, bytearray)):
+        raise ArgumentTypeError(f"{source}: expected JSON text (str or bytes), got "
+                                f"{type(text).__name__} {text!r:.60}")
+    try:
+        return json.loads(text)
+    except (ValueError, RecursionError) as exc:    # JSONDecodeError, UnicodeDecodeError
+        raise ProblemFormatError(f"{source}: not valid JSON ({type(exc).__name__}: "
+                                 f"{str(exc)[:120]})") from None
 
 
 # ----------------------------------------------------------------------- files
@@ -264,7 +296,7 @@ def read_problems(path: str | Path) -> list[Problem]:
     """Problems of a JSON Lines file (one problem per line; blank lines and lines starting
     with ``#`` ignored). ProblemFormatError names the line of the first bad one and the
     first repeated id."""
-    path = Path(path)
+    path = as_file(path, "path", ProblemFormatError, ArgumentTypeError)
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
     except (OSError, UnicodeDecodeError) as exc:
@@ -279,6 +311,15 @@ def write_problems(problems: Iterable[Problem], path: str | Path, overwrite: boo
     """Write problems as JSON Lines (atomic; ProblemFormatError if ``path`` exists and not
     ``overwrite``)."""
     from robots.trajectory import atomic_write_text
+    problems = as_sequence(problems, "problems", "a list of clamp.problems.Problem",
+                           ArgumentTypeError)
+    for k, problem in enumerate(problems):
+        if not isinstance(problem, Problem):
+            raise ArgumentTypeError(f"problems[{k}]: expected a clamp.problems.Problem, got "
+                                    f"{type(problem).__name__} {problem!r:.60}")
+    check_unique_ids(problems)
+    path = as_path(path, "path", ArgumentTypeError)
+    overwrite = as_bool(overwrite, "overwrite")
     text = "".join(p.to_json() + "\n" for p in problems)
     return atomic_write_text(path, text, overwrite, exists_error=ProblemFormatError)
 
@@ -293,15 +334,17 @@ def check_unique_ids(problems: Sequence[Problem]) -> None:
 
 
 def iter_json_lines(path: str | Path) -> Iterator[dict[str, Any]]:
-    """The complete JSON lines of a file (a last line without its newline, left by a crash
-    mid-write, is skipped)."""
+    """The JSON objects of a file's complete lines (a last line without its newline, left by a
+    crash mid-write, is skipped); ProblemFormatError names a line that is not a JSON object."""
+    path = as_file(path, "path", ProblemFormatError, ArgumentTypeError)
     with open(path, "rb") as handle:
         for k, raw in enumerate(handle, 1):
             if not raw.endswith(b"\n"):
                 return
             if raw.strip():
-                try:
-                    yield json.loads(raw)
-                except json.JSONDecodeError as exc:
-                    raise ProblemFormatError(f"{path}:{k}: not valid JSON ({exc})") from None
+                record = parse_json(raw, f"{path}:{k}")
+                if not isinstance(record, dict):
+                    raise ProblemFormatError(f"{path}:{k}: expected a JSON object, got "
+                                             f"{type(record).__name__}")
+                yield record
 

@@ -19,13 +19,14 @@ from typing import Any
 import numpy as np
 
 from clamp.conditioning import planning_prior
-from clamp.errors import InvalidParameterError
+from clamp.errors import ArgumentTypeError, InvalidParameterError
 from clamp.factors.states import StateWindow
 from clamp.planner import _plan
 from clamp.request import as_config, as_scene, make_request
 from clamp.result import PlanResult
 from clamp.solver import WarmStart, WorkspaceCorrection
 from scenes.threads import single_blas_thread
+from scenes.validation import as_instance, as_sequence
 
 _KEEP = object()
 
@@ -52,6 +53,11 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
     ``via_points`` replaced (same meaning as in :func:`clamp.plan`; left out: unchanged),
     warm-started from ``previous`` (see the module docstring). ``config`` replaces the
     previous configuration when given. The result is checked like any plan's."""
+    as_instance(previous, "previous", PlanResult, "a clamp.PlanResult returned by clamp.plan",
+                ArgumentTypeError)
+    if via_points is not _KEEP:
+        via_points = as_sequence(via_points, "via_points", "a list of pairs (index, position "
+                                 "(3,) or configuration (n,))", ArgumentTypeError)
     inputs = previous.inputs
     if inputs is None:
         raise InvalidParameterError("previous: expected a PlanResult returned by clamp.plan "

@@ -17,13 +17,15 @@ from clamp.limit_report import limit_violations
 from clamp.optimizers import Optimized
 from clamp.plausibility import plausibility_details
 from clamp.problem import PlanningProblem
-from clamp.request import Request, has_obstacles
+from clamp.request import Request, as_scene, has_obstacles
 from clamp.result import PlanResult
 from robots.collision_check import CollisionReport
 
 
 def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
-    """Exact clearance (T, S) [m] of every collision sphere at q (T, n); +inf without obstacles."""
+    """Exact clearance (T, S) [m] of every collision sphere at q (T, n); +inf without obstacles
+    (``scene``: anything :func:`clamp.plan` accepts as one)."""
+    scene = as_scene(scene)
     centres, _ = robot.sphere_centres(q)
     if not has_obstacles(scene):
         return np.full(centres.shape[:2], np.inf)

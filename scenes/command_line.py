@@ -30,8 +30,9 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import IO, Any, NoReturn
 
-from .errors import InvalidArgumentError, OutputPathError
+from .errors import ArgumentTypeError, InvalidArgumentError, OutputPathError
 from .progress import set_progress
+from .validation import as_instance, as_path
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 #: loggers of the project's packages (the command lines set their level)
@@ -61,7 +62,10 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[IO[bytes]], Any]
     Raises ``exists_error(message)`` when the target exists and not ``overwrite``,
     ``folder_error(message)`` when its folder does not exist.
     """
-    path = Path(path)
+    path = as_path(path, "path", ArgumentTypeError)
+    if not callable(write):
+        raise ArgumentTypeError(f"write: expected a function write(handle), got "
+                                f"{type(write).__name__}")
     message = f"path: {str(path)!r} already exists; pass overwrite=True (--force) to replace it"
     if not overwrite and path.exists():
         raise exists_error(message)
@@ -98,7 +102,7 @@ def atomic_write_text(path: str | os.PathLike[str], text: str, overwrite: bool =
                       exists_error: Callable[[str], Exception] = OutputPathError,
                       folder_error: Callable[[str], Exception] = OutputPathError) -> Path:
     """:func:`atomic_write` of UTF-8 text (written as is: no newline translation)."""
-    data = text.encode("utf-8")
+    data = as_instance(text, "text", str, "text (str)", ArgumentTypeError).encode("utf-8")
     return atomic_write(path, lambda handle: handle.write(data), overwrite, exists_error, folder_error)
 
 
@@ -137,7 +141,7 @@ def native_stderr_logged(logger: logging.Logger = log) -> Iterator[None]:
 def output_directory(path: str | os.PathLike[str], force: bool = False, option: str = "--out") -> Path:
     """The output folder, created if needed: it must be new or empty, or ``force`` (files in it
     are then replaced). Raises OutputPathError naming ``option`` otherwise."""
-    folder = Path(path)
+    folder = as_path(path, option, ArgumentTypeError)
     if folder.exists() and not folder.is_dir():
         raise OutputPathError(f"{option}: expected a folder, got the existing file {str(folder)!r}")
     if folder.is_dir() and not force and any(folder.iterdir()):
@@ -152,7 +156,7 @@ def output_directory(path: str | os.PathLike[str], force: bool = False, option: 
 
 def output_file(path: str | os.PathLike[str], force: bool = False, option: str = "--out") -> Path:
     """An output file path: its folder must exist; an existing file only with ``force``."""
-    target = Path(path)
+    target = as_path(path, option, ArgumentTypeError)
     if target.is_dir():
         raise OutputPathError(f"{option}: expected a file, got the folder {str(target)!r}")
     if target.exists() and not force:
@@ -189,6 +193,7 @@ class CommandLineParser(argparse.ArgumentParser):
 
 def integer_at_least(minimum: int) -> Callable[[str], int]:
     """argparse ``type``: an integer >= ``minimum`` (argparse names the option in the error)."""
+    as_instance(minimum, "minimum", int, "an integer", ArgumentTypeError)
     def parse(text: str) -> int:
         try:
             value = int(text)

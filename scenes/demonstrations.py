@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import zipfile
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -9,9 +10,10 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .alignment import dtw_warp
-from .errors import ArgumentTypeError, InvalidDemonstrationsError, InvalidObstacleError
+from .errors import (ArgumentTypeError, DemonstrationFileError, InvalidDemonstrationsError,
+                     InvalidObstacleError)
 from .obstacles import Obstacle, obstacle_from_dict
-from .validation import (MAX_COORDINATE, as_array, as_count, as_path, as_positive, as_sequence,
+from .validation import (MAX_COORDINATE, as_array, as_count, as_file, as_path, as_positive, as_sequence,
                          as_time, as_vector)
 
 #: Duration (s) given to demonstrations recorded without time stamps (e.g. TLGC smoothData).
@@ -224,7 +226,20 @@ class Demonstrations:
 
     @classmethod
     def load_npz(cls, path: str | Path) -> "Demonstrations":
-        """Read a file written by :meth:`save_npz` (see scenes.io.load_demonstrations for errors)."""
+        """Read a file written by :meth:`save_npz`: DemonstrationFileError naming the file when
+        it is missing, a folder or not a readable .npz; InvalidDemonstrationsError (naming
+        the file and the field) when its arrays are malformed."""
+        path = as_file(path, "path", DemonstrationFileError, ArgumentTypeError)
+        try:
+            return cls._read_npz(path)
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+            if isinstance(exc, InvalidDemonstrationsError):
+                raise
+            raise DemonstrationFileError(f"{path}: not a readable demonstrations .npz "
+                                         f"({exc})") from None
+
+    @classmethod
+    def _read_npz(cls, path: Path) -> "Demonstrations":
         with np.load(path, allow_pickle=False) as data:
             missing = {"positions", "velocities", "time"} - set(data.files)
             if missing:

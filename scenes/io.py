@@ -20,7 +20,6 @@ resampled with :meth:`Demonstrations.from_trajectories`.
 """
 from __future__ import annotations
 
-import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -34,7 +33,7 @@ from .errors import (ArgumentTypeError, DemonstrationFileError, InvalidDemonstra
                      InvalidObstacleError)
 from .obstacles import Box
 from .scene import Scene
-from .validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_time
+from .validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_sequence, as_time
 
 CSV_COLUMNS = ("demo", "t", "x", "y", "z")
 CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
@@ -60,7 +59,8 @@ def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None) -
         raise DemonstrationFileError(f"{path}: {exc}") from None
     if scenes is None:
         return demos
-    scenes = list(scenes)
+    scenes = as_sequence(scenes, "scenes", "one scene (a scene JSON path or a scenes.Scene) per "
+                         "demonstration", ArgumentTypeError)
     if len(scenes) != demos.M:
         raise DemonstrationFileError(f"scenes: expected one scene per demonstration of {path} "
                                      f"({demos.M}), got {len(scenes)}")
@@ -184,12 +184,7 @@ def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], 
 
 
 def _load_npz(path: Path) -> Demonstrations:
-    try:
-        return Demonstrations.load_npz(path)
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        if isinstance(exc, InvalidDemonstrationsError):
-            raise
-        raise DemonstrationFileError(f"{path}: not a readable demonstrations .npz ({exc})") from None
+    return Demonstrations.load_npz(path)
 
 
 def _load_csv(path: Path) -> Demonstrations:

@@ -11,12 +11,17 @@ from typing import Any
 
 from tqdm.auto import tqdm
 
+from .errors import ArgumentTypeError
+from .validation import as_instance, as_scalar
+
 _state: dict[str, bool | None] = {"enabled": None}
 
 
 def set_progress(enabled: bool | None) -> bool | None:
     """Draw progress bars always (True), never (False) or on a terminal only (None); returns
     the previous setting."""
+    if not (enabled is None or isinstance(enabled, bool)):
+        raise ArgumentTypeError(f"enabled: expected True, False or None, got {enabled!r:.40}")
     previous, _state["enabled"] = _state["enabled"], enabled
     return previous
 
@@ -25,6 +30,9 @@ def progress(iterable: Iterable[Any] | None = None, *, description: str, total: 
              unit: str = "it") -> Any:
     """A tqdm bar over ``iterable`` (or a manual bar: ``bar.update(n)``), ``total`` steps of
     ``unit``; use as a context manager for manual bars so they close."""
+    as_instance(description, "description", str, "text (str)", ArgumentTypeError)
+    if total is not None:
+        as_scalar(total, "total", minimum=0.0)
     enabled = _state["enabled"]
     return tqdm(iterable, desc=description, total=total, unit=unit, leave=False,
                 disable=None if enabled is None else not enabled, dynamic_ncols=True)

@@ -62,8 +62,13 @@ def _numeric(x: Any, name: str, error: Errors, expected: str = "a numeric array"
                                   f"({exc})") from None
 
 
-def _finite(arr: np.ndarray, name: str, error: Errors, limit: float | None = None) -> np.ndarray:
-    if not np.all(np.isfinite(arr)):
+def _finite(arr: np.ndarray, name: str, error: Errors, limit: float | None = None,
+            allow_infinite: bool = False) -> np.ndarray:
+    if allow_infinite:
+        if np.any(np.isnan(arr)):
+            raise _kinds(error).nonfinite(f"{name}: contains {int(np.isnan(arr).sum())} NaN "
+                                          "value(s); expected numbers (+-inf allowed)")
+    elif not np.all(np.isfinite(arr)):
         bad = int(np.size(arr) - np.count_nonzero(np.isfinite(arr)))
         raise _kinds(error).nonfinite(f"{name}: contains {bad} NaN/inf value(s); expected "
                                       "finite numbers")
@@ -74,10 +79,11 @@ def _finite(arr: np.ndarray, name: str, error: Errors, limit: float | None = Non
 
 
 def as_array(x: Any, name: str, error: Errors = InvalidArgumentError,
-             limit: float | None = None) -> np.ndarray:
+             limit: float | None = None, allow_infinite: bool = False) -> np.ndarray:
     """Float64 array of ``x`` (any shape); raise ``error`` naming ``name`` if not numeric (bools
-    included), not finite, or (with ``limit``) of magnitude above ``limit``."""
-    return _finite(_numeric(x, name, error), name, error, limit)
+    included), not finite (+-inf accepted with ``allow_infinite``, NaN never), or (with
+    ``limit``) of magnitude above ``limit``."""
+    return _finite(_numeric(x, name, error), name, error, limit, allow_infinite)
 
 
 def _describe(shape: Sequence[int | str | None]) -> str:
@@ -85,11 +91,13 @@ def _describe(shape: Sequence[int | str | None]) -> str:
 
 
 def as_shaped(x: Any, name: str, shape: Sequence[int | str | None],
-              error: Errors = InvalidArgumentError, limit: float | None = None) -> np.ndarray:
+              error: Errors = InvalidArgumentError, limit: float | None = None,
+              allow_infinite: bool = False) -> np.ndarray:
     """Finite float64 array of exactly the given shape.
 
     ``shape`` entries are ints (exact size), None (any size) or strings (symbolic sizes that
     must agree between the entries carrying the same string, e.g. ``("D", "D")``).
+    ``allow_infinite``: +-inf accepted (joint limits of continuous joints), NaN still refused.
     """
     kinds = _kinds(error)
     arr = _numeric(x, name, error, f"a numeric array of shape {_describe(shape)}")
@@ -105,7 +113,7 @@ def as_shaped(x: Any, name: str, shape: Sequence[int | str | None],
         elif want is not None and want != got:
             raise kinds.shape(f"{name}: expected shape {_describe(shape)}, got shape "
                               f"{arr.shape} (axis {axis} should be {want})")
-    return _finite(arr, name, error, limit)
+    return _finite(arr, name, error, limit, allow_infinite)
 
 
 def as_trailing(x: Any, name: str, last_dims: tuple[int, ...], max_leading: int | None = None,
@@ -208,6 +216,32 @@ def as_time(x: Any, name: str, length: int | None = None,
 
 #: Smallest time step accepted by :func:`as_time`, relative to the span of the time vector.
 TIME_RESOLUTION = 1e-9
+
+
+def as_indices(x: Any, name: str, error: Errors = InvalidArgumentError) -> np.ndarray:
+    """Non-negative integer indices (K,) as an intp array from a list / array of integers (a
+    single integer gives (1,)); bools, fractions and text are refused."""
+    kinds = _kinds(error)
+    if _has_bool(x) or isinstance(x, (str, bytes, dict, set)) or x is None:
+        raise kinds.shape(f"{name}: expected a list of integer indices, got "
+                          f"{type(x).__name__} {x!r:.60}")
+    try:
+        arr = np.asarray(x)
+    except (TypeError, ValueError) as exc:
+        raise kinds.shape(f"{name}: expected a list of integer indices, got {type(x).__name__} "
+                          f"({exc})") from None
+    if arr.ndim > 1:
+        raise kinds.shape(f"{name}: expected a list of integer indices (K,), got shape "
+                          f"{arr.shape}")
+    if arr.size and arr.dtype.kind not in "iu":
+        integral = arr.dtype.kind == "f" and bool(np.all(np.isfinite(arr))) \
+            and bool(np.all(arr == np.round(arr)))
+        if not integral:
+            raise kinds.value(f"{name}: expected integer indices, got {arr.reshape(-1)[:6]!r:.80}")
+    out = arr.astype(np.intp).reshape(-1)
+    if out.size and out.min() < 0:
+        raise kinds.value(f"{name}: expected non-negative indices, got {int(out.min())}")
+    return out
 
 
 def as_generator(rng: Any, name: str = "rng", default_seed: int | None = None,

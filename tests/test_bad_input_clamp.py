@@ -11,28 +11,41 @@ import numpy as np
 import pytest
 
 from bad_input import Case, cases, check
-from clamp import PlannerConfig, build, learn_prior, plan
+from clamp import PlannerConfig, build, learn_prior, plan, replan
 from clamp.animation import write_animation
+from clamp.batch import LocalPool, plan_many, read_results
+from clamp.batch_report import reason_key, summarize, summary_table
+from clamp.conditioning import condition_prior, planning_prior
 from clamp.errors import (ArgumentTypeError, ClampError, DegenerateDemonstrationsError,
                           InsufficientDemonstrationsError, InvalidParameterError, NonFiniteError,
                           PriorFileError, ShapeError)
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
-                           ObstacleFamily, WorkspaceGPFamily, WorkspaceStartFamily)
+                           ObstacleFamily, OrientationFamily, WorkspaceGPFamily,
+                           WorkspaceStartFamily)
 from clamp.initialisation import prior_mean_initialisation, straight_line_initialisation
-from clamp.learning import learn_joint_prior
+from clamp.learning import check_spread, learn_joint_prior
+from clamp.obstacle_weighting import ObstacleWeighting, demonstration_weights
 from clamp.optimizers import optimize
-from clamp.plan_plots import plot_plan_3d, plot_plan_uncertainty
+from clamp.plan_plots import (plot_clearance, plot_joint_angles, plot_orientation, plot_plan_3d,
+                              plot_plan_uncertainty, plot_top_view)
 from clamp.plausibility import plausibility
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
-from clamp.prior_plots import plot_prior_3d, plot_prior_time
+from clamp.prior_plots import plot_prior_3d, plot_prior_time, plot_weighted_priors
+from clamp.problem_sets import across_robots, scene_benchmark, start_problems, start_region
+from clamp.problems import (Problem, ProblemFormatError, make_problem, read_problems,
+                            write_problems)
+from clamp.request import make_request
 from clamp.uncertainty import block_tridiagonal_inverse
 from clamp.validation import as_array, as_count, as_scalar, as_time
 from clamp.verdict import sphere_clearance
-from robots.errors import RobotError
+from robots.errors import ArgumentTypeError as RobotTypeError
+from robots.errors import RobotError, UnknownRobotError
 from scenes import Box, Demonstrations, Scene, make_demonstrations
-from scenes.errors import InvalidArgumentError, SceneFileError
+from scenes.errors import InvalidArgumentError, InvalidObstacleError, SceneFileError
 
 START = [0.2054, -0.4722, 0.2625]
+SKILL = {"skill": "box_closing", "num_points": 30}
+BOX = Box([0.3, -0.3, 0.2], [0.1, 0.1, 0.1])
 
 
 def _demos():
@@ -50,6 +63,26 @@ def _identical():
     return Demonstrations(np.repeat(d.positions[:1], 4, 0), np.repeat(d.velocities[:1], 4, 0), d.time)
 
 
+def _incremental(fx):
+    """A prior learned with method="incremental" (made once per module)."""
+    if not hasattr(fx, "incremental"):
+        fx.incremental = learn_prior(_demos(), method="incremental")
+    return fx.incremental
+
+
+def _request(fx):
+    return make_request(fx.prior, fx.robot, START, None, (), PlannerConfig(),
+                        np.asarray(fx.result.q[0]))
+
+
+def _orientation():
+    return OrientationFamily([1], tolerance=0.1, rotation=np.eye(3))
+
+
+def _problem():
+    return make_problem("p", SKILL, "jaco", START)
+
+
 def _save(fx, name: str, **arrays):
     path = fx.tmp / name
     np.savez(path, **arrays)
@@ -65,8 +98,7 @@ def _prior_arrays(fx, **changes):
     return arrays
 
 
-FACTORS = ("clamp/factors/ is out of this change's scope (see notes/issue-10.md): the family "
-           "constructors do not check their arguments yet")
+PF = ProblemFormatError
 S, NF, P, T, I = ShapeError, NonFiniteError, InvalidParameterError, ArgumentTypeError, \
     InsufficientDemonstrationsError
 
@@ -204,9 +236,7 @@ CATALOGUE: list[Case] = [
     Case("plan-covariance-text", lambda fx: _plan(fx, covariance="no"), P, "covariance"),
     Case("build-start-shape", lambda fx: build(fx.prior, fx.robot, None, [1, 2]), S, "start"),
     Case("build-config-type", lambda fx: build(fx.prior, fx.robot, None, START, config="fast"), T, "config"),
-    Case("optimize-problem-type", lambda fx: optimize("problem"), T, "problem",
-         xfail="clamp.optimizers.optimize does not check its problem (optimizers.py is out of "
-               "this change's scope)"),
+    Case("optimize-problem-type", lambda fx: optimize("problem"), T, "problem"),
     Case("plausibility-shape", lambda fx: plausibility(fx.prior, np.zeros((3, 6))), S, "x"),
     Case("plausibility-start", lambda fx: plausibility(fx.prior, np.asarray(fx.prior.mean), start=[1, 2]),
          S, "start"),
@@ -236,18 +266,300 @@ CATALOGUE: list[Case] = [
     # --- factor families (constructors)
     Case("family-joint-target-sigma", lambda fx: JointTargetFamily([0], np.zeros((1, 6)), [-1.0]), P, "sigma"),
     Case("family-workspace-gp-q", lambda fx: WorkspaceGPFamily(np.zeros((3, 6, 6)), np.zeros((3, 6)),
-                                                               -np.ones((3, 6, 6))), P, "Q", xfail=FACTORS),
-    Case("family-workspace-start-mean", lambda fx: WorkspaceStartFamily(np.zeros(5), np.eye(6)), S, "mean",
-         xfail=FACTORS),
-    Case("family-joint-gp-dt", lambda fx: JointGPFamily(10, 6, -0.1), P, "dt", xfail=FACTORS),
+                                                               -np.ones((3, 6, 6))), P, "Q"),
+    Case("family-workspace-start-mean", lambda fx: WorkspaceStartFamily(np.zeros(5), np.eye(6)), S, "mean"),
+    Case("family-joint-gp-dt", lambda fx: JointGPFamily(10, 6, -0.1), P, "dt"),
     Case("family-joint-target-count", lambda fx: JointTargetFamily([0, 1], np.zeros((3, 6)), [1e-3] * 2), S,
-         "targets", xfail=FACTORS),
-    Case("family-ee-position-shape", lambda fx: EEPositionFamily([0], np.zeros((1, 2)), [1e-3]), S, "targets",
-         xfail=FACTORS),
+         "targets"),
+    Case("family-ee-position-shape", lambda fx: EEPositionFamily([0], np.zeros((1, 2)), [1e-3]), S, "targets"),
     Case("family-obstacle-epsilon", lambda fx: ObstacleFamily(np.arange(3), np.ones(4), Scene().query, -1.0,
-                                                              0.01), P, "epsilon", xfail=FACTORS),
+                                                              0.01), P, "epsilon"),
     Case("family-joint-limits-order", lambda fx: JointLimitFamily(np.arange(3), np.ones(6), np.zeros(6),
-                                                                  np.ones(6), 1e-3), P, "lower", xfail=FACTORS),
+                                                                  np.ones(6), 1e-3), P, "lower"),
+    # --- replanning (clamp.replan)
+    Case("replan-previous-type", lambda fx: replan("plan.json", goal=START), T, "previous"),
+    Case("replan-goal-shape", lambda fx: replan(fx.result, goal=[1, 2]), S, "goal"),
+    Case("replan-goal-nan", lambda fx: replan(fx.result, goal=[np.nan, 0, 0]), NF, "goal"),
+    Case("replan-scene-number", lambda fx: replan(fx.result, scene=42), T, "scene"),
+    Case("replan-via-none", lambda fx: replan(fx.result, via_points=None), T, "via_points"),
+    Case("replan-via-number", lambda fx: replan(fx.result, via_points=5), T, "via_points"),
+    Case("replan-via-index", lambda fx: replan(fx.result, via_points=[(999, START)]), P, "via_points[0]"),
+    Case("replan-config-dict", lambda fx: replan(fx.result, config={"sigma_obs": 0.01}), T, "config"),
+    Case("replan-covariance-text", lambda fx: replan(fx.result, goal=[0.3, -0.3, 0.2], covariance="no"),
+         P, "covariance"),
+    # --- conditioning (clamp.conditioning)
+    Case("condition-prior-type", lambda fx: condition_prior("prior.npz", [(0, START)]), T, "prior"),
+    Case("condition-index-range", lambda fx: condition_prior(fx.prior, [(99, START)]), P, "observations[0]"),
+    Case("condition-index-float", lambda fx: condition_prior(fx.prior, [(1.5, START)]), P, "observations[0]"),
+    Case("condition-index-bool", lambda fx: condition_prior(fx.prior, [(True, START)]), P, "observations[0]"),
+    Case("condition-index-text", lambda fx: condition_prior(fx.prior, [("a", START)]), P, "observations[0]"),
+    Case("condition-not-pair", lambda fx: condition_prior(fx.prior, [START]), S, "observations[0]"),
+    Case("condition-none", lambda fx: condition_prior(fx.prior, None), T, "observations"),
+    Case("condition-position-shape", lambda fx: condition_prior(fx.prior, [(0, [1, 2])]), S,
+         "observations[0] position"),
+    Case("condition-position-nan", lambda fx: condition_prior(fx.prior, [(0, [np.nan, 2, 3])]), NF,
+         "observations[0] position"),
+    Case("condition-position-1e200", lambda fx: condition_prior(fx.prior, [(0, [1e200, 0, 0])]), P,
+         "observations[0] position"),
+    Case("condition-sigma", lambda fx: condition_prior(fx.prior, [(0, START)], sigma=0), P, "sigma"),
+    Case("planning-prior-type", lambda fx: planning_prior("prior", fx.robot, None, PlannerConfig()), T,
+         "prior"),
+    Case("planning-prior-request", lambda fx: planning_prior(fx.prior, fx.robot, {"goal": START},
+                                                             PlannerConfig()), T, "request"),
+    Case("planning-prior-config", lambda fx: planning_prior(fx.prior, fx.robot, _request(fx), "fast"), T,
+         "config"),
+    # --- obstacle weighting and learning modes
+    Case("weighting-eps-negative", lambda fx: ObstacleWeighting(eps=-1), P, "eps"),
+    Case("weighting-sigma-zero", lambda fx: ObstacleWeighting(sigma=0), P, "sigma"),
+    Case("weighting-eps-text", lambda fx: ObstacleWeighting(eps="a"), P, "eps"),
+    Case("weighting-distance-text", lambda fx: ObstacleWeighting().weight("abc"), S, "distance"),
+    Case("weighting-distance-nan", lambda fx: ObstacleWeighting().weight([np.nan]), NF, "distance"),
+    Case("demo-weights-positions", lambda fx: demonstration_weights(np.zeros((2, 3)), [[BOX]] * 2,
+                                                                    ObstacleWeighting()), S, "positions"),
+    Case("demo-weights-count", lambda fx: demonstration_weights(np.zeros((2, 3, 3)), [[BOX]] * 3,
+                                                                ObstacleWeighting()), S, "obstacles"),
+    Case("demo-weights-obstacle", lambda fx: demonstration_weights(np.zeros((2, 3, 3)), [["box"], []],
+                                                                   ObstacleWeighting()),
+         InvalidObstacleError, "obstacles[0]"),
+    Case("demo-weights-weighting", lambda fx: demonstration_weights(np.zeros((2, 3, 3)), [[BOX]] * 2,
+                                                                    {"eps": 0.1}), T, "weighting"),
+    Case("learn-method", lambda fx: learn_prior(_demos(), method="online"), P, "method"),
+    Case("learn-method-none", lambda fx: learn_prior(_demos(), method=None), P, "method"),
+    Case("learn-weighting-text", lambda fx: learn_prior(_demos(), obstacle_weighting="yes"), P,
+         "obstacle_weighting"),
+    Case("learn-weighting-extra", lambda fx: learn_prior(_demos(), obstacle_weighting={"eps": 0.1, "x": 1}),
+         P, "obstacle_weighting"),
+    Case("learn-weighting-negative", lambda fx: learn_prior(_demos(), obstacle_weighting={"eps": -0.1}),
+         P, "eps"),
+    Case("update-batch-prior", lambda fx: fx.prior.update(_demos()), P, "prior"),
+    Case("update-type", lambda fx: _incremental(fx).update("demos.mat"), S, "demos"),
+    Case("update-none", lambda fx: _incremental(fx).update(None), P, "demos"),
+    Case("update-steps", lambda fx: _incremental(fx).update(make_demonstrations(
+        "box_closing", num_demos=4, num_points=20, seed=2)), S, "demos.positions"),
+    Case("update-time", lambda fx: _incremental(fx).update(make_demonstrations(
+        "box_closing", num_demos=4, num_points=30, dt=0.3, seed=2)), S, "demos.time"),
+    Case("plot-weighted-prior", lambda fx: plot_weighted_priors("prior", fx.prior, _demos()), T,
+         "unweighted"),
+    Case("plot-weighted-demos", lambda fx: plot_weighted_priors(fx.prior, fx.prior, "demos"), S, "demos"),
+    Case("plot-weighted-weights", lambda fx: plot_weighted_priors(fx.prior, fx.prior, _demos(),
+                                                                  weights=np.zeros((2, 2))), S, "weights"),
+    Case("plot-weighted-reference", lambda fx: plot_weighted_priors(fx.prior, fx.prior, _demos(),
+                                                                    reference=np.zeros((2, 2))), S,
+         "reference"),
+    Case("plot-weighted-level", lambda fx: plot_weighted_priors(fx.prior, fx.prior, _demos(), level=2), P,
+         "level"),
+    Case("step-mahalanobis-shape", lambda fx: fx.prior.step_mahalanobis_squared(np.zeros((3, 6))), S, "x"),
+    # --- orientation family
+    Case("orientation-tolerance", lambda fx: OrientationFamily([1], tolerance=-1, rotation=np.eye(3)), P,
+         "tolerance"),
+    Case("orientation-both-targets", lambda fx: OrientationFamily([1], tolerance=0.1, axis=[0, 0, 1],
+                                                                  direction=[0, 0, 1], rotation=np.eye(3)),
+         P, "rotation"),
+    Case("orientation-axis-zero", lambda fx: OrientationFamily([1], tolerance=0.1, axis=[0, 0, 0],
+                                                               direction=[0, 0, 1]), P, "axis"),
+    Case("orientation-direction-shape", lambda fx: OrientationFamily([1], tolerance=0.1, axis=[0, 0, 1],
+                                                                     direction=[0, 1]), S, "direction"),
+    Case("orientation-rotation", lambda fx: OrientationFamily([1], tolerance=0.1, rotation=2 * np.eye(3)),
+         P, "rotation"),
+    Case("orientation-indices-negative", lambda fx: OrientationFamily([-1], tolerance=0.1,
+                                                                      rotation=np.eye(3)), P, "indices"),
+    Case("orientation-indices-text", lambda fx: OrientationFamily("ab", tolerance=0.1, rotation=np.eye(3)),
+         S, "indices"),
+    Case("orientation-indices-float", lambda fx: OrientationFamily([1.5], tolerance=0.1,
+                                                                   rotation=np.eye(3)), P, "indices"),
+    Case("orientation-indices-empty", lambda fx: OrientationFamily([], tolerance=0.1, rotation=np.eye(3)),
+         P, "indices"),
+    Case("orientation-margin", lambda fx: OrientationFamily([1], tolerance=0.1, margin=0.2,
+                                                            rotation=np.eye(3)), P, "margin"),
+    Case("orientation-sigma", lambda fx: OrientationFamily([1], tolerance=0.1, sigma=0, rotation=np.eye(3)),
+         P, "sigma"),
+    Case("orientation-window-fraction", lambda fx: OrientationFamily.window(30, 1.5, tolerance=0.1,
+                                                                            rotation=np.eye(3)), P, "fraction"),
+    Case("orientation-window-fraction-zero", lambda fx: OrientationFamily.window(
+        30, 0, tolerance=0.1, rotation=np.eye(3)), P, "fraction"),
+    Case("orientation-window-states", lambda fx: OrientationFamily.window(-3, 0.5, tolerance=0.1,
+                                                                          rotation=np.eye(3)), P, "num_states"),
+    Case("orientation-window-states-text", lambda fx: OrientationFamily.window(
+        "30", 0.5, tolerance=0.1, rotation=np.eye(3)), P, "num_states"),
+    Case("orientation-window-states-float", lambda fx: OrientationFamily.window(
+        30.5, 0.5, tolerance=0.1, rotation=np.eye(3)), P, "num_states"),
+    Case("orientation-angles-robot", lambda fx: _orientation().angles("jaco", np.zeros((30, 6))), T, "robot"),
+    Case("orientation-angles-q", lambda fx: _orientation().angles(fx.robot, np.zeros((30, 2))), S, "q"),
+    Case("orientation-angles-short", lambda fx: OrientationFamily([10], tolerance=0.1, rotation=np.eye(
+        3)).angles(fx.robot, np.zeros((3, fx.robot.n))), S, "q"),
+    Case("orientation-violation-q", lambda fx: _orientation().violation(fx.robot, "q"), S, "q"),
+    Case("orientation-plan-states", lambda fx: _plan(fx, extra_factors=[OrientationFamily(
+        [99], tolerance=0.1, rotation=np.eye(3))]), P, "extra_factors[0]"),
+    Case("plot-orientation-result", lambda fx: plot_orientation("plan", fx.robot, _orientation()), T,
+         "result"),
+    Case("plot-orientation-robot", lambda fx: plot_orientation(fx.result, "jaco", _orientation()), T,
+         "robot"),
+    Case("plot-orientation-family", lambda fx: plot_orientation(fx.result, fx.robot, "family"), T,
+         "family"),
+    # --- other plan figures
+    Case("plot-plan-3d-robot", lambda fx: plot_plan_3d(fx.result, "jaco"), T, "robot"),
+    Case("plot-plan-3d-scene", lambda fx: plot_plan_3d(fx.result, fx.robot, scene=42), T, "scene"),
+    Case("plot-plan-3d-arm-states", lambda fx: plot_plan_3d(fx.result, fx.robot, arm_states=-1), P,
+         "arm_states"),
+    Case("plot-top-view-result", lambda fx: plot_top_view("plan", fx.robot), T, "result"),
+    Case("plot-top-view-robot", lambda fx: plot_top_view(fx.result, "jaco"), T, "robot"),
+    Case("plot-top-view-scene", lambda fx: plot_top_view(fx.result, fx.robot, scene=42), T, "scene"),
+    Case("plot-top-view-arm-states", lambda fx: plot_top_view(fx.result, fx.robot, arm_states=2.5), P,
+         "arm_states"),
+    Case("plot-joint-angles-result", lambda fx: plot_joint_angles("plan", fx.robot), T, "result"),
+    Case("plot-joint-angles-robot", lambda fx: plot_joint_angles(fx.result, "jaco"), T, "robot"),
+    Case("plot-clearance-result", lambda fx: plot_clearance("plan", fx.robot, Scene([BOX]), 0.05), T,
+         "result"),
+    Case("plot-clearance-scene", lambda fx: plot_clearance(fx.result, fx.robot, 42, 0.05), T, "scene"),
+    Case("plot-clearance-epsilon", lambda fx: plot_clearance(fx.result, fx.robot, Scene([BOX]), "a"), P,
+         "epsilon"),
+    Case("plot-clearance-epsilon-negative", lambda fx: plot_clearance(fx.result, fx.robot, Scene([BOX]),
+                                                                      -1.0), P, "epsilon"),
+    Case("sphere-clearance-scene", lambda fx: sphere_clearance(fx.robot, 42, np.zeros((3, fx.robot.n))), T,
+         "scene"),
+    # --- problem and configuration (clamp.problem, clamp.config)
+    Case("problem-values-shape", lambda fx: build(fx.prior, fx.robot, None, START).values(np.zeros((3, 3))),
+         S, "theta"),
+    Case("config-fast-unknown", lambda fx: PlannerConfig.fast(bogus=1), P, "bogus"),
+    Case("config-fast-iterations", lambda fx: PlannerConfig.fast(max_iterations=-1), P, "max_iterations"),
+    Case("check-spread-shape", lambda fx: check_spread(np.zeros((3, 2))), S, "states"),
+    # --- problems as data (clamp.problems)
+    Case("problem-id-number", lambda fx: make_problem(5, SKILL, "jaco", START), PF, "id"),
+    Case("problem-id-empty", lambda fx: make_problem("", SKILL, "jaco", START), PF, "id"),
+    Case("problem-start-text", lambda fx: make_problem("a", SKILL, "jaco", "abc"), PF, "start"),
+    Case("problem-start-none", lambda fx: make_problem("a", SKILL, "jaco", None), PF, "start"),
+    Case("problem-start-number", lambda fx: make_problem("a", SKILL, "jaco", 5), PF, "start"),
+    Case("problem-start-bools", lambda fx: make_problem("a", SKILL, "jaco", [True, False, True]), PF,
+         "start"),
+    Case("problem-goal-text", lambda fx: make_problem("a", SKILL, "jaco", START, goal="x"), PF, "goal"),
+    Case("problem-via-number", lambda fx: make_problem("a", SKILL, "jaco", START, via_points=[5]), PF,
+         "via_points[0]"),
+    Case("problem-via-none", lambda fx: make_problem("a", SKILL, "jaco", START, via_points=None), T,
+         "via_points"),
+    Case("problem-via-index-text", lambda fx: make_problem("a", SKILL, "jaco", START,
+                                                           via_points=[("a", START)]), PF, "via_points[0]"),
+    Case("problem-config-text", lambda fx: make_problem("a", SKILL, "jaco", START, config="fast"), PF,
+         "config"),
+    Case("problem-meta-list", lambda fx: make_problem("a", SKILL, "jaco", START, meta=[1]), PF, "meta"),
+    Case("problem-meta-object", lambda fx: make_problem("a", SKILL, "jaco", START, meta={"a": object()}),
+         PF, "meta"),
+    Case("problem-prior-text", lambda fx: make_problem("a", "prior.npz", "jaco", START), PF, "prior"),
+    Case("problem-prior-two", lambda fx: make_problem("a", {"skill": "x", "path": "p"}, "jaco", START), PF,
+         "prior"),
+    Case("problem-prior-seed-text", lambda fx: make_problem("a", {"skill": "box_closing", "seed": "0"},
+                                                            "jaco", START), PF, "seed"),
+    Case("problem-robot-number", lambda fx: make_problem("a", SKILL, 5, START), PF, "robot"),
+    Case("problem-robot-urdf-only", lambda fx: make_problem("a", SKILL, {"urdf": "a.urdf"}, START), PF,
+         "robot"),
+    Case("problem-scene-number", lambda fx: make_problem("a", SKILL, "jaco", START, scene=5), PF, "scene"),
+    Case("problem-expected", lambda fx: make_problem("a", SKILL, "jaco", START, expected="yes"), PF,
+         "expected"),
+    Case("problem-expected-list", lambda fx: make_problem("a", SKILL, "jaco", START, expected=["feasible"]),
+         PF, "expected"),
+    Case("problem-dict-type", lambda fx: Problem.from_dict([1]), PF, "expected a JSON object"),
+    Case("problem-dict-unknown", lambda fx: Problem.from_dict({**_problem().to_dict(), "colour": 1}), PF,
+         "colour"),
+    Case("problem-dict-missing", lambda fx: Problem.from_dict({"id": "a", "prior": SKILL}), PF, "robot"),
+    Case("problem-dict-format", lambda fx: Problem.from_dict({**_problem().to_dict(), "format": ["x"]}), PF,
+         "format"),
+    Case("problem-dict-via-number", lambda fx: Problem.from_dict({**_problem().to_dict(), "via_points": 5}),
+         PF, "via_points"),
+    Case("problem-dict-config-list", lambda fx: Problem.from_dict({**_problem().to_dict(), "config": [1]}),
+         PF, "config"),
+    Case("problem-json-type", lambda fx: Problem.from_json(42), T, "problem"),
+    Case("problem-json-invalid", lambda fx: Problem.from_json("{not json"), PF, "not valid JSON"),
+    Case("problem-json-deep", lambda fx: Problem.from_json("[" * 100_000), PF, "not valid JSON"),
+    Case("problem-json-bytes", lambda fx: Problem.from_json(b"\xff\xfe\x00"), PF, "not valid JSON"),
+    Case("problem-replace-start", lambda fx: _problem().replace(start="x"), PF, "start"),
+    Case("read-problems-type", lambda fx: read_problems(42), T, "path"),
+    Case("read-problems-missing", lambda fx: read_problems(fx.tmp / "none.jsonl"), PF, "path"),
+    Case("read-problems-directory", lambda fx: read_problems(fx.tmp), PF, "directory"),
+    Case("read-problems-invalid", lambda fx: read_problems(_write(fx, "bad.jsonl", b"{not json\n")), PF,
+         "bad.jsonl:1"),
+    Case("read-problems-latin1", lambda fx: read_problems(_write(fx, "latin.jsonl", b"\xff\xfe{}\n")), PF,
+         "latin.jsonl"),
+    Case("read-problems-duplicate", lambda fx: read_problems(_write(
+        fx, "dup.jsonl", 2 * (_problem().to_json() + "\n").encode())), PF, "problems[1]"),
+    Case("write-problems-items", lambda fx: write_problems([1, 2], fx.tmp / "w.jsonl"), T, "problems[0]"),
+    Case("write-problems-none", lambda fx: write_problems(None, fx.tmp / "w.jsonl"), T, "problems"),
+    Case("write-problems-duplicate", lambda fx: write_problems([_problem()] * 2, fx.tmp / "w.jsonl"), PF,
+         "problems[1]"),
+    Case("write-problems-path", lambda fx: write_problems([_problem()], 42), T, "path"),
+    Case("write-problems-exists", lambda fx: write_problems([_problem()], _write(fx, "old.jsonl", b"x\n")),
+         PF, "already exists"),
+    Case("write-problems-overwrite", lambda fx: write_problems([_problem()], fx.tmp / "w.jsonl",
+                                                               overwrite="yes"), P, "overwrite"),
+    # --- many plans (clamp.batch, clamp.problem_sets, clamp.batch_report)
+    Case("plan-many-items", lambda fx: list(plan_many([1])), P, "problems[0]"),
+    Case("plan-many-none", lambda fx: list(plan_many(None)), T, "problems"),
+    Case("plan-many-duplicate", lambda fx: list(plan_many([_problem()] * 2)), PF, "problems[1]"),
+    Case("plan-many-executor", lambda fx: list(plan_many([_problem()], executor="dask")), P, "executor"),
+    Case("plan-many-workers", lambda fx: list(plan_many([_problem()], executor=0)), P, "workers"),
+    Case("plan-many-retries", lambda fx: list(plan_many([_problem()], retries=-1)), P, "retries"),
+    Case("plan-many-out-type", lambda fx: list(plan_many([_problem()], out=42)), T, "out"),
+    Case("plan-many-out-folder", lambda fx: list(plan_many([_problem()], out=fx.tmp)), P, "out"),
+    Case("plan-many-out-foreign", lambda fx: list(plan_many([_problem()], out=_write(
+        fx, "foreign.jsonl", b"[1, 2]\n"))), PF, "foreign.jsonl:1"),
+    Case("plan-many-out-not-results", lambda fx: list(plan_many([_problem()], out=_write(
+        fx, "other.jsonl", b'{"a": 1}\n'))), P, "out"),
+    Case("plan-many-base-dir", lambda fx: list(plan_many([_problem()], base_dir=42)), T, "base_dir"),
+    Case("plan-many-trajectories-type", lambda fx: list(plan_many([_problem()], trajectories=42)), T,
+         "trajectories"),
+    Case("plan-many-trajectories-file", lambda fx: list(plan_many([_problem()], trajectories=_write(
+        fx, "traj.json", b"{}"))), P, "trajectories"),
+    Case("local-pool-workers", lambda fx: LocalPool(0), P, "workers"),
+    Case("local-pool-workers-text", lambda fx: LocalPool("2"), P, "workers"),
+    Case("read-results-type", lambda fx: read_results(42), T, "path"),
+    Case("read-results-missing", lambda fx: read_results(fx.tmp / "none.jsonl"), PF, "path"),
+    Case("read-results-directory", lambda fx: read_results(fx.tmp), PF, "directory"),
+    Case("read-results-invalid", lambda fx: read_results(_write(fx, "rbad.jsonl", b"{not json\n")), PF,
+         "rbad.jsonl:1"),
+    Case("read-results-list", lambda fx: read_results(_write(fx, "rlist.jsonl", b"[1, 2]\n")), PF,
+         "rlist.jsonl:1"),
+    Case("read-results-latin1", lambda fx: read_results(_write(fx, "rlatin.jsonl", b"\xff\xfe{}\n")), PF,
+         "rlatin.jsonl:1"),
+    Case("start-region-prior", lambda fx: start_region("prior"), T, "prior"),
+    Case("start-region-scale", lambda fx: start_region(fx.prior, scale=0), P, "scale"),
+    Case("start-region-width", lambda fx: start_region(fx.prior, min_half_width=-1), P, "min_half_width"),
+    Case("start-problems-base", lambda fx: start_problems("base", 3), T, "base"),
+    Case("start-problems-both", lambda fx: start_problems(_problem(), 3, grid=2), P, "count"),
+    Case("start-problems-count", lambda fx: start_problems(_problem(), 0), P, "count"),
+    Case("start-problems-grid", lambda fx: start_problems(_problem(), grid=0), P, "grid"),
+    Case("start-problems-seed", lambda fx: start_problems(_problem(), 3, seed=-1), P, "seed"),
+    Case("start-problems-seed-text", lambda fx: start_problems(_problem(), 3, seed="a"), P, "seed"),
+    Case("start-problems-base-dir", lambda fx: start_problems(_problem(), 3, base_dir=42), T, "base_dir"),
+    Case("across-robots-problem", lambda fx: across_robots("p", ["jaco"]), T, "problem"),
+    Case("across-robots-text", lambda fx: across_robots(_problem(), "jaco"), T, "robots"),
+    Case("across-robots-item", lambda fx: across_robots(_problem(), [5]), T, "robots[0]"),
+    Case("across-robots-joint-start", lambda fx: across_robots(_problem().replace(start=[0.0] * 6),
+                                                               ["jaco"]), P, "start"),
+    Case("scene-benchmark-count", lambda fx: scene_benchmark(0), P, "count"),
+    Case("scene-benchmark-robot", lambda fx: scene_benchmark(1, robot="ur5"), UnknownRobotError, "ur5"),
+    Case("scene-benchmark-robot-list", lambda fx: scene_benchmark(1, robot=["jaco"]), RobotTypeError, "name"),
+    Case("scene-benchmark-seed", lambda fx: scene_benchmark(1, seed=-1), P, "seed"),
+    Case("scene-benchmark-skills-text", lambda fx: scene_benchmark(1, skills="box_closing"), T, "skills"),
+    Case("scene-benchmark-skills-empty", lambda fx: scene_benchmark(1, skills=[]), P, "skills"),
+    Case("scene-benchmark-skills-unknown", lambda fx: scene_benchmark(1, skills=["nope"]), P, "skills"),
+    Case("scene-benchmark-share", lambda fx: scene_benchmark(1, impossible_share=2), P, "impossible_share"),
+    Case("scene-benchmark-points", lambda fx: scene_benchmark(1, num_points=1), P, "num_points"),
+    Case("scene-benchmark-obstacles-order", lambda fx: scene_benchmark(1, obstacles=(3, 1)), P,
+         "obstacles[1]"),
+    Case("scene-benchmark-obstacles-negative", lambda fx: scene_benchmark(1, obstacles=(-1, 1)), P,
+         "obstacles[0]"),
+    Case("scene-benchmark-obstacles-text", lambda fx: scene_benchmark(1, obstacles="ab"), T, "obstacles"),
+    Case("scene-benchmark-obstacles-triple", lambda fx: scene_benchmark(1, obstacles=(1, 2, 3)), P,
+         "obstacles"),
+    Case("scene-benchmark-offset", lambda fx: scene_benchmark(1, start_offset=-1), P, "start_offset"),
+    Case("scene-benchmark-near", lambda fx: scene_benchmark(1, near=0), P, "near"),
+    Case("scene-benchmark-config", lambda fx: scene_benchmark(1, config="fast"), T, "config"),
+    Case("summarize-records", lambda fx: summarize(5), T, "records"),
+    Case("summarize-record-type", lambda fx: summarize([1, 2]), T, "records[0]"),
+    Case("summarize-status", lambda fx: summarize([{"status": "maybe"}]), P, "records[0].status"),
+    Case("summarize-missing-timings", lambda fx: summarize([{"status": "done", "success": True,
+                                                             "reasons": []}]), P, "records[0]"),
+    Case("summary-table-type", lambda fx: summary_table("summary"), T, "summary"),
+    Case("summary-table-missing", lambda fx: summary_table({"problems": 1}), P, "summary"),
+    Case("reason-key-type", lambda fx: reason_key(5), T, "reason"),
     # --- clamp.validation helpers
     Case("validation-array-shape", lambda fx: as_array(np.zeros(4), "x", (3,)), S, "x"),
     Case("validation-scalar-bool", lambda fx: as_scalar(False, "sigma"), P, "sigma"),

@@ -137,6 +137,11 @@ CATALOGUE: list[Case] = [
          "velocity_limits"),
     Case("uniform-scaling-negative", lambda fx: uniform_scaling(_traj(fx), -np.ones(fx.robot.n)),
          RetimingError, "velocity_limits"),
+    # --- end-effector rotation, spheres per link
+    Case("ee-rotation-shape", lambda fx: fx.robot.ee_rotation([1, 2]), IA, "q"),
+    Case("ee-rotation-nan", lambda fx: fx.robot.ee_rotation([np.nan] * fx.robot.n), IA, "q"),
+    Case("ee-rotation-text", lambda fx: fx.robot.ee_rotation("home"), IA, "q"),
+    Case("for-link-type", lambda fx: fx.robot.spheres.for_link(5), E, "link"),
 ]
 
 

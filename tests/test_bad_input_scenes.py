@@ -12,18 +12,30 @@ import scipy.io
 
 from bad_input import Case, cases, check
 from scenes import (Box, Capsule, Cylinder, Demonstrations, Scene, SignedDistanceField, Sphere,
-                    builtin_scene, load_demonstrations, make_demonstrations, save_csv,
-                    shared_dataset)
+                    builtin_scene, load_demonstrations, make_cluttered_demonstrations,
+                    make_demonstrations, save_csv, shared_dataset)
+from scenes.command_line import (atomic_write, atomic_write_text, integer_at_least,
+                                 output_directory, output_file)
 from scenes.errors import (ArgumentTypeError, DemonstrationFileError, InvalidArgumentError,
-                           InvalidDemonstrationsError, InvalidObstacleError, SceneFileError,
-                           UnknownSkillError)
+                           InvalidDemonstrationsError, InvalidObstacleError, OutputPathError,
+                           SceneFileError, UnknownSkillError)
 from scenes.obstacles import obstacle_from_dict
+from scenes.progress import progress, set_progress
+from scenes.validation import as_array, as_file, as_indices, as_instance, as_path, as_seed, as_sequence
 
 BOX = Box([0.3, -0.3, 0.2], [0.1, 0.1, 0.1])
 
 
 def _demos() -> Demonstrations:
     return make_demonstrations("box_closing", num_demos=3, num_points=20)
+
+
+def _npz(fx) -> Path:
+    """Three demonstrations saved as .npz (written once per module)."""
+    path = fx.tmp / "three.npz"
+    if not path.exists():
+        _demos().save_npz(path)
+    return path
 
 
 def _write(fx, name: str, text: str | bytes) -> Path:
@@ -281,6 +293,67 @@ CATALOGUE: list[Case] = [
     Case("npz-obstacles-json", lambda fx: load_demonstrations(_savez(
         fx, "oj.npz", positions=np.zeros((2, 3, 3)), velocities=np.zeros((2, 3, 3)),
         time=np.arange(3.0), obstacles=np.array("[[{"))), DF, "obstacles"),
+    # --- cluttered demonstrations, per-demonstration scenes, .npz demonstrations
+    Case("clutter-skill", lambda fx: make_cluttered_demonstrations("juggling"), UnknownSkillError,
+         "juggling"),
+    Case("clutter-num-demos", lambda fx: make_cluttered_demonstrations("box_closing", num_demos=0), IA,
+         "num_demos"),
+    Case("clutter-seed", lambda fx: make_cluttered_demonstrations("box_closing", seed=-1), IA, "seed"),
+    Case("clutter-detour", lambda fx: make_cluttered_demonstrations("box_closing", detour=-1), IA, "detour"),
+    Case("clutter-detour-nan", lambda fx: make_cluttered_demonstrations("box_closing", detour=np.nan), IA,
+         "detour"),
+    Case("clutter-box-size", lambda fx: make_cluttered_demonstrations("box_closing", box_size=0), IA,
+         "box_size"),
+    Case("clutter-width-text", lambda fx: make_cluttered_demonstrations("box_closing", width="a"), IA,
+         "width"),
+    Case("clutter-dt", lambda fx: make_cluttered_demonstrations("box_closing", dt=0), IA, "dt"),
+    Case("clutter-num-points", lambda fx: make_cluttered_demonstrations("box_closing", num_points=1), IA,
+         "num_points"),
+    Case("load-scenes-count", lambda fx: load_demonstrations(_npz(fx), scenes=[Scene()]), DF, "scenes"),
+    Case("load-scenes-number", lambda fx: load_demonstrations(_npz(fx), scenes=42), E, "scenes"),
+    Case("load-scenes-text", lambda fx: load_demonstrations(_npz(fx), scenes="scene.json"), E, "scenes"),
+    Case("load-scenes-item", lambda fx: load_demonstrations(_npz(fx), scenes=[42] * 3), E, "path"),
+    Case("load-scenes-missing", lambda fx: load_demonstrations(_npz(fx), scenes=["none.json"] * 3), SF,
+         "none.json"),
+    Case("load-npz-missing", lambda fx: Demonstrations.load_npz(fx.tmp / "none.npz"), DF, "path"),
+    Case("load-npz-type", lambda fx: Demonstrations.load_npz(42), E, "path"),
+    Case("load-npz-directory", lambda fx: Demonstrations.load_npz(fx.tmp), DF, "directory"),
+    Case("load-npz-junk", lambda fx: Demonstrations.load_npz(_write(fx, "junk.npz", b"junk")), DF,
+         "junk.npz"),
+    # --- command-line helpers and progress bars (scenes.command_line, scenes.progress)
+    Case("output-directory-type", lambda fx: output_directory(42), E, "--out"),
+    Case("output-directory-file", lambda fx: output_directory(_write(fx, "a.txt", "x")), OutputPathError,
+         "--out"),
+    Case("output-directory-not-empty", lambda fx: output_directory(fx.tmp), OutputPathError, "--out"),
+    Case("output-file-type", lambda fx: output_file(42), E, "--out"),
+    Case("output-file-exists", lambda fx: output_file(_write(fx, "b.txt", "x")), OutputPathError, "--out"),
+    Case("output-file-folder", lambda fx: output_file(fx.tmp), OutputPathError, "--out"),
+    Case("output-file-no-parent", lambda fx: output_file(fx.tmp / "none" / "c.txt"), OutputPathError,
+         "--out"),
+    Case("atomic-write-type", lambda fx: atomic_write(42, lambda handle: handle.write(b"y")), E, "path"),
+    Case("atomic-write-exists", lambda fx: atomic_write(_write(fx, "d.txt", "x"),
+                                                        lambda handle: handle.write(b"y")),
+         OutputPathError, "path"),
+    Case("atomic-write-function", lambda fx: atomic_write(fx.tmp / "e.txt", b"y"), E, "write"),
+    Case("atomic-write-no-folder", lambda fx: atomic_write(fx.tmp / "none" / "f.txt",
+                                                           lambda handle: handle.write(b"y")),
+         OutputPathError, "folder"),
+    Case("atomic-write-text-type", lambda fx: atomic_write_text(fx.tmp / "g.txt", 42), E, "text"),
+    Case("integer-at-least-minimum", lambda fx: integer_at_least("1"), E, "minimum"),
+    Case("progress-description", lambda fx: progress([1], description=5), E, "description"),
+    Case("progress-total", lambda fx: progress([1], description="x", total=-1), IA, "total"),
+    Case("set-progress-text", lambda fx: set_progress("yes"), E, "enabled"),
+    # --- scenes.validation helpers (the one helper the packages wrap)
+    Case("validation-seed-negative", lambda fx: as_seed(-1, "seed"), IA, "seed"),
+    Case("validation-seed-float", lambda fx: as_seed(1.5, "seed"), IA, "seed"),
+    Case("validation-instance", lambda fx: as_instance("x", "scene", Scene, "a Scene", E), E, "scene"),
+    Case("validation-sequence-text", lambda fx: as_sequence("abc", "items", "a list", E), E, "items"),
+    Case("validation-path-number", lambda fx: as_path(42, "path", E), E, "path"),
+    Case("validation-file-missing", lambda fx: as_file(fx.tmp / "none.txt", "path", IA), IA, "does not exist"),
+    Case("validation-file-directory", lambda fx: as_file(fx.tmp, "path", IA), IA, "directory"),
+    Case("validation-indices-negative", lambda fx: as_indices([0, -1], "indices"), IA, "indices"),
+    Case("validation-array-nan-allowing-inf", lambda fx: as_array([np.inf, np.nan], "limits",
+                                                                  allow_infinite=True), IA, "limits"),
 ]
 
 

@@ -13,6 +13,7 @@ from tlgc import (GeneralizedCylinder, fit_cylinder, random_starts, ratio_schedu
                   start_coordinates)
 from tlgc.boundary_factor import BoundaryFamily, boundary_distance, boundary_residuals, section_indices
 from tlgc.bounding_sphere import bounding_sphere, minimal_bounding_sphere
+from tlgc.cylinder import check_cylinder
 from tlgc.errors import (CylinderFileError, GeneralizationError, InvalidArgumentError,
                          InvalidDemonstrationsError, ObstacleAvoidanceError, StartOffPlaneError,
                          StartOutsideError, TLGCError, TooFewDemonstrationsError,
@@ -176,6 +177,15 @@ CATALOGUE: list[Case] = [
                                                                     margin=np.nan), TLGCError, "margin"),
     Case("boundary-family-sigma", lambda fx: BoundaryFamily(fx.cyl, 10, sigma=0.0), TLGCError, "sigma"),
     Case("boundary-family-cylinder", lambda fx: BoundaryFamily("cyl", 10), TLGCError, "cylinder"),
+    Case("boundary-distance-sections-range", lambda fx: boundary_distance(fx.cyl, [0, 999], np.zeros((2, 3))),
+         IA, "sections"),
+    Case("boundary-distance-sections-text", lambda fx: boundary_distance(fx.cyl, "ab", np.zeros((2, 3))),
+         IA, "sections"),
+    Case("boundary-distance-sections-float", lambda fx: boundary_distance(fx.cyl, [0.5], np.zeros((1, 3))),
+         IA, "sections"),
+    Case("boundary-residuals-sections", lambda fx: boundary_residuals(fx.cyl, [-1], np.zeros((1, 3))), IA,
+         "sections"),
+    Case("check-cylinder-type", lambda fx: check_cylinder("cyl"), IA, "cyl"),
 ]
 
 

@@ -46,6 +46,9 @@ def files(tmp_path_factory) -> Path:
     (work / "existing_file").write_text("keep me")
     (work / "full").mkdir()
     (work / "full" / "mine.txt").write_text("keep me too")
+    from clamp.problems import make_problem, write_problems
+    write_problems([make_problem("p", {"skill": "box_closing", "num_points": 30}, "jaco",
+                                 [0.2, -0.47, 0.27])], work / "problems.jsonl")
     return work
 
 
@@ -104,6 +107,23 @@ CATALOGUE: list[tuple[list[str], str]] = [
               *START, "--out", "o"], "no_such_frame"),
     (CLAMP + ["plan", "--demos", "{w}/demos.npz", "--robot", "jaco", "--urdf", "{jaco}", *START, "--out", "o"],
      "not allowed"),
+    # clamp batch (issue 14's command): problems file, results file, options
+    (CLAMP + ["batch", "{w}/problems.jsonl"], "--out"),
+    (CLAMP + ["batch", "{w}/no_such.jsonl", "--out", "{w}/r.jsonl"], "does not exist"),
+    (CLAMP + ["batch", "{w}/a_dir", "--out", "{w}/r.jsonl"], "directory"),
+    (CLAMP + ["batch", "{w}/not_json.json", "--out", "{w}/r.jsonl"], "not valid json"),
+    (CLAMP + ["batch", "{w}/not_utf8.json", "--out", "{w}/r.jsonl"], "utf-8"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/existing_file"], "not a batch result"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/a_dir"], "a_dir"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/problems.jsonl"], "--out"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/nowhere/r.jsonl"], "--out"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/r.jsonl", "--workers", "0"], "--workers"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/r.jsonl", "--workers", "two"], "--workers"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/r.jsonl", "--retries", "-1"], "retries"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/r.jsonl", "--trajectories",
+              "{w}/existing_file"], "--trajectories"),
+    (CLAMP + ["batch", "{w}/problems.jsonl", "--out", "{w}/r.jsonl", "--workers", "2", "--scheduler",
+              "tcp://nowhere:1"], "--scheduler"),
     # tlgc fit-reproduce
     (TLGC + ["fit-reproduce", "--skill", "curved_reach", "--out", "o", "--count", "0"], "--count"),
     (TLGC + ["fit-reproduce", "--skill", "curved_reach", "--out", "o", "--sections", "-3"], "--sections"),
@@ -186,6 +206,7 @@ def test_catalogue_left_user_files_alone(files):
     assert sorted(p.name for p in (files / "full").iterdir()) == ["mine.txt"]
     assert not (files / "o").exists() or not any((files / "o").iterdir())
     assert not list(files.rglob("*.tmp"))
+    assert not (files / "r.jsonl").exists()
 
 
 def _sample(per_entry_point: int = 2) -> list[tuple[list[str], str]]:

@@ -1,7 +1,8 @@
 """Property-based tests of the loaders (Hypothesis): on generated garbage every loader answers
 with a valid object or the project's own error (scenes.errors.InvalidArgumentError and its
 subclasses), nothing else. At least 2000 generated inputs per loader: scene JSON, demonstration
-CSV, demonstration .mat (scipy.io.savemat of generated structs), prior .npz, robot name / URDF.
+CSV, demonstration .mat (scipy.io.savemat of generated structs), prior .npz, robot name / URDF,
+planning problems (JSON Lines) and batch results (JSON Lines, then summarized).
 """
 from __future__ import annotations
 
@@ -20,7 +21,10 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, event, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
+from clamp.batch import read_results  # noqa: E402
+from clamp.batch_report import summarize  # noqa: E402
 from clamp.prior import LinearGaussianPrior, WorkspacePrior  # noqa: E402
+from clamp.problems import Problem, make_problem, read_problems  # noqa: E402
 from robots import Robot, load_robot  # noqa: E402
 from scenes import Demonstrations, Scene, load_demonstrations  # noqa: E402
 from scenes.errors import InvalidArgumentError  # noqa: E402
@@ -298,3 +302,86 @@ def test_robot_name_loader(name) -> None:
     if name in ("jaco", "sawyer"):
         return                                   # loading the real models is tested elsewhere
     _outcome(lambda: load_robot(name), Robot)
+
+
+# ------------------------------------------------------------------------ problems (JSON Lines)
+_GOOD_PROBLEM = make_problem("scenes/jaco/0001", {"skill": "box_closing", "seed": 0}, "jaco",
+                             [0.2, -0.47, 0.26], scene={"obstacles": [{"type": "sphere", "center":
+                                                                       [0.3, 0, 0.2], "radius": 0.02}]},
+                             goal=[0.4, -0.3, 0.1], via_points=[(5, [0.3, -0.3, 0.3])],
+                             config={"sigma_obs": 0.005}, expected="feasible",
+                             meta={"note": "x"}).to_dict()
+_PROBLEM_FIELDS = sorted(_GOOD_PROBLEM) + ["colour"]
+# flat JSON values (cheaper to draw than small_json: keeps these two tests fast)
+small_json = st.one_of(scalars, st.lists(scalars, max_size=3),
+                       st.dictionaries(st.text(max_size=4), scalars, max_size=2))
+_GARBAGE_LINES = st.one_of(st.text(max_size=30), st.sampled_from(
+    ["", "   ", "# a comment", "{", "[" * 100_000, "NaN", "{}", "null", '{"id": ""}']))
+
+
+@st.composite
+def problem_lines(draw) -> str:
+    """One line: mostly the valid problem with a few fields replaced or dropped, else any JSON
+    value or text."""
+    kind = draw(st.integers(0, 5))
+    if kind >= 2:
+        data = dict(_GOOD_PROBLEM)
+        data["id"] = draw(st.one_of(st.sampled_from(["a", "b", "c"]), small_json))
+        for key in draw(st.sets(st.sampled_from(_PROBLEM_FIELDS), max_size=2)):
+            data.pop(key, None)
+        for key, value in draw(st.dictionaries(st.sampled_from(_PROBLEM_FIELDS), small_json,
+                                               max_size=3)).items():
+            data[key] = value
+        return json.dumps(data, allow_nan=True)
+    if kind == 1:
+        return json.dumps(draw(small_json), allow_nan=True)
+    return draw(_GARBAGE_LINES)
+
+
+@SETTINGS
+@given(lines=st.lists(problem_lines(), max_size=4), encoding=st.sampled_from(["utf-8", "latin-1"]),
+       tail=st.one_of(st.just(b""), st.binary(max_size=4)))
+def test_problems_file_reader(lines, encoding, tail) -> None:
+    path = _file("problems.jsonl", "\n".join(lines).encode(encoding, errors="replace") + tail)
+    problems = _outcome(lambda: read_problems(path), list)
+    if problems is not None:
+        assert all(isinstance(p, Problem) for p in problems)
+        assert len({p.id for p in problems}) == len(problems)
+        for p in problems:                   # what was read can be written and read again
+            again = Problem.from_json(p.to_json())
+            assert again.hash == p.hash
+
+
+# ------------------------------------------------------------------------ results (JSON Lines)
+_STATUS = st.one_of(st.sampled_from(["done", "error", "lost", "done"]), small_json)
+results_records = st.fixed_dictionaries({}, optional={
+    "id": st.one_of(st.text(max_size=4), small_json), "hash": st.text(max_size=4),
+    "status": _STATUS, "success": st.one_of(st.booleans(), small_json),
+    "reasons": st.one_of(st.lists(st.text(max_size=30), max_size=2), small_json),
+    "expected": st.one_of(st.sampled_from([None, "feasible", "impossible"]), small_json),
+    "timings": st.one_of(st.fixed_dictionaries({"total": st.one_of(numbers, small_json)}),
+                         small_json),
+    "error": st.one_of(st.fixed_dictionaries({"type": st.one_of(st.text(max_size=8),
+                                                                small_json)}), small_json)})
+
+
+@st.composite
+def results_texts(draw) -> bytes:
+    lines = [json.dumps(draw(st.one_of(results_records, results_records, small_json)),
+                        allow_nan=True) if draw(st.integers(0, 5)) else draw(_GARBAGE_LINES)
+             for _ in range(draw(st.integers(0, 4)))]
+    text = "\n".join(lines) + ("\n" if draw(st.integers(0, 3)) else "")  # sometimes a torn line
+    return text.encode(draw(st.sampled_from(["utf-8", "latin-1"])), errors="replace") \
+        + draw(st.one_of(st.just(b""), st.binary(max_size=4)))
+
+
+@SETTINGS
+@given(data=results_texts())
+def test_results_file_reader_and_summary(data) -> None:
+    path = _file("results.jsonl", data)
+    records = _outcome(lambda: read_results(path), list)
+    if records is not None:
+        assert all(isinstance(r, dict) for r in records)
+        summary = _outcome(lambda: summarize(records), dict)
+        if summary is not None:
+            assert summary["problems"] == len(records)

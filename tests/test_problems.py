@@ -60,7 +60,10 @@ def test_structure_errors_name_the_field(tmp_path):
     with pytest.raises(ProblemFormatError, match="missing field 'start'"):
         Problem.from_dict({k: v for k, v in good.items() if k != "start"})
     path = tmp_path / "problems.jsonl"
-    write_problems([_full_problem(), _full_problem()], path)
+    with pytest.raises(ProblemFormatError, match="already used"):
+        write_problems([_full_problem(), _full_problem()], path)     # never written
+    assert not path.exists()
+    path.write_text(2 * (_full_problem().to_json() + "\n"))
     with pytest.raises(ProblemFormatError, match="already used"):
         read_problems(path)
     path.write_text(_full_problem().to_json() + "\n{not json\n")

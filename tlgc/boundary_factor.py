@@ -30,7 +30,7 @@ import numpy as np
 from clamp.factors import Family, Linearization, StateWindow
 
 from .errors import InvalidArgumentError
-from .validation import as_count, as_points, as_scalar
+from .validation import as_count, as_indices, as_points, as_scalar
 
 ANGLE_STEP = 1e-6       # [rad] central-difference step for the boundary slope fallback
 _RHO_MIN = 1e-12        # [m] below this the position sits on the directrix (inside)
@@ -78,10 +78,14 @@ def boundary_distance(cylinder: Any, sections: Any, positions: Any) -> BoundaryD
     p = as_points(positions, "positions")
     if p.ndim == 1:
         p = p[None]
-    k = np.atleast_1d(np.asarray(sections))
+    k = as_indices(sections, "sections")
     if p.ndim != 2 or k.shape != (len(p),):
         raise InvalidArgumentError(
             f"sections, positions: expected shapes (T,) and (T, 3), got {k.shape} and {p.shape}")
+    N = len(cylinder.directrix)
+    if k.size and k.max() >= N:
+        raise InvalidArgumentError(f"sections: expected cross-section indices in [0, {N}), got "
+                                   f"{int(k.max())}")
     return _distance(cylinder, k, p, gradient=True)
 
 

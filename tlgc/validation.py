@@ -27,6 +27,11 @@ def as_trailing(x: Any, name: str, last_dims: tuple[int, ...],
     return _checks.as_trailing(x, name, last_dims, None, error)
 
 
+def as_indices(x: Any, name: str) -> np.ndarray:
+    """Non-negative integer indices (K,) as an intp array."""
+    return _checks.as_indices(x, name, InvalidArgumentError)
+
+
 def as_bool(x: Any, name: str) -> bool:
     """True or False (numpy bools included); InvalidArgumentError otherwise."""
     if not isinstance(x, (bool, np.bool_)):

@@ -8,6 +8,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from clamp.validation import as_array, as_indices
+
 from .family import Family, Linearization
 from .states import StateWindow
 
@@ -20,10 +22,11 @@ class EEPositionFamily(Family):
     cost = 1
 
     def __init__(self, indices: Sequence[int], targets: np.ndarray, sigmas: Sequence[float]):
-        order = np.argsort(np.asarray(indices), kind="stable")
-        self.targets = np.asarray(targets, dtype=float).reshape(-1, 3)[order]
-        super().__init__(np.asarray(indices)[order], 3,
-                         sigma=np.asarray(sigmas, dtype=float)[order])
+        indices = as_indices(indices, "indices")
+        order = np.argsort(indices, kind="stable")
+        self.targets = as_array(targets, "targets", (len(order), 3))[order]
+        sigmas = as_array(sigmas, "sigmas", (len(order),))
+        super().__init__(indices[order], 3, sigma=sigmas[order])
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         x, dx = window.workspace()

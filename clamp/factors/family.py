@@ -24,6 +24,7 @@ import gtsam
 import numpy as np
 
 from clamp.errors import InvalidParameterError, ShapeError
+from clamp.validation import as_array, as_count, as_covariance, as_indices, cholesky
 
 from .states import StateWindow
 
@@ -50,6 +51,19 @@ def square_root_information(cov: np.ndarray) -> np.ndarray:
     return np.swapaxes(lower, -1, -2)
 
 
+def covariance_root(cov: object, name: str, shape: tuple) -> np.ndarray:
+    """:func:`square_root_information` of covariances ``cov`` of ``shape``, checked: finite and
+    symmetric, and positive definite (InvalidParameterError naming ``name``, the worst matrix
+    and its smallest eigenvalue otherwise: found by the factorisation itself, at no extra cost)."""
+    cov = as_covariance(cov, name, shape, positive_definite=False)
+    try:
+        return square_root_information(cov)
+    except np.linalg.LinAlgError:
+        cholesky(cov, name)                       # raises, naming the worst matrix
+        raise InvalidParameterError(f"{name}: covariances too ill-conditioned to invert") \
+            from None
+
+
 class Family:
     """Base class of a factor family (see the module docstring).
 
@@ -69,24 +83,23 @@ class Family:
 
     def __init__(self, first: np.ndarray, dim: int, sigma: float | np.ndarray | None = None,
                  sqrt_information: np.ndarray | None = None):
-        self.first = np.asarray(first, dtype=np.intp).reshape(-1)
-        self.dim = int(dim)
+        self.first = as_indices(first, f"{self.name} indices")
+        self.dim = as_count(dim, f"{self.name} dim")
         F = len(self.first)
         if (sigma is None) == (sqrt_information is None):
             raise InvalidParameterError(f"{self.name}: give exactly one of sigma and "
                                         "sqrt_information")
         if sigma is not None:
-            s = np.broadcast_to(np.asarray(sigma, dtype=float), (F,))
-            if np.any(~np.isfinite(s)) or np.any(s <= 0):
+            s = as_array(sigma, f"{self.name} sigma", (F,) if np.ndim(sigma) else ())
+            if np.any(s <= 0):
                 raise InvalidParameterError(f"{self.name} sigma: expected positive finite "
-                                            f"values, got {np.asarray(sigma)!r}")
+                                            f"values, got {np.asarray(sigma)!r:.80}")
             #: whitening weights (F,) (isotropic) or (F, m, m) (correlated)
-            self.whitening = 1.0 / s
+            self.whitening = 1.0 / np.broadcast_to(s, (F,))
         else:
-            R = np.asarray(sqrt_information, dtype=float)
-            if R.shape[-2:] != (self.dim, self.dim):
-                raise ShapeError(f"{self.name} sqrt_information: expected (F, {self.dim}, "
-                                 f"{self.dim}), got {R.shape}")
+            R = as_array(sqrt_information, f"{self.name} sqrt_information",
+                         (F, self.dim, self.dim) if np.ndim(sqrt_information) == 3
+                         else (self.dim, self.dim))
             self.whitening = np.ascontiguousarray(np.broadcast_to(R, (F, self.dim, self.dim)))
         #: every factor on its own first state: direct (not accumulating) scatter is safe
         self.distinct = bool(F <= 1 or np.all(np.diff(self.first) > 0))

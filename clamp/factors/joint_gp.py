@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from clamp.validation import as_count, as_covariance, as_scalar
+
 from .family import Family, Linearization, square_root_information
 from .states import StateWindow
 
@@ -35,6 +37,11 @@ class JointGPFamily(Family):
     linear = True
 
     def __init__(self, num_states: int, n: int, dt: float, Qc: float | np.ndarray = 1.0):
+        num_states = as_count(num_states, "num_states", minimum=2)
+        n = as_count(n, "n")
+        dt = as_scalar(dt, "dt", strictly_positive=True)
+        Qc = as_scalar(Qc, "Qc", strictly_positive=True) if np.ndim(Qc) == 0 \
+            else as_covariance(Qc, "Qc", (n, n))
         self.Phi = joint_gp_transition(n, dt)
         R = square_root_information(joint_gp_covariance(n, dt, Qc))
         super().__init__(np.arange(num_states - 1), 2 * n,

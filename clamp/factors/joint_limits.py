@@ -10,6 +10,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from clamp.errors import InvalidParameterError
+from clamp.validation import as_array, as_scalar
+
 from .family import Family, Linearization
 from .states import StateWindow
 
@@ -24,9 +27,22 @@ class JointLimitFamily(Family):
     def __init__(self, indices: Sequence[int], lower: np.ndarray, upper: np.ndarray,
                  velocity_limits: np.ndarray, sigma: float, margin: float = 0.0,
                  velocity_margin: float = 0.0):
-        self.low = np.asarray(lower, dtype=float) + margin
-        self.high = np.asarray(upper, dtype=float) - margin
-        self.vmax = np.asarray(velocity_limits, dtype=float) - velocity_margin
+        lower = as_array(lower, "lower", ("n",), allow_infinite=True)
+        upper = as_array(upper, "upper", (len(lower),), allow_infinite=True)
+        velocity_limits = as_array(velocity_limits, "velocity_limits", (len(lower),),
+                                   allow_infinite=True)
+        if np.any(lower > upper):
+            j = int(np.argmax(lower > upper))
+            raise InvalidParameterError(f"lower: expected lower <= upper joint limits, got "
+                                        f"lower[{j}] = {lower[j]} > upper[{j}] = {upper[j]} rad")
+        if np.any(velocity_limits < 0):
+            raise InvalidParameterError(f"velocity_limits: expected limits >= 0 rad/s, got "
+                                        f"{float(velocity_limits.min())}")
+        margin = as_scalar(margin, "margin", minimum=0.0)
+        velocity_margin = as_scalar(velocity_margin, "velocity_margin", minimum=0.0)
+        self.low = lower + margin
+        self.high = upper - margin
+        self.vmax = velocity_limits - velocity_margin
         super().__init__(indices, 2 * len(self.low), sigma=sigma)
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:

@@ -5,6 +5,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from clamp.validation import as_array, as_indices
+
 from .family import Family, Linearization
 from .states import StateWindow
 
@@ -18,10 +20,11 @@ class JointTargetFamily(Family):
     linear = True
 
     def __init__(self, indices: Sequence[int], targets: np.ndarray, sigmas: Sequence[float]):
-        order = np.argsort(np.asarray(indices), kind="stable")
-        self.targets = np.asarray(targets, dtype=float).reshape(len(order), -1)[order]
-        super().__init__(np.asarray(indices)[order], self.targets.shape[1],
-                         sigma=np.asarray(sigmas, dtype=float)[order])
+        indices = as_indices(indices, "indices")
+        order = np.argsort(indices, kind="stable")
+        self.targets = as_array(targets, "targets", (len(order), None))[order]
+        sigmas = as_array(sigmas, "sigmas", (len(order),))
+        super().__init__(indices[order], self.targets.shape[1], sigma=sigmas[order])
         n = self.dim
         self._jacobian = np.hstack([np.eye(n), np.zeros((n, n))])
 

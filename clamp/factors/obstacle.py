@@ -12,6 +12,9 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from clamp.errors import ArgumentTypeError, InvalidParameterError
+from clamp.validation import as_array, as_scalar
+
 from .family import Family, Linearization
 from .states import StateWindow
 
@@ -28,9 +31,15 @@ class ObstacleFamily(Family):
 
     def __init__(self, indices: Sequence[int], radii: np.ndarray, query: DistanceQuery,
                  epsilon: float, sigma: float):
-        self.radii = np.asarray(radii, dtype=float)
+        self.radii = as_array(radii, "radii", (None,))
+        if np.any(self.radii < 0):
+            raise InvalidParameterError(f"radii: expected sphere radii >= 0 m, got "
+                                        f"{float(self.radii.min())}")
+        if not callable(query):
+            raise ArgumentTypeError(f"query: expected a function points (..., 3) -> (distance, "
+                                    f"gradient) (e.g. scene.query), got {type(query).__name__}")
         self.query = query
-        self.epsilon = float(epsilon)
+        self.epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
         super().__init__(indices, len(self.radii), sigma=sigma)
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:

@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from clamp.errors import InvalidParameterError
-from clamp.validation import as_array, as_scalar
+from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
+from clamp.validation import as_array, as_count, as_indices, as_scalar
 
 from .family import Family, Linearization
 from .states import StateWindow
@@ -56,10 +56,10 @@ class OrientationFamily(Family):
     def __init__(self, indices: Sequence[int], *, tolerance: float,
                  axis: Any = None, direction: Any = None, rotation: Any = None,
                  sigma: float = 3e-3, margin: float | None = None):
-        indices = np.unique(np.asarray(indices, dtype=np.intp).reshape(-1))
-        if not len(indices) or indices[0] < 0:
-            raise InvalidParameterError(f"indices: expected non-negative state indices, got "
-                                        f"{indices.tolist()}")
+        indices = np.unique(as_indices(indices, "indices"))
+        if not len(indices):
+            raise InvalidParameterError("indices: expected at least one support-state index, "
+                                        "got none")
         if (rotation is None) == (axis is None or direction is None):
             raise InvalidParameterError("orientation target: give either rotation (3, 3) or "
                                         "both axis (3,) and direction (3,)")
@@ -77,6 +77,7 @@ class OrientationFamily(Family):
     @classmethod
     def window(cls, num_states: int, fraction: float, **target: Any) -> OrientationFamily:
         """The family over the last ``fraction`` (0, 1] of ``num_states`` support states."""
+        num_states = as_count(num_states, "num_states")
         fraction = as_scalar(fraction, "fraction", strictly_positive=True)
         if fraction > 1:
             raise InvalidParameterError(f"fraction: expected at most 1, got {fraction}")
@@ -111,7 +112,13 @@ class OrientationFamily(Family):
     def angles(self, robot: Any, q: np.ndarray) -> np.ndarray:
         """Angle (F,) [rad] from the target at every factor's state, for joint positions q
         (T, n) of the whole plan."""
-        return self._angles(robot, np.asarray(q, dtype=float)[self.first], False)[0]
+        if not callable(getattr(robot, "ee_rotation", None)):
+            raise ArgumentTypeError(f"robot: expected a robots.Robot, got {type(robot).__name__}")
+        q = as_array(q, "q", (None, robot.n))
+        if len(q) <= self.first[-1]:
+            raise ShapeError(f"q: expected the joint positions of every support state (at least "
+                             f"{self.first[-1] + 1} for this family), got {len(q)}")
+        return self._angles(robot, q[self.first], False)[0]
 
     def violation(self, robot: Any, q: np.ndarray) -> float:
         """Largest angle beyond the tolerance [rad] over the window (0.0: met)."""

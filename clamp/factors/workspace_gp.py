@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 from clamp.prior import transition_residuals
+from clamp.validation import as_array
 
-from .family import Family, Linearization, square_root_information
+from .family import Family, Linearization, covariance_root
 from .states import StateWindow
 
 
@@ -22,10 +23,10 @@ class WorkspaceGPFamily(Family):
     cost = 1
 
     def __init__(self, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray):
-        self.Phi = np.asarray(Phi, dtype=float)
-        self.u = np.asarray(u, dtype=float)
+        self.Phi = as_array(Phi, "Phi", ("K", 6, 6))
+        self.u = as_array(u, "u", (len(self.Phi), 6))
         super().__init__(np.arange(len(self.Phi)), 6,
-                         sqrt_information=square_root_information(np.asarray(Q, dtype=float)))
+                         sqrt_information=covariance_root(Q, "Q", (len(self.Phi), 6, 6)))
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         x, dx = window.workspace()

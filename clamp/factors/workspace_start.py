@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .family import Family, Linearization, square_root_information
+from clamp.validation import as_array, as_count
+
+from .family import Family, Linearization, covariance_root
 from .states import StateWindow
 
 
@@ -27,9 +29,9 @@ class WorkspaceStartFamily(Family):
     cost = 1
 
     def __init__(self, mean: np.ndarray, cov: np.ndarray, index: int = 0):
-        self.mean = np.asarray(mean, dtype=float).reshape(1, 6)
-        super().__init__([index], 6, sqrt_information=square_root_information(
-            np.asarray(cov, dtype=float))[None])
+        self.mean = as_array(mean, "mean", (6,)).reshape(1, 6)
+        super().__init__([as_count(index, "index", minimum=0)], 6,
+                         sqrt_information=covariance_root(cov, "cov", (6, 6))[None])
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         x, dx = window.workspace()
