@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from clamp.errors import ClampError
+from scenes.command_line import atomic_write_text
 
 FORMAT = "clamp-problem"
 VERSION = 1
@@ -277,10 +278,9 @@ def read_problems(path: str | Path) -> list[Problem]:
 
 def write_problems(problems: Iterable[Problem], path: str | Path, overwrite: bool = False) -> Path:
     """Write problems as JSON Lines (atomic; ProblemFormatError if ``path`` exists and not
-    ``overwrite``)."""
-    from robots.trajectory import atomic_write_text
+    ``overwrite``, or if its folder does not exist)."""
     text = "".join(p.to_json() + "\n" for p in problems)
-    return atomic_write_text(path, text, overwrite, exists_error=ProblemFormatError)
+    return atomic_write_text(path, text, overwrite, ProblemFormatError, ProblemFormatError)
 
 
 def check_unique_ids(problems: Sequence[Problem]) -> None:
