@@ -22,9 +22,10 @@ def set_progress(enabled: bool | None) -> bool | None:
 
 
 def progress(iterable: Iterable[Any] | None = None, *, description: str, total: float | None = None,
-             unit: str = "it") -> Any:
+             unit: str = "it", delay: float = 0.0) -> Any:
     """A tqdm bar over ``iterable`` (or a manual bar: ``bar.update(n)``), ``total`` steps of
-    ``unit``; use as a context manager for manual bars so they close."""
+    ``unit``, drawn once the work has lasted ``delay`` seconds (so work that is usually quick
+    draws nothing); use as a context manager for manual bars so they close."""
     enabled = _state["enabled"]
-    return tqdm(iterable, desc=description, total=total, unit=unit, leave=False,
+    return tqdm(iterable, desc=description, total=total, unit=unit, leave=False, delay=delay,
                 disable=None if enabled is None else not enabled, dynamic_ncols=True)
