@@ -270,6 +270,8 @@ def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, g
     import toppra.constraint
 
     s_knots, kept = _chord_knots(traj)
+    if len(kept) < 2:
+        raise RetimingError("traj: the positions do not move (velocities without motion)")
     t_knots = traj.time_from_start[kept]
     # end tangents dq/ds = qdot dt/ds, dt/ds of the end intervals
     bc = ((1, traj.velocities[0] * (t_knots[1] - t_knots[0]) / s_knots[1]),
@@ -308,16 +310,6 @@ def _profile_at(s: np.ndarray, sd: np.ndarray, times: np.ndarray, t: np.ndarray)
     return position, speed
 
 
-def _distance_to_polyline(points: np.ndarray, vertices: np.ndarray, first: np.ndarray, count: int) -> np.ndarray:
-    """Distance (P,) from each point (P, d) to the polyline through vertices (M, d), over the
-    `count` segments starting at segment first[p] (clipped to the polyline)."""
-    j = np.clip(first[:, None] + np.arange(count), 0, len(vertices) - 2)
-    a, ab = vertices[j], vertices[j + 1] - vertices[j]                       # (P, count, d)
-    w = np.clip(np.einsum("pcd,pcd->pc", points[:, None] - a, ab)
-                / np.maximum(np.einsum("pcd,pcd->pc", ab, ab), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(points[:, None] - (a + w[..., None] * ab), axis=-1).min(axis=1)
-
-
 def _sampled_profile(traj: JointTrajectory, path: Any, s: np.ndarray, sd: np.ndarray, times: np.ndarray,
                      count: int) -> JointTrajectory:
     """The TOPP-RA profile sampled at `count` equally spaced times, at rest at both ends on the
@@ -332,6 +324,17 @@ def _sampled_profile(traj: JointTrajectory, path: Any, s: np.ndarray, sd: np.nda
     return traj.replace(time_from_start=t, positions=q, velocities=qdot, accelerations=finite_difference(qdot, t))
 
 
+def _distance_to_polyline(points: np.ndarray, vertices: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Distance (P,) from each point (P, d) to the polyline through vertices (M, d), over the
+    segments first[p] .. last[p] (inclusive) of that point."""
+    count = int((last - first).max()) + 1
+    j = np.minimum(first[:, None] + np.arange(count), last[:, None])
+    a, ab = vertices[j], vertices[j + 1] - vertices[j]                       # (P, count, d)
+    w = np.clip(np.einsum("pcd,pcd->pc", points[:, None] - a, ab)
+                / np.maximum(np.einsum("pcd,pcd->pc", ab, ab), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(points[:, None] - (a + w[..., None] * ab), axis=-1).min(axis=1)
+
+
 def _deviation(robot, original: JointTrajectory, retimed: JointTrajectory,
                path_position: Callable[[np.ndarray], np.ndarray], substeps: int,
                density: int = 16) -> tuple[float, float]:
@@ -339,9 +342,9 @@ def _deviation(robot, original: JointTrajectory, retimed: JointTrajectory,
     the original path, both cubic-Hermite interpolated: the retimed motion on a dense grid
     (``substeps`` points per retimed interval), each point's distance to the original at its
     corresponding path position or, if nearer, to the original path sampled ``density`` points
-    per input interval within one input interval of that position (the retimed path may pass a
-    sample at a slightly different time than the original: a distance to the path, not a timing
-    error)."""
+    per input interval, from the moving input interval before that position to the one after
+    (the retimed path may pass a sample at a slightly different time than the original, and
+    skips pauses: a distance to the path, not a timing error)."""
     t = retimed.time_from_start
     fractions = np.arange(substeps) / substeps
     dense = np.append((t[:-1, None] + np.diff(t)[:, None] * fractions).ravel(), t[-1])
@@ -352,12 +355,20 @@ def _deviation(robot, original: JointTrajectory, retimed: JointTrajectory,
     reference = hermite(s)
     t_path = np.append((t0[:-1, None] + np.diff(t0)[:, None] * (np.arange(density) / density)).ravel(), t0[-1])
     q_path = hermite(t_path)
-    first = (np.clip(np.searchsorted(t0, s, side="right") - 1, 0, len(t0) - 2) - 1) * density
+    interval = np.clip(np.searchsorted(t0, s, side="right") - 1, 0, len(t0) - 2)
+    steps = np.linalg.norm(np.diff(original.positions, axis=0), axis=1)
+    moving = np.flatnonzero(steps > 1e-12 * steps.sum())
+    if len(moving) == 0:
+        moving = np.arange(len(steps))
+    before = moving[np.maximum(np.searchsorted(moving, interval) - 1, 0)]
+    after = moving[np.minimum(np.searchsorted(moving, interval, side="right"), len(moving) - 1)]
+    first = np.minimum(before, interval) * density
+    last = (np.maximum(after, interval) + 1) * density - 1
     joint = np.minimum(np.linalg.norm(q_new - reference, axis=-1),
-                       _distance_to_polyline(q_new, q_path, first, 3 * density))
+                       _distance_to_polyline(q_new, q_path, first, last))
     ee_new = robot.fk(q_new)
     ee = np.minimum(np.linalg.norm(ee_new - robot.fk(reference), axis=-1),
-                    _distance_to_polyline(ee_new, robot.fk(q_path), first, 3 * density))
+                    _distance_to_polyline(ee_new, robot.fk(q_path), first, last))
     return float(joint.max()), float(ee.max())
 
 

@@ -236,3 +236,22 @@ def test_toppra_retimes_the_sawyer_box_closing_plan(arms):
     assert robot.within_limits(retimed.positions).all()
     uniform, _ = retime(planned, robot, acceleration_limits=1.5, method="uniform")
     assert retimed.duration < uniform.duration
+
+
+@needs_toppra
+def test_toppra_through_a_pause(arms):
+    """A plan that stops half-way (repeated samples) is retimed through the pause by TOPP-RA."""
+    robot = arms["sawyer"]
+    traj = synthetic(robot, "cosine")
+    half = traj.num_points // 2
+    t = np.concatenate([traj.time_from_start[:half], traj.time_from_start[half - 1] + 0.05 * np.arange(1, 6),
+                        traj.time_from_start[half:] + 0.25])
+    q = np.concatenate([traj.positions[:half], np.repeat(traj.positions[half - 1:half], 5, axis=0),
+                        traj.positions[half:]])
+    qdot = np.concatenate([traj.velocities[:half], np.zeros((5, robot.n)), traj.velocities[half:]])
+    qdot[half - 1] = 0.0
+    paused = JointTrajectory.from_plan(robot, t, q, qdot)
+    retimed, report = retime(paused, robot, acceleration_limits=1.5, method="toppra")
+    assert_within_limits(retimed, robot.velocity_limits, 1.5)
+    assert ee_distance_to_path(robot, paused, retimed) <= 1e-3 and report.max_ee_deviation <= 1e-3
+    np.testing.assert_array_equal(retimed.positions[-1], paused.positions[-1])
