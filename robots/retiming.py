@@ -246,12 +246,18 @@ def _as_trajectory(traj: Any) -> JointTrajectory:
     return traj
 
 
+def _moving(positions: np.ndarray) -> np.ndarray:
+    """Which sample intervals (T-1,) move: joint-space step > 1e-12 of the path length (the
+    others are a pause)."""
+    steps = np.linalg.norm(np.diff(positions, axis=0), axis=1)
+    return steps > 1e-12 * steps.sum()
+
+
 def _chord_knots(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray]:
     """Path knots for TOPP-RA: (cumulative joint-space chord length [rad] of the kept samples (K,),
-    indices of the kept samples (K,)). Samples that do not move from the previous kept one
-    (step <= 1e-12 of the path length: a pause) are dropped, so the knots increase strictly."""
-    steps = np.linalg.norm(np.diff(traj.positions, axis=0), axis=1)
-    moving = steps > 1e-12 * steps.sum()
+    indices of the kept samples (K,)). Samples of a pause (:func:`_moving`) are dropped, so the
+    knots increase strictly."""
+    moving = _moving(traj.positions)
     kept = np.concatenate(([0], 1 + np.flatnonzero(moving)))
     if not moving[-1]:  # end on the last sample (the one the trajectory ends at)
         kept[-1] = traj.num_points - 1
@@ -356,10 +362,9 @@ def _deviation(robot, original: JointTrajectory, retimed: JointTrajectory,
     t_path = np.append((t0[:-1, None] + np.diff(t0)[:, None] * (np.arange(density) / density)).ravel(), t0[-1])
     q_path = hermite(t_path)
     interval = np.clip(np.searchsorted(t0, s, side="right") - 1, 0, len(t0) - 2)
-    steps = np.linalg.norm(np.diff(original.positions, axis=0), axis=1)
-    moving = np.flatnonzero(steps > 1e-12 * steps.sum())
+    moving = np.flatnonzero(_moving(original.positions))
     if len(moving) == 0:
-        moving = np.arange(len(steps))
+        moving = np.arange(len(t0) - 1)
     before = moving[np.maximum(np.searchsorted(moving, interval) - 1, 0)]
     after = moving[np.minimum(np.searchsorted(moving, interval, side="right"), len(moving) - 1)]
     first = np.minimum(before, interval) * density
