@@ -5,11 +5,19 @@ Problems: box_closing (synthetic, 6 demonstrations, T = 250) on the Jaco from ``
 seeded starts in the demonstrations' start region, with the README's box. Prints:
 
 - the start-up time of a pool of 1 and of 2 workers (spawn + import), measured apart;
-- per executor: batch wall time, throughput (plans/s), median / p95 of each plan's own time
-  (``timings["total"]``), median CPU time per problem (``timings["cpu"]``); anchors:
-  throughput 2 workers / 1 worker (target >= 1.8 on two free cores), median plan time in the
-  2-worker pool / in this process (target <= 1.15; the CPU-time ratio beside it is what stays
-  meaningful when other work shares the cores);
+- per executor: batch wall time, throughput (plans/s), wall time per plan (batch wall / count)
+  beside CPU time per plan (this process + the workers' processes, from /proc), median / p95 of
+  each plan's own wall time (``timings["total"]``) beside its median CPU time
+  (``timings["cpu"]``);
+- what the machine was doing during each batch, so a wall-clock ratio can be read honestly on
+  a shared machine: the load average (1 min) before and after, the cores the batch used (its
+  CPU time / wall time) and the cores busy on the whole machine meanwhile (/proc/stat), hence
+  the cores other work took;
+- anchors: throughput 2 workers / 1 worker (target >= 1.8 on two free cores) beside the ratio
+  of cores the two batches obtained (what bounds it under load) and the CPU time per plan
+  2 workers / 1 worker (the pool's own overhead, what stays meaningful under load); median
+  plan time in the 2-worker pool / in this process (target <= 1.15) beside the same ratio of
+  CPU times;
 - memory: RSS after problem 20 and after problem ``--memory-plans`` of an in-process batch,
   each problem with a new random box (target: within 20 MB).
 
@@ -21,6 +29,7 @@ import argparse
 import gc
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -28,16 +37,61 @@ import numpy as np
 from harness import print_environment
 from soak_clamp import rss_mb
 
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 
-def _batch(problems, executor) -> tuple[float, np.ndarray, np.ndarray]:
-    """Wall time of the batch [s], each plan's own time and each problem's CPU time [s]."""
+
+def _process_cpu(pid: int) -> float:
+    """CPU time [s] (user + system) of a live process, from /proc/PID/stat (NaN without /proc)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS      # utime, stime
+
+
+def _machine_jiffies() -> tuple[float, float]:
+    """(busy, total) CPU jiffies of the whole machine since boot, from /proc/stat (NaN without)."""
+    try:
+        values = [int(v) for v in Path("/proc/stat").read_text().splitlines()[0].split()[1:]]
+    except OSError:
+        return float("nan"), float("nan")
+    idle = values[3] + (values[4] if len(values) > 4 else 0)          # idle + iowait
+    return float(sum(values) - idle), float(sum(values))
+
+
+@dataclass
+class Run:
+    """One batch: wall [s], per-problem plan wall and CPU times [s], our CPU time [s], machine
+    busy cores during it, load average before / after."""
+
+    startup: float
+    wall: float
+    times: np.ndarray
+    cpu: np.ndarray
+    our_cpu: float
+    machine_cores: float
+    load: tuple[float, float]
+
+    @property
+    def our_cores(self) -> float:
+        return self.our_cpu / self.wall
+
+
+def _batch(problems, executor, pids=(), startup: float = 0.0) -> Run:
+    """Plan ``problems`` with ``executor``; what it cost and what the machine did meanwhile."""
     from clamp.batch import plan_many
+    load0, busy0, cpu0 = os.getloadavg()[0], _machine_jiffies(), time.process_time()
+    workers0 = sum(_process_cpu(pid) for pid in pids)
     t0 = time.perf_counter()
     records = list(plan_many(problems, executor, trajectories="none"))
     wall = time.perf_counter() - t0
+    workers = sum(_process_cpu(pid) for pid in pids) - workers0
+    busy1 = _machine_jiffies()
+    machine = (busy1[0] - busy0[0]) / (busy1[1] - busy0[1]) * (os.cpu_count() or 1)
     assert len(records) == len(problems) and all(r["status"] == "done" for r in records)
-    return (wall, np.array([r["timings"]["total"] for r in records]),
-            np.array([r["timings"]["cpu"] for r in records]))
+    return Run(startup, wall, np.array([r["timings"]["total"] for r in records]),
+               np.array([r["timings"]["cpu"] for r in records]),
+               time.process_time() - cpu0 + workers, machine, (load0, os.getloadavg()[0]))
 
 
 def _memory(count: int, seed: int) -> None:
@@ -81,27 +135,35 @@ def main() -> None:
                         scene=box)
     problems = start_problems(base, args.count, seed=args.seed)
     _batch(problems[:3], None)                      # warm this process (imports, caches)
-    rows = {}
-    rows["in-process"] = (0.0, *_batch(problems, None))
+    rows = {"in-process": _batch(problems, None)}
     for workers in (1, 2):
         with LocalPool(workers) as pool:
             startup = pool.start()
-            rows[f"{workers} worker(s)"] = (startup, *_batch(problems, pool))
-    print(f"\n{len(problems)} problems (box_closing, T = 250, Jaco, README box); timings noisy on "
-          f"a shared machine")
-    print(f"{'executor':<14} {'start-up s':>10} {'wall s':>8} {'plans/s':>8} {'median ms':>10} "
-          f"{'p95 ms':>8} {'CPU ms':>8}")
-    for name, (startup, wall, times, cpu) in rows.items():
-        print(f"{name:<14} {startup:>10.2f} {wall:>8.2f} {len(problems) / wall:>8.1f} "
-              f"{1e3 * np.median(times):>10.1f} {1e3 * np.percentile(times, 95):>8.1f} "
-              f"{1e3 * np.median(cpu):>8.1f}")
+            rows[f"{workers} worker(s)"] = _batch(problems, pool, pool.pids, startup)
+            assert pool.restarts == 0
+    n = len(problems)
+    print(f"\n{n} problems (box_closing, T = 250, Jaco, README box); wall times are noisy on a "
+          f"shared machine, read them with the columns on the right")
+    print(f"{'executor':<14} {'start-up s':>10} {'wall s':>7} {'plans/s':>7} {'wall ms':>8} "
+          f"{'CPU ms':>7} {'plan med ms':>11} {'p95 ms':>7} {'CPU med ms':>10} | {'load':>11} "
+          f"{'our cores':>9} {'busy':>5} {'others':>6}")
+    print(f"{'':<14} {'':>10} {'':>7} {'':>7} {'per plan':>8} {'per plan':>7} {'':>11} {'':>7} "
+          f"{'':>10} | {'before-after':>11}")
+    for name, r in rows.items():
+        print(f"{name:<14} {r.startup:>10.2f} {r.wall:>7.2f} {n / r.wall:>7.2f} "
+              f"{1e3 * r.wall / n:>8.1f} {1e3 * r.our_cpu / n:>7.1f} {1e3 * np.median(r.times):>11.1f} "
+              f"{1e3 * np.percentile(r.times, 95):>7.1f} {1e3 * np.median(r.cpu):>10.1f} | "
+              f"{r.load[0]:>5.2f}-{r.load[1]:<5.2f} {r.our_cores:>9.2f} {r.machine_cores:>5.2f} "
+              f"{max(r.machine_cores - r.our_cores, 0.0):>6.2f}")
     one, two, local = rows["1 worker(s)"], rows["2 worker(s)"], rows["in-process"]
-    print(f"throughput 2 workers / 1 worker: {one[1] / two[1]:.2f}x (target >= 1.8)")
-    print(f"throughput 2 workers / in-process: {local[1] / two[1]:.2f}x")
-    print(f"median plan time, 2 workers / in-process: {np.median(two[2]) / np.median(local[2]):.2f}"
-          f" (target <= 1.15); median CPU time per problem: {np.median(two[3]) / np.median(local[3]):.2f}")
-    print(f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores: with other work on "
-          f"the cores, wall-time ratios measure the contention, CPU-time ratios the overhead)")
+    print(f"(cores: CPU time / wall time of this process + its workers; busy: cores busy on the "
+          f"whole machine meanwhile, of {os.cpu_count()}; others = busy - ours)")
+    print(f"throughput 2 workers / 1 worker: {one.wall / two.wall:.2f}x (target >= 1.8 on two "
+          f"free cores); cores obtained 2 workers / 1 worker: {two.our_cores / one.our_cores:.2f}x; "
+          f"CPU time per plan 2 workers / 1 worker: {two.our_cpu / one.our_cpu:.2f}")
+    print(f"throughput 2 workers / in-process: {local.wall / two.wall:.2f}x")
+    print(f"median plan time, 2 workers / in-process: {np.median(two.times) / np.median(local.times):.2f}"
+          f" (target <= 1.15); median CPU time per plan: {np.median(two.cpu) / np.median(local.cpu):.2f}")
     if args.memory_plans:
         print(f"\nmemory: in-process batch of {args.memory_plans} problems, a new box each")
         _memory(args.memory_plans, args.seed)

@@ -4,8 +4,9 @@ Plans every problem of a JSON Lines problems file (:mod:`clamp.problems`) and ap
 result line per problem to ``--out`` as it finishes (:mod:`clamp.batch`); a rerun with the
 same ``--out`` skips the problems already there. In this process by default, in N local
 worker processes with ``--workers N``, on a Dask cluster with ``--scheduler ADDRESS``. Shows a
-progress bar (done, failed, rate, ETA) and prints a summary of the whole output file for the
-problems of this file. Exit code: 0 every problem planned (successfully or not), 1 some
+progress bar (done, failed, rate, ETA; :mod:`scenes.progress`: on a terminal only, never with
+``-q``) and prints a summary of the whole output file for the problems of this file (not with
+``-q``). Exit code: 0 every problem planned (successfully or not), 1 some
 recorded as error or lost, 2 bad input, 130 interrupted (rerun to resume).
 """
 from __future__ import annotations
@@ -19,6 +20,8 @@ from clamp.batch import TRAJECTORY_MODES, LocalPool, pending_problems, plan_many
 from clamp.batch_report import summarize, summary_table
 from clamp.errors import InvalidParameterError
 from clamp.problems import read_problems
+from scenes.command_line import integer_at_least, quiet
+from scenes.progress import progress
 
 
 def add_batch_parser(sub: Any) -> None:
@@ -27,16 +30,15 @@ def add_batch_parser(sub: Any) -> None:
                        description=__doc__.splitlines()[0])
     p.add_argument("problems", help="problems file (JSON Lines, one clamp problem per line)")
     p.add_argument("--out", required=True, help="results file (JSON Lines; appended, resumable)")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=integer_at_least(1), default=None,
                    help="local worker processes (default: plan in this process)")
     p.add_argument("--scheduler", default=None,
                    help="address of a Dask scheduler, e.g. tcp://host:8786 (pip install '.[dask]')")
-    p.add_argument("--retries", type=int, default=2,
+    p.add_argument("--retries", type=integer_at_least(0), default=2,
                    help="tries again of a problem whose worker died (default 2)")
     p.add_argument("--trajectories", default="inline",
                    help="'inline' (in each result line, default), 'none', or a folder for one "
                         "trajectory JSON file per problem")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(run=run_batch)
 
 
@@ -57,15 +59,12 @@ def _executor(args: argparse.Namespace) -> tuple[Any, Any]:
                 from None
         return client, client.close
     if args.workers is not None:
-        if args.workers < 1:
-            raise InvalidParameterError(f"--workers: expected an integer >= 1, got {args.workers}")
         pool = LocalPool(args.workers)
         return pool, pool.shutdown
     return None, lambda: None
 
 
 def run_batch(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
     problems_path, out = Path(args.problems), Path(args.out)
     if out.exists() and out.resolve() == problems_path.resolve():
         raise InvalidParameterError("--out: must not be the problems file")
@@ -76,13 +75,12 @@ def run_batch(args: argparse.Namespace) -> int:
                                     f"the file {args.trajectories!r}")
     problems = read_problems(problems_path)
     todo = pending_problems(problems, out)
-    if len(todo) < len(problems):
+    if len(todo) < len(problems) and not quiet(args):
         print(f"{out}: {len(problems) - len(todo)} of {len(problems)} problems already done; "
               f"resuming", file=sys.stderr)
     executor, close = _executor(args)
     failed = 0
-    bar = tqdm(total=len(todo), unit="plan", file=sys.stderr, dynamic_ncols=True,
-               disable=True if args.no_progress else None)
+    bar = progress(description="planning", total=len(todo), unit="plan")
     try:
         for record in plan_many(todo, executor, out=out, retries=args.retries,
                                 base_dir=problems_path.resolve().parent,
@@ -92,7 +90,7 @@ def run_batch(args: argparse.Namespace) -> int:
             bar.update()
     except KeyboardInterrupt:
         bar.close()
-        print(f"clamp batch: interrupted; rerun the same command to resume", file=sys.stderr)
+        print("clamp batch: interrupted; rerun the same command to resume", file=sys.stderr)
         return 130
     finally:
         bar.close()
@@ -100,5 +98,6 @@ def run_batch(args: argparse.Namespace) -> int:
     hashes = {p.hash for p in problems}
     records = [r for r in read_results(out) if r.get("hash") in hashes]
     summary = summarize(records)
-    print(summary_table(summary))
+    if not quiet(args):
+        print(summary_table(summary))
     return 1 if summary["status"].get("error") or summary["status"].get("lost") else 0

@@ -2,11 +2,15 @@
 
 :data:`OPTIMIZERS`: "fast" (:func:`clamp.solver.levenberg_marquardt` on the state array) and
 GTSAM's Levenberg-Marquardt, Dogleg and Gauss-Newton on ``problem.graph()``. Adding or swapping
-an optimizer touches this file only.
+an optimizer touches this file only. GTSAM runs its own loop (``optimize()``: its iterations,
+its convergence rule); its iteration hook logs each iteration (debug level) and advances a
+progress bar (:mod:`scenes.progress`, drawn when an optimisation lasts more than
+:data:`PROGRESS_DELAY` seconds).
 """
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import gtsam
@@ -19,14 +23,22 @@ from clamp.problem import PlanningProblem
 from clamp.request import as_config
 from clamp.solver import WarmStart, levenberg_marquardt
 from scenes.validation import as_instance
+from scenes.progress import progress
 
 log = logging.getLogger(__name__)
 
 #: valid ``PlannerConfig.optimizer.optimizer`` names
 OPTIMIZERS = ("fast", "gtsam", "gtsam_dogleg", "gtsam_gauss_newton")
+#: seconds a GTSAM optimisation runs before its progress bar is drawn
+PROGRESS_DELAY = 2.0
+
+IterationHook = Callable[[int, float, float], None]
 
 
-def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig):
+def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig,
+                     on_iteration: IterationHook | None = None):
+    """GTSAM's optimizer for ``config`` on the problem's graph and initial values;
+    ``on_iteration(iteration, error_before, error_after)`` is called after each iteration."""
     opt = config.optimizer
     graph, values = problem.graph(), problem.values()
     if opt.optimizer == "gtsam":
@@ -44,6 +56,8 @@ def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig):
     params.setMaxIterations(opt.max_iterations)
     params.setRelativeErrorTol(opt.relative_error_tol)
     params.setAbsoluteErrorTol(opt.absolute_error_tol)
+    if on_iteration is not None:
+        params.iterationHook = on_iteration
     return make(graph, values, params)
 
 
@@ -91,9 +105,16 @@ def optimize(problem: PlanningProblem, config: PlannerConfig | None = None,
                                   warm_start=warm_start)
         return Optimized(out.theta, out.iterations, out.trials, out.initial_error,
                          out.final_error, out.stop_reason, out.timings, name)
-    optimizer = _gtsam_optimizer(problem, config)
-    initial_error = float(optimizer.error())
-    values = optimizer.optimize()
+    with progress(description=f"optimizing ({name})", total=opt.max_iterations, unit="iter",
+                  delay=PROGRESS_DELAY) as bar:
+        def on_iteration(iteration: int, error_before: float, error_after: float) -> None:
+            log.debug("%s iteration %d: error %.6g -> %.6g", name, iteration, error_before, error_after)
+            bar.set_postfix(error=f"{error_after:.4g}", refresh=False)
+            bar.update()
+
+        optimizer = _gtsam_optimizer(problem, config, on_iteration)
+        initial_error = float(optimizer.error())
+        values = optimizer.optimize()
     iterations = int(optimizer.iterations())
     stop = "max_iterations" if iterations >= opt.max_iterations else "converged"
     return Optimized(values_to_states(values, problem.keys), iterations, 0, initial_error,

@@ -46,6 +46,7 @@ from typing import Any
 from clamp.errors import ArgumentTypeError, ClampError
 from clamp.validation import as_bool
 from scenes.validation import as_file, as_path, as_sequence
+from scenes.command_line import atomic_write_text
 
 FORMAT = "clamp-problem"
 VERSION = 1
@@ -309,8 +310,7 @@ def read_problems(path: str | Path) -> list[Problem]:
 
 def write_problems(problems: Iterable[Problem], path: str | Path, overwrite: bool = False) -> Path:
     """Write problems as JSON Lines (atomic; ProblemFormatError if ``path`` exists and not
-    ``overwrite``)."""
-    from robots.trajectory import atomic_write_text
+    ``overwrite``, or if its folder does not exist)."""
     problems = as_sequence(problems, "problems", "a list of clamp.problems.Problem",
                            ArgumentTypeError)
     for k, problem in enumerate(problems):
@@ -321,7 +321,7 @@ def write_problems(problems: Iterable[Problem], path: str | Path, overwrite: boo
     path = as_path(path, "path", ArgumentTypeError)
     overwrite = as_bool(overwrite, "overwrite")
     text = "".join(p.to_json() + "\n" for p in problems)
-    return atomic_write_text(path, text, overwrite, exists_error=ProblemFormatError)
+    return atomic_write_text(path, text, overwrite, ProblemFormatError, ProblemFormatError)
 
 
 def check_unique_ids(problems: Sequence[Problem]) -> None:

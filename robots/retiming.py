@@ -16,17 +16,21 @@ Two methods keep the geometric path and change only the timing:
 - ``"uniform"``: one time-scaling factor k (time * k, velocity / k, acceleration / k^2), the
   smallest that meets both limits (:func:`uniform_scaling`); the samples stay the same.
 - ``"toppra"``: time-optimal path parameterisation (TOPP-RA, the ``toppra`` package) of the
-  C2 cubic spline through the samples, parameterised by the original time (end velocities
-  clamped to the given ones); the resulting constant-path-acceleration profile is sampled
-  every ``sample_period`` s, and if sampling between TOPP-RA's grid points leaves a
-  violation, a final uniform stretch (reported) removes it. Starts and ends at rest.
+  C2 cubic spline through the samples, parameterised by their cumulative joint-space chord
+  length (end tangents along the given end velocities); the resulting constant-path-acceleration
+  profile is sampled every ``sample_period`` s, and if sampling between TOPP-RA's grid points
+  leaves a violation, a final uniform stretch (reported) removes it. Starts and ends at rest.
+  The chord length keeps |dq/ds| near 1 along the whole path: parameterised by the plan's own
+  time, a plan that creeps out of its start (the demonstrations' timing: 1e-7 .. 1e-3 rad/s
+  over the first seconds) gives TOPP-RA's solver path speeds and coefficients far outside its
+  fixed numerical range, and it reports the path "not controllable" although it is.
 ``"auto"`` uses toppra when it is installed, else uniform scaling.
 
 The report measures how far the retimed motion leaves the original path: both trajectories
 are interpolated as a joint trajectory controller would (cubic Hermite through positions and
-velocities), compared at corresponding path positions on a dense grid (``substeps`` points
-per retimed sample interval), in joint space (max abs, rad) and at the end effector
-(``robot.fk``, m).
+velocities); each point of the retimed motion on a dense grid (``substeps`` points per retimed
+sample interval) is measured to the original path near its corresponding path position, in
+joint space (Euclidean, rad) and at the end effector (``robot.fk``, m).
 """
 from __future__ import annotations
 
@@ -190,7 +194,8 @@ def toppra_available() -> bool:
 # --------------------------------------------------------------------------- report
 @dataclass(frozen=True)
 class RetimingReport:
-    """What retime did. Durations [s]; deviations: joint space max abs [rad], end effector [m].
+    """What retime did. Durations [s]; deviations from the original path: joint space [rad],
+    end effector [m].
 
     scaling_factor: for "uniform" the time factor applied; for "toppra" the final uniform
     stretch that removed violations left between TOPP-RA grid points, or kept the duration
@@ -241,17 +246,43 @@ def _as_trajectory(traj: Any) -> JointTrajectory:
     return traj
 
 
-def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray,
-                    grid_per_interval: int) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
-    """TOPP-RA on the spline through the samples: (path, gridpoints s (N,), path speeds sd (N,),
-    times at the gridpoints (N,)). Raises RetimingError when TOPP-RA fails."""
+def _moving(positions: np.ndarray) -> np.ndarray:
+    """Which sample intervals (T-1,) move: joint-space step > 1e-12 of the path length (the
+    others are a pause)."""
+    steps = np.linalg.norm(np.diff(positions, axis=0), axis=1)
+    return steps > 1e-12 * steps.sum()
+
+
+def _chord_knots(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray]:
+    """Path knots for TOPP-RA: (cumulative joint-space chord length [rad] of the kept samples (K,),
+    indices of the kept samples (K,)). Samples of a pause (:func:`_moving`) are dropped, so the
+    knots increase strictly."""
+    moving = _moving(traj.positions)
+    kept = np.concatenate(([0], 1 + np.flatnonzero(moving)))
+    if not moving[-1]:  # end on the last sample (the one the trajectory ends at)
+        kept[-1] = traj.num_points - 1
+    knots = np.concatenate(([0.0], np.cumsum(np.linalg.norm(np.diff(traj.positions[kept], axis=0), axis=1))))
+    return knots, kept
+
+
+def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, grid_per_interval: int
+                    ) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+    """TOPP-RA on the spline through the samples, parameterised by chord length s [rad]: (path,
+    gridpoints s (N,), path speeds sd (N,), times at the gridpoints (N,), the map from s to the
+    input's time [s] (piecewise linear between the knots)). Raises RetimingError when TOPP-RA
+    fails."""
     import toppra
     import toppra.algorithm
     import toppra.constraint
 
-    s_knots = traj.time_from_start
-    bc = ((1, traj.velocities[0]), (1, traj.velocities[-1]))
-    path = toppra.SplineInterpolator(s_knots, traj.positions, bc_type=bc)
+    s_knots, kept = _chord_knots(traj)
+    if len(kept) < 2:
+        raise RetimingError("traj: the positions do not move (velocities without motion)")
+    t_knots = traj.time_from_start[kept]
+    # end tangents dq/ds = qdot dt/ds, dt/ds of the end intervals
+    bc = ((1, traj.velocities[0] * (t_knots[1] - t_knots[0]) / s_knots[1]),
+          (1, traj.velocities[-1] * (t_knots[-1] - t_knots[-2]) / (s_knots[-1] - s_knots[-2])))
+    path = toppra.SplineInterpolator(s_knots, traj.positions[kept], bc_type=bc)
     fractions = np.arange(grid_per_interval) / grid_per_interval
     grid = (s_knots[:-1, None] + np.diff(s_knots)[:, None] * fractions).ravel()
     grid = np.append(grid, s_knots[-1])
@@ -272,7 +303,7 @@ def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray,
     if np.any(speed_sum <= 0.0) or not np.all(np.isfinite(sd)):
         raise RetimingError("traj: TOPP-RA returned a path speed of zero inside the path")
     times = np.concatenate(([0.0], np.cumsum(2.0 * np.diff(s) / speed_sum)))
-    return path, s, sd, times
+    return path, s, sd, times, (lambda position: np.interp(position, s_knots, t_knots))
 
 
 def _profile_at(s: np.ndarray, sd: np.ndarray, times: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -285,19 +316,65 @@ def _profile_at(s: np.ndarray, sd: np.ndarray, times: np.ndarray, t: np.ndarray)
     return position, speed
 
 
+def _sampled_profile(traj: JointTrajectory, path: Any, s: np.ndarray, sd: np.ndarray, times: np.ndarray,
+                     count: int) -> JointTrajectory:
+    """The TOPP-RA profile sampled at `count` equally spaced times, at rest at both ends on the
+    input's end positions (accelerations: finite differences of the velocities)."""
+    t = np.linspace(0.0, times[-1], count)
+    position, speed = _profile_at(s, sd, times, t)
+    position[0], position[-1] = s[0], s[-1]
+    q = path(position)
+    qdot = path(position, 1) * speed[:, None]
+    q[0], q[-1] = traj.positions[0], traj.positions[-1]
+    qdot[0], qdot[-1] = 0.0, 0.0
+    return traj.replace(time_from_start=t, positions=q, velocities=qdot, accelerations=finite_difference(qdot, t))
+
+
+def _distance_to_polyline(points: np.ndarray, vertices: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Distance (P,) from each point (P, d) to the polyline through vertices (M, d), over the
+    segments first[p] .. last[p] (inclusive) of that point."""
+    count = int((last - first).max()) + 1
+    j = np.minimum(first[:, None] + np.arange(count), last[:, None])
+    a, ab = vertices[j], vertices[j + 1] - vertices[j]                       # (P, count, d)
+    w = np.clip(np.einsum("pcd,pcd->pc", points[:, None] - a, ab)
+                / np.maximum(np.einsum("pcd,pcd->pc", ab, ab), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(points[:, None] - (a + w[..., None] * ab), axis=-1).min(axis=1)
+
+
 def _deviation(robot, original: JointTrajectory, retimed: JointTrajectory,
-               path_position: Callable[[np.ndarray], np.ndarray], substeps: int) -> tuple[float, float]:
-    """Max joint (rad) and end-effector (m) distance between the retimed and the original motion,
-    both cubic-Hermite interpolated, at corresponding path positions on a dense grid."""
+               path_position: Callable[[np.ndarray], np.ndarray], substeps: int,
+               density: int = 16) -> tuple[float, float]:
+    """Max joint-space (rad, Euclidean) and end-effector (m) distance from the retimed motion to
+    the original path, both cubic-Hermite interpolated: the retimed motion on a dense grid
+    (``substeps`` points per retimed interval), each point's distance to the original at its
+    corresponding path position or, if nearer, to the original path sampled ``density`` points
+    per input interval, from the moving input interval before that position to the one after
+    (the retimed path may pass a sample at a slightly different time than the original, and
+    skips pauses: a distance to the path, not a timing error)."""
     t = retimed.time_from_start
     fractions = np.arange(substeps) / substeps
     dense = np.append((t[:-1, None] + np.diff(t)[:, None] * fractions).ravel(), t[-1])
     q_new = CubicHermiteSpline(t, retimed.positions, retimed.velocities)(dense)
-    s = np.clip(path_position(dense), original.time_from_start[0], original.time_from_start[-1])
-    reference = CubicHermiteSpline(original.time_from_start, original.positions, original.velocities)(s)
-    joint = float(np.abs(q_new - reference).max())
-    ee = float(np.linalg.norm(robot.fk(q_new) - robot.fk(reference), axis=-1).max())
-    return joint, ee
+    t0 = original.time_from_start
+    s = np.clip(path_position(dense), t0[0], t0[-1])
+    hermite = CubicHermiteSpline(t0, original.positions, original.velocities)
+    reference = hermite(s)
+    t_path = np.append((t0[:-1, None] + np.diff(t0)[:, None] * (np.arange(density) / density)).ravel(), t0[-1])
+    q_path = hermite(t_path)
+    interval = np.clip(np.searchsorted(t0, s, side="right") - 1, 0, len(t0) - 2)
+    moving = np.flatnonzero(_moving(original.positions))
+    if len(moving) == 0:
+        moving = np.arange(len(t0) - 1)
+    before = moving[np.maximum(np.searchsorted(moving, interval) - 1, 0)]
+    after = moving[np.minimum(np.searchsorted(moving, interval, side="right"), len(moving) - 1)]
+    first = np.minimum(before, interval) * density
+    last = (np.maximum(after, interval) + 1) * density - 1
+    joint = np.minimum(np.linalg.norm(q_new - reference, axis=-1),
+                       _distance_to_polyline(q_new, q_path, first, last))
+    ee_new = robot.fk(q_new)
+    ee = np.minimum(np.linalg.norm(ee_new - robot.fk(reference), axis=-1),
+                    _distance_to_polyline(ee_new, robot.fk(q_path), first, last))
+    return float(joint.max()), float(ee.max())
 
 
 def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method: str = "auto", *,
@@ -350,7 +427,7 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
         path_position = (lambda t, k=stretch: t / k)
     else:
         try:
-            path, s, sd, times = _toppra_profile(zeroed, vlim, alim, int(grid_per_interval))
+            path, s, sd, times, input_time = _toppra_profile(zeroed, vlim, alim, int(grid_per_interval))
         except RetimingError as exc:
             if not automatic:
                 raise
@@ -358,23 +435,20 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
             return retime(traj, robot, acceleration_limits, "uniform", velocity_limits=velocity_limits,
                           sample_period=sample_period, allow_faster=allow_faster,
                           grid_per_interval=grid_per_interval, substeps=substeps)
-        count = max(int(math.ceil(times[-1] / sample_period)), 1) + 1
-        t = np.linspace(0.0, times[-1], count)
-        position, speed = _profile_at(s, sd, times, t)
-        position[0], position[-1] = s[0], s[-1]
-        q = path(position)
-        qdot = path(position, 1) * speed[:, None]
-        q[0], q[-1] = zeroed.positions[0], zeroed.positions[-1]
-        qdot[0], qdot[-1] = 0.0, 0.0
-        candidate = zeroed.replace(time_from_start=t, positions=q, velocities=qdot,
-                                   accelerations=finite_difference(qdot, t))
-        stretch = max(uniform_scaling(candidate, vlim, alim), 1.0)
-        if not allow_faster and candidate.duration * stretch < zeroed.duration:
-            stretch = zeroed.duration / candidate.duration
+        # sample the profile; a final uniform stretch removes violations left between TOPP-RA's
+        # grid points; resample densely enough that the stretched spacing stays <= sample_period
+        for _ in range(4):
+            count = max(int(math.ceil(times[-1] * stretch / sample_period)), 1) + 1
+            candidate = _sampled_profile(zeroed, path, s, sd, times, count)
+            stretch = max(uniform_scaling(candidate, vlim, alim), 1.0)
+            if not allow_faster and candidate.duration * stretch < zeroed.duration:
+                stretch = zeroed.duration / candidate.duration
+            if times[-1] / (count - 1) * stretch <= sample_period * (1.0 + 1e-12):
+                break
         retimed = scale_time(candidate, stretch) if stretch != 1.0 else candidate
         if stretch != 1.0:
             logger.info("retime: stretched the TOPP-RA result uniformly by %.6g", stretch)
-        path_position = (lambda tt, k=stretch: _profile_at(s, sd, times, tt / k)[0])
+        path_position = (lambda tt, k=stretch: input_time(_profile_at(s, sd, times, tt / k)[0]))
     joint_dev, ee_dev = _deviation(robot, zeroed, retimed, path_position, int(substeps))
     report = RetimingReport(method=method, duration_before=zeroed.duration, duration_after=retimed.duration,
                             before=before, after=check_limits(retimed, vlim, alim), scaling_factor=float(stretch),

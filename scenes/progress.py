@@ -27,12 +27,14 @@ def set_progress(enabled: bool | None) -> bool | None:
 
 
 def progress(iterable: Iterable[Any] | None = None, *, description: str, total: float | None = None,
-             unit: str = "it") -> Any:
+             unit: str = "it", delay: float = 0.0) -> Any:
     """A tqdm bar over ``iterable`` (or a manual bar: ``bar.update(n)``), ``total`` steps of
-    ``unit``; use as a context manager for manual bars so they close."""
+    ``unit``, drawn once the work has lasted ``delay`` seconds (so work that is usually quick
+    draws nothing); use as a context manager for manual bars so they close."""
     as_instance(description, "description", str, "text (str)", ArgumentTypeError)
     if total is not None:
         as_scalar(total, "total", minimum=0.0)
+    as_scalar(delay, "delay", minimum=0.0)
     enabled = _state["enabled"]
-    return tqdm(iterable, desc=description, total=total, unit=unit, leave=False,
+    return tqdm(iterable, desc=description, total=total, unit=unit, leave=False, delay=delay,
                 disable=None if enabled is None else not enabled, dynamic_ncols=True)

@@ -153,7 +153,7 @@ def test_command_line(tmp_path):
     path = write_problems(problems, tmp_path / "problems.jsonl")
     out = tmp_path / "results.jsonl"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
-    cmd = [sys.executable, "-m", "clamp", "batch", str(path), "--out", str(out), "--no-progress",
+    cmd = [sys.executable, "-m", "clamp", "batch", str(path), "--out", str(out),
            "--trajectories", str(tmp_path / "traj")]
     run = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
     assert run.returncode == 1, run.stderr               # one problem recorded as an error
@@ -166,7 +166,45 @@ def test_command_line(tmp_path):
         assert data["format"] and len(data["points"]) == 40
     again = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
     assert "4 of 4 problems already done" in again.stderr and len(read_results(out)) == 4
+    silent = subprocess.run(cmd + ["-q"], capture_output=True, text=True, env=env, timeout=300)
+    assert (silent.returncode, silent.stdout, silent.stderr) == (1, "", "")   # -q: errors only
     bad = subprocess.run([sys.executable, "-m", "clamp", "batch", str(tmp_path / "none.jsonl"),
                           "--out", str(out)], capture_output=True, text=True, env=env, timeout=300)
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1 and "none.jsonl" in bad.stderr
+
+
+def _on_a_terminal(args: list[str], cwd: Path) -> str:
+    """Run ``clamp ARGS`` with stderr on a pseudo-terminal; what it wrote there."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))   # 100 columns
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    with subprocess.Popen([sys.executable, "-m", "clamp", *args], stdout=subprocess.DEVNULL,
+                          stderr=slave, env=env, cwd=cwd) as child:
+        os.close(slave)
+        chunks = []
+        while True:
+            try:
+                chunk = os.read(master, 4096)
+            except OSError:                              # EIO: the child closed the terminal
+                break
+            if not chunk:
+                break
+            chunks.append(chunk)
+        child.wait(timeout=300)
+    os.close(master)
+    return b"".join(chunks).decode("utf-8", "replace")
+
+
+def test_progress_bar_on_a_terminal_and_not_with_quiet(tmp_path):
+    path = write_problems(_problems(3, seed=5), tmp_path / "problems.jsonl")
+    drawn = _on_a_terminal(["batch", str(path), "--out", "a.jsonl", "--trajectories", "none"],
+                           tmp_path)
+    assert "planning:" in drawn and "/3 [" in drawn and "plan/s" in drawn, drawn
+    quiet = _on_a_terminal(["batch", str(path), "--out", "b.jsonl", "--trajectories", "none",
+                            "-q"], tmp_path)
+    assert quiet == "" and len(read_results(tmp_path / "b.jsonl")) == 3

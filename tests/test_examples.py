@@ -73,6 +73,7 @@ def test_export_and_retime_within_limits_on_both_arms(runs):
     limits (URDF) and 1.5 rad/s^2, the end effector within 1 mm of the planned path (both
     measured here, independently of the retiming report)."""
     from robots import JointTrajectory, load_robot
+    from robots.retiming import toppra_available
     from robots.trajectory import finite_difference
     from test_retiming import ee_distance_to_path
     folder = Path(re.search(r"wrote (.*)", runs["export_and_retime"].stdout).group(1).strip())
@@ -88,6 +89,8 @@ def test_export_and_retime_within_limits_on_both_arms(runs):
         assert np.all(np.abs(finite_difference(retimed.velocities, t)) <= 1.5 * (1 + 1e-6))
         assert ee_distance_to_path(robot, planned, retimed) <= 1e-3
         assert retimed.verdict["success"] and retimed.verdict["retiming"]["within_limits"]
+        if toppra_available():                          # no fall-back to uniform scaling
+            assert retimed.verdict["retiming"]["method"] == "toppra", name
 
 
 def _blocks(kind: str) -> list[str]:

@@ -75,8 +75,15 @@ def test_file_round_trip(tmp_path):
     problems = [_full_problem().replace(id=f"p{k}", start=[0.1 * k, 0.2, 0.3]) for k in range(5)]
     path = write_problems(problems, tmp_path / "problems.jsonl")
     assert read_problems(path) == problems
+    before = path.read_bytes()
     with pytest.raises(ProblemFormatError, match="already exists"):
-        write_problems(problems, path)
+        write_problems(problems[:2], path)
+    assert path.read_bytes() == before                         # the user's file untouched
+    with pytest.raises(ProblemFormatError, match="does not exist"):
+        write_problems(problems, tmp_path / "no folder" / "problems.jsonl")
+    write_problems(problems[:2], path, overwrite=True)
+    assert read_problems(path) == problems[:2]
+    assert [f.name for f in tmp_path.iterdir()] == ["problems.jsonl"]   # no temporary left
 
 
 def test_start_problems_cover_the_start_region():

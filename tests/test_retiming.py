@@ -204,3 +204,54 @@ def test_motionless_trajectory_is_left_alone(arms):
     traj = JointTrajectory.from_plan(robot, np.linspace(0, 1, 5), q, np.zeros_like(q))
     retimed, report = retime(traj, robot, method="uniform")
     assert retimed.duration == traj.duration and report.within_limits
+
+
+def _urdf_velocity_limits(robot) -> np.ndarray:
+    """The <limit velocity=...> of each of the robot's joints, read from its URDF file here."""
+    import xml.etree.ElementTree as ET
+    joints = {j.get("name"): j for j in ET.parse(robot.urdf_path).getroot().iter("joint")}
+    return np.array([float(joints[name].find("limit").get("velocity")) for name in robot.joint_names])
+
+
+@needs_toppra
+def test_toppra_retimes_the_sawyer_box_closing_plan(arms):
+    """The Sawyer's box_closing plan creeps out of its start (the demonstrations' timing); TOPP-RA
+    used to call it "not controllable" and retime fell back to uniform scaling. Now TOPP-RA
+    itself retimes it: every sample within the URDF's velocity limits and 1.5 rad/s^2 (measured
+    here), the end effector within 1 mm of the planned path, faster than uniform scaling."""
+    from clamp import learn_prior, plan
+    from scenes import Scene, builtin_scene, make_demonstrations
+    robot, offset = arms["sawyer"], np.array([0.3, 0.0, 0.2])
+    prior = learn_prior(make_demonstrations("box_closing", seed=0).translated(offset))
+    scene = Scene([box.translated(offset) for box in builtin_scene("box_closing").obstacles])
+    result = plan(prior, robot, scene, start=prior.mean[0, :3])
+    assert result.success
+    planned = result.to_joint_trajectory(robot)
+    speed = np.abs(planned.velocities).max(axis=1)
+    assert speed[0] < 1e-5 and speed[:10].max() < 1e-3 < speed.max()   # the slow start
+    retimed, report = retime(planned, robot, acceleration_limits=1.5, method="toppra")
+    assert report.method == "toppra"
+    assert_within_limits(retimed, _urdf_velocity_limits(robot), 1.5)
+    assert ee_distance_to_path(robot, planned, retimed) <= 1e-3
+    assert robot.within_limits(retimed.positions).all()
+    uniform, _ = retime(planned, robot, acceleration_limits=1.5, method="uniform")
+    assert retimed.duration < uniform.duration
+
+
+@needs_toppra
+def test_toppra_through_a_pause(arms):
+    """A plan that stops half-way (repeated samples) is retimed through the pause by TOPP-RA."""
+    robot = arms["sawyer"]
+    traj = synthetic(robot, "cosine")
+    half = traj.num_points // 2
+    t = np.concatenate([traj.time_from_start[:half], traj.time_from_start[half - 1] + 0.05 * np.arange(1, 6),
+                        traj.time_from_start[half:] + 0.25])
+    q = np.concatenate([traj.positions[:half], np.repeat(traj.positions[half - 1:half], 5, axis=0),
+                        traj.positions[half:]])
+    qdot = np.concatenate([traj.velocities[:half], np.zeros((5, robot.n)), traj.velocities[half:]])
+    qdot[half - 1] = 0.0
+    paused = JointTrajectory.from_plan(robot, t, q, qdot)
+    retimed, report = retime(paused, robot, acceleration_limits=1.5, method="toppra")
+    assert_within_limits(retimed, robot.velocity_limits, 1.5)
+    assert ee_distance_to_path(robot, paused, retimed) <= 1e-3 and report.max_ee_deviation <= 1e-3
+    np.testing.assert_array_equal(retimed.positions[-1], paused.positions[-1])
