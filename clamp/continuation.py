@@ -66,7 +66,8 @@ class Attempt:
 
 @dataclass(frozen=True)
 class ConstrainedSolve:
-    """The chosen optimum (``out``; iterations and trials summed over every attempt), its
+    """The chosen optimum (``out``; iterations and trials summed over every attempt, initial and
+    final error those of the problem as asked, at ``sigma_obs``), its
     real-geometry report and every attempt made (the first is the configured solve)."""
 
     out: Optimized
@@ -146,8 +147,12 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
     timings = dict(best.timings)
     timings["constraint_loop"] = time.perf_counter() - start
     timings["clearance"] = totals["clearance"]
+    # errors of the problem as asked (sigma_obs), whichever weight found the chosen optimum
     chosen = replace(best, iterations=totals["iterations"], trials=totals["trials"],
-                     stop_reason=stop, timings=timings)
+                     stop_reason=stop, timings=timings,
+                     initial_error=solved[0][0].initial_error,
+                     final_error=best.final_error if best is solved[0][0]
+                     else problem.error(best.theta))
     return ConstrainedSolve(chosen, report, attempts)
 
 

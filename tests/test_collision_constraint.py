@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clamp import PlannerConfig, learn_prior, plan
+from clamp import PlannerConfig, build, learn_prior, plan
 from clamp.clearance import check_clearance, checker
 from clamp.continuation import detour_paths
 from clamp.verdict import sphere_clearance
@@ -113,6 +113,12 @@ def test_a_weak_weight_still_gives_a_collision_free_plan(jaco, prior):
     chosen = min(feasible, key=lambda a: a["prior_cost"])
     assert result.min_clearance == pytest.approx(chosen["min_distance"])
     assert result.iterations == sum(a["iterations"] for a in result.attempts)
+    # errors are those of the problem as asked (sigma_obs 0.5), not of a stiffer round's
+    problem = build(prior, jaco, scene, START, config=weak)
+    graph = problem.graph()
+    assert result.final_error == pytest.approx(
+        graph.error(problem.values(np.hstack([result.q, result.qdot]))), rel=1e-9)
+    assert result.initial_error == pytest.approx(given_up.initial_error, rel=1e-9)
 
 
 def test_goal_inside_an_obstacle_fails_with_reasons_never_converged(jaco, prior):
