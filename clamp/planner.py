@@ -35,7 +35,7 @@ from clamp.problem import PlanningProblem
 from clamp.request import (Request, Target, as_config, as_extras, as_scene, as_sdf, check_prior,
                            check_robot, has_obstacles, make_request)
 from clamp.result import PlanInputs, PlanResult
-from clamp.targets import constraint_violations, target_problems
+from clamp.targets import target_problems
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array, as_bool
 from clamp.verdict import evaluate, failed_result, start_problems
@@ -274,11 +274,5 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     result.covariance_floor = floor
     result.inputs = PlanInputs(prior, robot, scene, start, goal, tuple(via_points),
                                tuple(extra_factors), config, sdf, model_prior)
-    result.violations, broken = constraint_violations(problem.families, robot, result.q)
-    if broken:
-        result.reasons += broken
-        result.success = False
-        if result.stop_reason == "converged":   # never "converged" on a violated constraint
-            result.stop_reason = "infeasible"
     result.timings["total"] = time.perf_counter() - t0
     return result

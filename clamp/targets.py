@@ -32,7 +32,9 @@ def _problem(robot: Any, name: str, target: Target, tolerance: float,
     return None
 
 
-def _inside(scene: Any, name: str, target: Target) -> str | None:
+def inside_obstacle(scene: Any, name: str, target: Target) -> str | None:
+    """The reason when the end-effector position ``target`` (start, goal or via point, called
+    ``name``) lies inside an obstacle of ``scene``, with its depth; else None."""
     if target.kind != "position" or not has_obstacles(scene):
         return None
     depth = -float(scene.distance(target.value))
@@ -49,7 +51,7 @@ def target_problems(robot: Any, request: Request, config: PlannerConfig,
     checks = config.checks
     named = [("goal", request.goal, checks.goal_tolerance)] if request.goal is not None else []
     named += [(f"via point at state {i}", t, checks.via_tolerance) for i, t in request.vias]
-    reasons = [_inside(scene, name, target) or _problem(robot, name, target, tol, request.q_start)
+    reasons = [inside_obstacle(scene, name, target) or _problem(robot, name, target, tol, request.q_start)
                for name, target, tol in named]
     return [r for r in reasons if r is not None]
 

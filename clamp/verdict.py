@@ -1,6 +1,7 @@
-"""The verdict of a plan: what was asked of it (start, goal, via points, clearance, limits) checked
-on the optimised trajectory, with the figures behind every reason; and the early failures
-(start out of reach or in collision) that stop before planning. Clearance is measured on the
+"""The verdict of a plan: what was asked of it (start, goal, via points, clearance, limits,
+constraint families such as orientation) checked on the optimised trajectory, with the figures
+behind every reason; and the early failures (start out of reach, inside an obstacle or in
+collision) that stop before planning. Clearance is measured on the
 robot's own collision geometry (:mod:`clamp.clearance`), never on the optimiser's spheres.
 """
 from __future__ import annotations
@@ -19,6 +20,7 @@ from clamp.plausibility import plausibility_details
 from clamp.problem import PlanningProblem
 from clamp.request import Request, as_scene, has_obstacles
 from clamp.result import PlanResult
+from clamp.targets import constraint_violations, inside_obstacle
 from robots.collision_check import CollisionReport
 
 
@@ -59,8 +61,9 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
         reasons += limit_violations(robot, request.q_start[None], None,
                                     config.checks.limit_tolerance, what="start configuration")
     if has_obstacles(scene):
-        if start.kind == "position" and float(scene.distance(start.value)) < 0:
-            reasons.append("start position is inside an obstacle")
+        inside = inside_obstacle(scene, "start", start)
+        if inside:
+            reasons.append(inside)
         report = check_clearance(robot, scene, request.q_start[None])
         if report.collision:
             reasons.append("start configuration is in collision: "
@@ -118,6 +121,8 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     if collision:
         reasons.append(collision)
     reasons += limits
+    violations, broken = constraint_violations(problem.families, robot, q)
+    reasons += broken
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float), timings=timings,
                       iterations=out.iterations, initial_error=out.initial_error,
@@ -132,6 +137,6 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       # a plan that violates what it was asked to meet never reports convergence
                       stop_reason="infeasible" if reasons and out.stop_reason == "converged"
                       else out.stop_reason,
-                      via_errors=via_errors,
+                      via_errors=via_errors, violations=violations,
                       collision_geometry=None if report is None else report.geometry,
                       nearest_contact=None if report is None else report.nearest.to_dict())

@@ -91,3 +91,18 @@ def test_box_closing_with_tool_vertical_over_the_last_40_percent(arm, request, t
     assert result.min_clearance > 0.0
     fig = plot_orientation(result, robot, down, path=tmp_path / "angle.png")
     assert (tmp_path / "angle.png").stat().st_size > 5000 and fig.axes
+
+
+def test_violated_orientation_fails_the_verdict_with_its_excess(jaco):
+    """A window the plan cannot meet (tool z up within 1 mrad, a weak hinge): the verdict fails
+    with the excess, measured here from the plan's rotations, and never reports convergence."""
+    prior = learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0, num_points=60))
+    up = OrientationFamily.window(prior.T, 0.2, axis=[0, 0, 1], direction=[0, 0, 1],
+                                  tolerance=1e-3, sigma=1.0)
+    result = plan(prior, jaco, None, start=START, extra_factors=[up], covariance=False)
+    R, _ = jaco.ee_rotation(result.q[up.first])
+    excess = float(np.max(np.arccos(np.clip(R[:, 2, 2], -1.0, 1.0)))) - 1e-3
+    assert excess > 0.1
+    assert result.violations["orientation"] == pytest.approx(excess, rel=1e-6)
+    assert not result.success and result.stop_reason != "converged"
+    assert any(r.startswith("orientation constraint violated by") for r in result.reasons)
