@@ -70,9 +70,7 @@ def as_scalar(x: object, name: str, minimum: float | None = None,
 
 def as_bool(x: object, name: str) -> bool:
     """``x`` as a bool: True / False (numpy bools included); anything else is refused."""
-    if not isinstance(x, (bool, np.bool_)):
-        raise InvalidParameterError(f"{name}: expected True or False, got {x!r:.60}")
-    return bool(x)
+    return _checks.as_bool(x, name, ERRORS)
 
 
 def as_count(x: object, name: str, minimum: int = 1) -> int:

@@ -295,6 +295,14 @@ def as_sequence(x: Any, name: str, expected: str, error: type[ValueError]) -> li
     return list(x)
 
 
+def as_bool(x: Any, name: str, error: Errors = InvalidArgumentError) -> bool:
+    """``x`` as a bool: True / False (numpy bools included); anything else raises ``error``
+    naming ``name`` (1, "yes" and None are refused, not read as truth values)."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise _kinds(error).value(f"{name}: expected True or False, got {x!r:.60}")
+    return bool(x)
+
+
 def as_path(x: Any, name: str, error: type[ValueError]) -> Path:
     """A path from a str or os.PathLike (``error``, e.g. a package's ArgumentTypeError,
     otherwise)."""

@@ -34,9 +34,7 @@ def as_indices(x: Any, name: str) -> np.ndarray:
 
 def as_bool(x: Any, name: str) -> bool:
     """True or False (numpy bools included); InvalidArgumentError otherwise."""
-    if not isinstance(x, (bool, np.bool_)):
-        raise InvalidArgumentError(f"{name}: expected True or False, got {x!r:.60}")
-    return bool(x)
+    return _checks.as_bool(x, name, InvalidArgumentError)
 
 
 def as_path(x: Any, name: str = "path") -> Path:
