@@ -83,9 +83,11 @@ class OptimizerConfig:
     absolute_error_tol: float = 1e-2
     #: ... for this many consecutive accepted steps
     convergence_patience: int = 2
-    #: collision-free as a constraint (:mod:`clamp.continuation`): when the optimum collides
-    #: (on the robot's collision geometry), rounds of 4x stiffer obstacle hinges per candidate
-    #: start (the optimum, detours, a straight line); 0: the weighted solve only
+    #: constraints as constraints (:mod:`clamp.continuation`): when the optimum collides (on
+    #: the robot's collision geometry), rounds of 4x stiffer obstacle hinges per candidate
+    #: start (the optimum, detours, a straight line); then, while it violates the joint limits
+    #: or a constraint family (orientation), rounds of 4x stiffer hinges of those; 0: the
+    #: weighted solve only
     constraint_rounds: int = 3
     #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
     #: workspace states (0 = plain LM, which crawls against stiff learned priors)

@@ -18,12 +18,19 @@ on the robot's own collision geometry, :mod:`clamp.clearance`) as a constraint:
    closest, with ``stop_reason`` "infeasible" (never "converged"): the report names the link,
    obstacle, state and depth of the remaining collision.
 
+4. :func:`tighten_constraints`: the other soft constraints (joint-limit hinges, constraint
+   families such as orientation) are hinges too; while the chosen optimum violates one as the
+   verdict judges it, re-solve from it (the solver's warm-start rule) with that family's noise
+   divided by 1 / ``SHRINK`` more each round, keeping the obstacle weight that made it
+   collision-free; a round that brings back a collision is not taken.
+
 Every candidate calls the configured optimizer (:func:`clamp.optimizers.optimize`) on a problem
 that differs from the original only by the obstacle hinge's noise.
 """
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
@@ -47,6 +54,8 @@ SHRINK = 0.25
 WANTED = 2
 
 Check = Callable[[np.ndarray], CollisionReport]
+#: names of the soft constraint families a plan theta (T, 2n) violates
+Violated = Callable[[np.ndarray], list[str]]
 Restarts = Callable[[CollisionReport], Iterable[tuple[str, np.ndarray]]]
 
 
@@ -73,15 +82,25 @@ class ConstrainedSolve:
     out: Optimized
     report: CollisionReport
     attempts: list[Attempt]
+    #: [m] the obstacle hinge noise of the problem the chosen optimum solves
+    sigma: float
+
+
+def reweighted(problem: PlanningProblem, factors: dict[str, float], initial: np.ndarray
+               ) -> PlanningProblem:
+    """The same problem with the noise of the families named in ``factors`` divided by their
+    factor (:meth:`clamp.factors.Family.reweighted`), starting at initial (T, 2n)."""
+    families = [f.reweighted(factors[f.name]) if f.name in factors else f
+                for f in problem.families]
+    return PlanningProblem(problem.robot, problem.num_states, families, problem.foreign, initial)
 
 
 def with_obstacle_sigma(problem: PlanningProblem, sigma: float, initial: np.ndarray
                         ) -> PlanningProblem:
     """The same problem with the obstacle hinges' noise set to sigma [m], starting at initial
     (T, 2n)."""
-    families = [ObstacleFamily(f.first, f.radii, f.query, f.epsilon, sigma)
-                if isinstance(f, ObstacleFamily) else f for f in problem.families]
-    return PlanningProblem(problem.robot, problem.num_states, families, problem.foreign, initial)
+    current = 1.0 / float(problem.family(ObstacleFamily.name).whitening[0])
+    return reweighted(problem, {ObstacleFamily.name: current / sigma}, initial)
 
 
 def _prior_cost(problem: PlanningProblem, theta: np.ndarray) -> float:
@@ -98,7 +117,7 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
     (its initial trajectory is a previous plan, :func:`clamp.replan`), never for the others."""
     sigma0 = float(config.model.sigma_obs)
     attempts: list[Attempt] = []
-    solved: list[tuple[Optimized, CollisionReport, float]] = []
+    solved: list[tuple[Optimized, CollisionReport, float, float]] = []
     totals = {"iterations": 0, "trials": 0, "clearance": 0.0}
 
     def attempt(name: str, sigma: float, theta0: np.ndarray,
@@ -112,7 +131,7 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
         totals["trials"] += out.trials
         attempts.append(Attempt(name, sigma, float(report.min_distance), not report.collision,
                                 cost, out.iterations))
-        solved.append((out, report, cost))
+        solved.append((out, report, cost, sigma))
         return out, report
 
     start = time.perf_counter()
@@ -136,10 +155,10 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
                 theta = out.theta
     feasible = [s for s in solved if not s[1].collision]
     if feasible:
-        best, report, _ = min(feasible, key=lambda s: s[2])
+        best, report, _, sigma = min(feasible, key=lambda s: s[2])
         stop = best.stop_reason
     else:
-        best, report, _ = max(solved, key=lambda s: s[1].min_distance)
+        best, report, _, sigma = max(solved, key=lambda s: s[1].min_distance)
         stop = "infeasible"
         if len(solved) > 1:
             log.info("no collision-free plan after %d attempts; the closest still penetrates "
@@ -153,7 +172,50 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
                      initial_error=solved[0][0].initial_error,
                      final_error=best.final_error if best is solved[0][0]
                      else problem.error(best.theta))
-    return ConstrainedSolve(chosen, report, attempts)
+    return ConstrainedSolve(chosen, report, attempts, sigma)
+
+
+def tighten_constraints(problem: PlanningProblem, base: PlanningProblem, out: Optimized,
+                        config: PlannerConfig, violated: Violated, check: Check | None,
+                        rounds: int, report: CollisionReport | None = None,
+                        sigma: float = float("nan")) -> tuple[Optimized, CollisionReport | None,
+                                                              list[Attempt]]:
+    """Re-solve ``out`` (the optimum of ``base``, e.g. ``problem`` with stiffer obstacle
+    hinges of noise ``sigma`` [m]) while ``violated(theta)`` names families (see the module
+    docstring, step 4); check: the real-geometry collision check (None without obstacles),
+    report: its result for ``out``. Returns the chosen optimum (iterations and trials summed,
+    errors those of ``problem`` as asked), its report and the attempts made."""
+    started = time.perf_counter()
+    factors: dict[str, float] = {}
+    attempts: list[Attempt] = []
+    best, best_report = out, report
+    iterations, trials = out.iterations, out.trials
+    for _ in range(rounds):
+        names = violated(best.theta)
+        if not names:
+            break
+        for name in names:
+            factors[name] = factors.get(name, 1.0) / SHRINK
+        new = optimize(reweighted(base, factors, best.theta), config, WarmStart())
+        iterations, trials = iterations + new.iterations, trials + new.trials
+        new_report = check(new.theta) if check is not None else None
+        collides = new_report is not None and new_report.collision
+        attempts.append(Attempt("tightened " + "+".join(f"{k} x{v:g}" for k, v in factors.items()),
+                                sigma, math.inf if new_report is None
+                                else float(new_report.min_distance), not collides,
+                                _prior_cost(problem, new.theta), new.iterations))
+        if collides and not (best_report is not None and best_report.collision):
+            log.info("tightening %s brought back a collision: kept the plan before it",
+                     ", ".join(names))
+            break
+        best, best_report = new, new_report
+    if best is out:
+        return out, report, attempts
+    timings = dict(out.timings)
+    timings["constraints"] = time.perf_counter() - started
+    chosen = replace(best, iterations=iterations, trials=trials, timings=timings,
+                     initial_error=out.initial_error, final_error=problem.error(best.theta))
+    return chosen, best_report, attempts
 
 
 def detour_paths(path: np.ndarray, centre: np.ndarray, radius: float, clearance: float,

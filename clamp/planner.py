@@ -22,7 +22,8 @@ import numpy as np
 from clamp.clearance import check_clearance, contact_obstacle
 from clamp.conditioning import planning_prior
 from clamp.config import PlannerConfig
-from clamp.continuation import detour_restarts, solve_collision_free
+from clamp.continuation import (detour_restarts, solve_collision_free, tighten_constraints,
+                                with_obstacle_sigma)
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
                            JointTargetFamily, ObstacleFamily, WorkspaceGPFamily,
@@ -35,7 +36,7 @@ from clamp.problem import PlanningProblem
 from clamp.request import (Request, Target, as_config, as_extras, as_scene, as_sdf, check_prior,
                            check_robot, has_obstacles, make_request)
 from clamp.result import PlanInputs, PlanResult
-from clamp.targets import target_problems
+from clamp.targets import target_problems, violated_families
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array, as_bool
 from clamp.verdict import evaluate, failed_result, start_problems
@@ -247,18 +248,28 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
                                                  model_prior)
     t_opt = time.perf_counter()
     report, attempts = None, []
+    base, sigma, check = problem, float("nan"), None
     if any(f.name == ObstacleFamily.name for f in problem.families):
         # collision-free is a constraint: continuation on the hinge and restarts (see
         # clamp.continuation), judged on the robot's own collision geometry
+        def check(theta):
+            return check_clearance(robot, scene, theta[:, :robot.n], prior.time)
         solved = solve_collision_free(
-            problem, config,
-            lambda theta: check_clearance(robot, scene, theta[:, :robot.n], prior.time),
+            problem, config, check,
             lambda found: _restarts(prior, robot, scene, request, config, init, found),
             config.optimizer.constraint_rounds, warm_start)
-        out, report = solved.out, solved.report
-        attempts = [asdict(a) for a in solved.attempts]
+        out, report, sigma = solved.out, solved.report, solved.sigma
+        attempts = list(solved.attempts)
+        base = with_obstacle_sigma(problem, sigma, problem.initial)
     else:
         out = optimize(problem, config, warm_start)
+    # the other soft constraints (limits, orientation): stiffer while the verdict finds them
+    # violated
+    out, report, tightened = tighten_constraints(
+        problem, base, out, config,
+        lambda theta: violated_families(problem.families, robot, theta, config),
+        check, config.optimizer.constraint_rounds, report, sigma)
+    attempts = [asdict(a) for a in attempts + tightened]
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
     floor = 0.0

@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 
 from clamp.config import PlannerConfig
+from clamp.factors import JointLimitFamily
+from clamp.limit_report import limit_violations
 from clamp.request import Request, Target, has_obstacles
 
 
@@ -70,3 +72,20 @@ def constraint_violations(families: Any, robot: Any, q: np.ndarray
                 reasons.append(f"{family.name} constraint violated by {value:.4g} beyond its "
                                f"tolerance {getattr(family, 'tolerance', float('nan')):.4g}")
     return violations, reasons
+
+
+def violated_families(families: Any, robot: Any, theta: np.ndarray, config: PlannerConfig
+                      ) -> list[str]:
+    """Names of the soft constraint families the plan theta (T, 2n) violates as the verdict
+    judges them: the joint-limit family when a position or velocity is out of its limit by more
+    than the checks' tolerances, and every family with a ``violation(robot, q)`` above 0."""
+    n, checks = robot.n, config.checks
+    q, qdot = theta[:, :n], theta[:, n:]
+    names = []
+    for family in families:
+        if isinstance(family, JointLimitFamily):
+            if limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance):
+                names.append(family.name)
+        elif callable(getattr(family, "violation", None)) and family.violation(robot, q) > 0.0:
+            names.append(family.name)
+    return names

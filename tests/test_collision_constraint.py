@@ -177,3 +177,26 @@ def test_third_party_arm_avoids_a_box_in_the_skill_path(prior):
     assert result.success, result.reasons
     assert result.collision_geometry == "urdf"
     assert brute_force_clearance(robot, scene, result.q) > 0.0
+
+
+def test_a_velocity_excess_is_tightened_away(jaco):
+    """Scene-benchmark problem 117 (synthetic, Jaco): the weighted solve ends a little beyond a
+    velocity limit (the hinge is soft); the constraint loop stiffens the limit hinges once and
+    the plan then holds every velocity limit, measured here from the plan's own velocities."""
+    from pathlib import Path
+
+    from clamp.batch import resolve
+    from clamp.problem_sets import scene_benchmark
+    problem = scene_benchmark(118, "jaco")[117]
+    assert problem.expected == "feasible"
+    kwargs = resolve(problem, Path("."))
+    weighted = plan(**{**kwargs, "config": kwargs["config"].with_(constraint_rounds=0)},
+                    covariance=False)
+    assert not weighted.success
+    assert any("faster than its limit" in r for r in weighted.reasons), weighted.reasons
+    tightened = plan(**kwargs, covariance=False)
+    assert tightened.success, tightened.reasons
+    assert "tightened joint_limits x4" in [a["candidate"] for a in tightened.attempts]
+    excess = np.abs(tightened.qdot) - np.asarray(jaco.velocity_limits)
+    assert excess.max() <= PlannerConfig().checks.velocity_tolerance
+    assert np.abs(weighted.qdot).max() > np.abs(tightened.qdot).max()

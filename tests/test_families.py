@@ -19,6 +19,7 @@ import pytest
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
                            ObstacleFamily, OrientationFamily, StateWindow, WorkspaceGPFamily,
                            WorkspaceStartFamily)
+from clamp.errors import InvalidParameterError
 from clamp.keys import state_key
 from clamp.problem import PlanningProblem
 from tlgc.boundary_factor import BoundaryFamily
@@ -221,3 +222,21 @@ def test_problem_and_graph_are_freed_without_the_cycle_collector(jaco):
         assert all(ref() is None for ref in watch)
     finally:
         gc.enable()
+
+
+def test_a_reweighted_family_scales_its_noise_and_nothing_else(setup):
+    """Family.reweighted(k): the whitened residuals (and so the GTSAM noise) scale by k, the
+    error by k^2; the original family is unchanged."""
+    robot, theta, families = setup
+    window = StateWindow(robot, theta)
+    for family in families:
+        before = family.error(window)
+        stiffer = family.reweighted(4.0)
+        assert stiffer.error(StateWindow(robot, theta)) == pytest.approx(16.0 * before,
+                                                                          rel=1e-12, abs=1e-300)
+        assert family.error(StateWindow(robot, theta)) == before
+        assert type(stiffer) is type(family) and stiffer.name == family.name
+        sigma = family.noise_model(0).sigmas()
+        assert np.allclose(stiffer.noise_model(0).sigmas(), sigma / 4.0, rtol=1e-12)
+    with pytest.raises(InvalidParameterError, match="factor: expected a positive"):
+        families[0].reweighted(0.0)

@@ -18,6 +18,7 @@ residuals. A kernel may leave out factors whose residual and Jacobian are exactl
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import gtsam
@@ -106,6 +107,16 @@ class Family:
 
     def __len__(self) -> int:
         return len(self.first)
+
+    def reweighted(self, factor: float) -> "Family":
+        """A copy of this family with every noise sigma divided by ``factor`` (> 0; the
+        whitening multiplied by it), everything else shared: e.g. a stiffer hinge."""
+        if not factor > 0.0 or not np.isfinite(factor):
+            raise InvalidParameterError(f"factor: expected a positive finite number, got "
+                                        f"{factor!r}")
+        new = copy.copy(self)
+        new.whitening = self.whitening * factor
+        return new
 
     @property
     def isotropic(self) -> bool:
