@@ -4,8 +4,9 @@
   states and the posterior 95 % tube;
 - :func:`plot_top_view`: the same seen from above (x-y plane), obstacles as their footprints;
 - :func:`plot_joint_angles`: every joint angle against time, outside its limits shaded;
-- :func:`plot_clearance`: the smallest sphere-obstacle distance against time with the safety
-  distance epsilon and contact marked;
+- :func:`plot_clearance`: the arm's distance to the obstacles against time (on the collision
+  geometry the verdict judges, and the optimiser's spheres) with the safety distance epsilon
+  and contact marked;
 - :func:`plot_plan_uncertainty`: end-effector position against time with its posterior band.
 """
 from __future__ import annotations
@@ -256,30 +257,45 @@ def plot_joint_angles(result: Any, robot: Any, title: str | None = None) -> Figu
 
 def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
                    title: str | None = None) -> Figure:
-    """Clearance [m] against time [s]: the smallest distance between the robot's collision
-    spheres and the obstacles at every support state, the safety distance ``epsilon`` [m]
-    (the obstacle factors act below it) and contact (0) marked."""
+    """Clearance [m] against time [s] at every support state: the distance between the arm's
+    collision geometry (the URDF meshes the verdict judges, :mod:`clamp.clearance`; exact up to
+    a cap of max(3 epsilon, 15 cm), drawn at the cap beyond it) and the obstacles, the
+    collision spheres' clearance the optimiser works with (dashed), the safety distance
+    ``epsilon`` [m] (the obstacle factors act below it) and contact (0) marked."""
+    from clamp.clearance import checker
+    from clamp.request import has_obstacles
     from clamp.verdict import sphere_clearance
     scene = _check_inputs(result, robot, scene)
     epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
-    clearance = np.min(sphere_clearance(robot, scene, np.asarray(result.q)), axis=1)
+    q = np.asarray(result.q)
+    spheres = np.min(sphere_clearance(robot, scene, q), axis=1)
+    cap = max(3.0 * epsilon, 0.15)
+    if has_obstacles(scene):
+        # margin = cap: every state closer than the cap gets its exact distance
+        report = checker(robot, scene).check(q, margin=cap, max_motion=1e3)  # states only
+        clearance, geometry = np.minimum(report.state_distance, cap), report.geometry
+    else:
+        clearance, geometry = np.full(len(q), cap), "urdf"
     t = np.asarray(result.time)
+    low = min(clearance.min(), spheres.min(), 0.0) - 0.01
     fig = Figure(figsize=(7.0, 3.6))
     ax = fig.add_subplot()
-    ax.axhspan(min(clearance.min(), 0.0) - 0.01, 0.0, color="tab:red", alpha=0.15, lw=0,
-               label="collision (< 0)")
+    ax.axhspan(low, 0.0, color="tab:red", alpha=0.15, lw=0, label="collision (< 0)")
     ax.axhline(epsilon, color="tab:orange", ls="--", lw=1.2,
                label=f"safety distance epsilon = {epsilon * 1e3:.0f} mm")
-    ax.plot(t, clearance, color="tab:blue", lw=1.6, label="clearance of the arm")
+    ax.plot(t, clearance, color="tab:blue", lw=1.6,
+            label=f"arm ({'URDF collision geometry' if geometry == 'urdf' else geometry}; "
+                  f"shown up to {cap * 1e3:.0f} mm)")
+    ax.plot(t, np.minimum(spheres, cap), color="tab:gray", lw=1.0, ls=":",
+            label="collision spheres (the optimiser's model)")
     k = int(np.argmin(clearance))
     ax.scatter(t[k], clearance[k], color="k", s=20, zorder=5,
                label=f"minimum {clearance[k] * 1e3:.1f} mm at {t[k]:.2f} s")
-    ax.set_ylim(min(clearance.min(), 0.0) - 0.01, max(clearance.max(), epsilon) * 1.1 + 0.01)
+    ax.set_ylim(low, max(cap, epsilon) * 1.1 + 0.01)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("clearance [m]")
     ax.grid(alpha=0.3)
-    ax.set_title(title or "smallest distance between the arm's collision spheres and the "
-                          "obstacles", fontsize=10)
+    ax.set_title(title or "distance between the arm and the obstacles", fontsize=10)
     ax.legend(loc="best", fontsize=7)
     fig.tight_layout()
     return fig

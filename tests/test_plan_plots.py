@@ -31,3 +31,29 @@ def test_plot_plan_writes_png_with_obstacles(tmp_path, jaco):
     assert len(ax.lines) >= 1 + 4  # end-effector path and the arm at 4 states
     assert len(ax.collections) >= 3  # box faces, sphere and cylinder surfaces (+ markers)
     assert "failed" in ax.get_title()
+
+
+def test_clearance_figure_draws_the_collision_geometry_distance(jaco):
+    """The arm's line of the clearance figure is the distance of the URDF collision geometry to
+    the obstacle at every support state (below its cap), checked against coal on every
+    geometry-obstacle pair (brute force, no pruning); the spheres' line is drawn beside it."""
+    from clamp.clearance import checker
+    from clamp.plan_plots import plot_clearance
+    from scenes import Box, Scene
+    robot = jaco
+    rng = np.random.default_rng(3)
+    q0 = robot.random_configuration(rng)
+    q = q0 + np.linspace(0, 0.6, 12)[:, None]
+    result = FakeResult(q, robot.fk(q))
+    result.time = np.linspace(0.0, 2.0, len(q))
+    ee = result.ee_path[6]
+    scene = Scene([Box(ee + np.array([0.0, 0.0, 0.12]), [0.1, 0.1, 0.05])])
+    fig = plot_clearance(result, robot, scene, epsilon=0.05)
+    lines = {line.get_label().split(" ")[0]: np.asarray(line.get_ydata())
+             for line in fig.axes[0].lines}
+    arm, spheres = lines["arm"], lines["collision"]
+    exact = checker(robot, scene).distances(q).min(axis=(1, 2))
+    cap = 0.15
+    assert np.allclose(arm, np.minimum(exact, cap), atol=1e-5)
+    assert np.any(exact < cap)
+    assert not np.allclose(arm, spheres)
