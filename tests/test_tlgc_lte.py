@@ -49,28 +49,24 @@ def end_moves(rng: np.random.Generator, count: int) -> np.ndarray:
     return d / np.linalg.norm(d, axis=1, keepdims=True) * rng.uniform(0.05, 0.20, (count, 1))
 
 
-def check_bounded(path: np.ndarray, constraints: dict, mode: str, bound: float
-                  ) -> tuple[float, float]:
-    """lte_solve either refuses with GeneralizationError or meets the constraints exactly,
-    moves no point more than ``bound`` x the largest constraint move, and does not depend on
-    the iteration count (100 vs 200 at most 1 mm apart). Returns (amplification, largest
-    100-vs-200 difference [m]), NaNs when refused."""
+def check_bounded(path: np.ndarray, constraints: dict, mode: str, bound: float) -> float:
+    """lte_solve either refuses with GeneralizationError or meets the constraints exactly and
+    moves no point more than ``bound`` x the largest constraint move; lte_deform gives the same
+    path. Returns the amplification, NaN when refused."""
     try:
         result = lte_solve(path, constraints, mode, bound)
     except GeneralizationError as exc:
         assert "max_amplification" in str(exc)
-        return float("nan"), float("nan")
+        return float("nan")
     move = max(np.linalg.norm(v - path[k]) for k, v in constraints.items())
     largest = np.linalg.norm(result.path - path, axis=1).max()
     assert largest <= bound * move * (1 + 1e-9), (mode, largest, move)
     assert result.amplification == pytest.approx(largest / move)
     for k, v in constraints.items():
         np.testing.assert_allclose(result.path[k], v, atol=1e-12)
-    a = lte_deform(path, constraints, iterations=100, mode=mode, max_amplification=bound)[0]
-    b = lte_deform(path, constraints, iterations=200, mode=mode, max_amplification=bound)[0]
-    assert np.linalg.norm(a - b, axis=1).max() <= 1e-3
+    a = lte_deform(path, constraints, mode=mode, max_amplification=bound)[0]
     np.testing.assert_allclose(a, result.path, atol=1e-12)
-    return result.amplification, float(np.linalg.norm(a - b, axis=1).max())
+    return result.amplification
 
 
 @pytest.mark.parametrize("name", sorted(SHAPES))
@@ -87,8 +83,7 @@ def test_letters_and_loops_converge_and_stay_bounded(name, mode):
                 for d in end_moves(rng, 4)]
     figures = np.array(figures)
     print(f"{name} {mode}: 16 moves, largest displacement / largest constraint move "
-          f"{np.nanmax(figures[:, 0]):.3f}, 100 vs 200 iterations {np.nanmax(figures[:, 1]):.1e} m, "
-          f"refused {int(np.isnan(figures[:, 0]).sum())}")
+          f"{np.nanmax(figures):.3f}, refused {int(np.isnan(figures).sum())}")
 
 
 def test_issue_examples_no_runaway_scale_and_no_collapse():

@@ -433,19 +433,14 @@ def lte_solve(path: np.ndarray, constraints: Mapping[int, np.ndarray], mode: str
     return LTEResult(best[0], best[1], estimated, low, best[2], mode)
 
 
-def lte_deform(path: np.ndarray, constraints: Mapping[int, np.ndarray], iterations: int = 100,
-               tolerance: float = 1e-7, mode: str = "similarity",
+def lte_deform(path: np.ndarray, constraints: Mapping[int, np.ndarray],
+               mode: str = "similarity",
                max_amplification: float = DEFAULT_MAX_AMPLIFICATION) -> tuple[np.ndarray, Similarity]:
-    """Laplacian trajectory editing of a path (N,3): :func:`lte_solve` returning only the
-    edited path (N,3) and the similarity applied to its Laplacian coordinates.
-
-    The similarity is solved in closed form, so the result does not depend on ``iterations``
-    or ``tolerance`` (kept for compatibility), except that ``iterations=0`` selects
-    ``mode="laplacian"`` (the old meaning: keep the original coordinates, a purely local edit).
-    """
-    as_count(iterations, "iterations", minimum=0)
-    as_scalar(tolerance, "tolerance", minimum=0.0)
-    result = lte_solve(path, constraints, "laplacian" if iterations == 0 else mode, max_amplification)
+    """Laplacian trajectory editing of a path (N,3): :func:`lte_solve` (the similarity in
+    closed form) returning only the edited path (N,3) and the similarity applied to its
+    Laplacian coordinates (``mode="laplacian"``: keep the original coordinates, a purely local
+    edit)."""
+    result = lte_solve(path, constraints, mode, max_amplification)
     return result.path, result.transform
 
 
@@ -586,7 +581,7 @@ def landmark_constraints(cyl: GeneralizedCylinder, source_landmarks: np.ndarray,
 
 
 def lte_generalize(cyl: GeneralizedCylinder, constraints: Mapping[int, np.ndarray],
-                   iterations: int = 100, scale_cross_sections: bool = True, *,
+                   scale_cross_sections: bool = True, *,
                    mode: str | None = None, keep_start: bool = True,
                    fade: float = DEFAULT_FADE,
                    max_amplification: float = DEFAULT_MAX_AMPLIFICATION) -> GeneralizedCylinder:
@@ -594,7 +589,7 @@ def lte_generalize(cyl: GeneralizedCylinder, constraints: Mapping[int, np.ndarra
 
     ``constraints`` {directrix index: new position (3,)} (see :func:`landmark_constraints`);
     the edited directrix passes through them exactly (:func:`lte_solve` with ``mode`` and
-    ``max_amplification``; ``iterations`` only as in :func:`lte_deform`). The cross-sections
+    ``max_amplification``). The cross-sections
     keep their 2-D shape in Bishop frames along the edited directrix, scaled by the applied
     scale s when ``scale_cross_sections``. ``keep_start`` (default): the start must not be
     moved by the constraints; the first three directrix points stay, the first frame keeps its
@@ -612,14 +607,13 @@ def lte_generalize(cyl: GeneralizedCylinder, constraints: Mapping[int, np.ndarra
     """
     check_cylinder(cyl)
     fade = as_scalar(fade, "fade", minimum=0.0, maximum=1.0)
-    as_count(iterations, "iterations", minimum=0)
     constraints = dict(constraints) if isinstance(constraints, Mapping) else constraints
     if keep_start and isinstance(constraints, dict) and len(constraints) > 0:
         constraints.setdefault(0, cyl.directrix[0].copy())
     if mode is None:
         mode = "laplacian" if keep_start else "similarity"
-    result = lte_solve(cyl.directrix, constraints, "laplacian" if iterations == 0 else mode,
-                       max_amplification, anchor_start=keep_start, fade=fade)
+    result = lte_solve(cyl.directrix, constraints, mode, max_amplification,
+                       anchor_start=keep_start, fade=fade)
     if keep_start:
         moved = cyl.with_directrix(result.path, cyl.normals[0])
     else:

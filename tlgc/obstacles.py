@@ -411,15 +411,15 @@ def _push_direction(cyl: GeneralizedCylinder, sphere: BoundingSphere) -> tuple[i
 
 
 def avoid_with_deformation(cyl: GeneralizedCylinder, obstacle: Any, safety: float = 0.0,
-                           max_rounds: int = 20, iterations: int = 0,
+                           max_rounds: int = 20, mode: str = "laplacian",
                            starts: np.ndarray | None = None,
                            plane_tolerance: float = PLANE_TOLERANCE) -> DeformationAvoidance:
     """Method II: deform the cylinder by LTE so its solid clears the bounding sphere.
 
     The directrix point nearest the sphere's centre is pushed away from it (within its
     cross-section plane); the start (first section, kept exactly) and the end stay, and LTE
-    spreads the deformation along the path (``iterations`` 0: the local Laplacian edit, see
-    :func:`lte_generalize`). The push grows by any shortfall, up to ``max_rounds`` rounds,
+    spreads the deformation along the path (``mode``: :func:`lte_generalize`'s; "laplacian",
+    the local edit, by default). The push grows by any shortfall, up to ``max_rounds`` rounds,
     until every cross-section's region clears the sphere by ``required`` =
     sqrt((R + safety)^2 + h^2 / 4) - R (a lower bound, :func:`section_clearance`; h the longest
     step of a fixed-ratio reproduction), so every sample and every segment of every
@@ -469,7 +469,7 @@ def avoid_with_deformation(cyl: GeneralizedCylinder, obstacle: Any, safety: floa
     for _ in range(rounds):
         constraints = {0: cyl.directrix[0].copy(), n - 1: cyl.directrix[-1].copy(),
                        index: cyl.directrix[index] + push * away}
-        current = lte_generalize(cyl, constraints, iterations=iterations, scale_cross_sections=False)
+        current = lte_generalize(cyl, constraints, scale_cross_sections=False, mode=mode)
         missing, clear, need, binding = shortfall(current)
         if missing <= 0.0:
             return DeformationAvoidance(current, clear, before, constraints, sphere,
