@@ -49,12 +49,9 @@ PROGRESS_DELAY = 2.0
 IterationHook = Callable[[int, float, float], None]
 
 
-def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig,
-                     on_iteration: IterationHook | None = None):
-    """GTSAM's optimizer for ``config`` on the problem's graph and initial values;
-    ``on_iteration(iteration, error_before, error_after)`` is called after each iteration."""
+def _gtsam_params(config: PlannerConfig):
+    """GTSAM's parameters for ``config`` and the optimizer class they are for."""
     opt = config.optimizer
-    graph, values = problem.graph(), problem.values()
     if opt.optimizer == "gtsam":
         params = gtsam.LevenbergMarquardtParams()
         params.setlambdaInitial(opt.lambda_initial)
@@ -72,9 +69,17 @@ def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig,
     params.setMaxIterations(opt.max_iterations)
     params.setRelativeErrorTol(opt.relative_error_tol)
     params.setAbsoluteErrorTol(opt.absolute_error_tol)
+    return params, make
+
+
+def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig,
+                     on_iteration: IterationHook | None = None):
+    """GTSAM's optimizer for ``config`` on the problem's graph and initial values;
+    ``on_iteration(iteration, error_before, error_after)`` is called after each iteration."""
+    params, make = _gtsam_params(config)
     if on_iteration is not None:
         params.iterationHook = on_iteration
-    return make(graph, values, params)
+    return make(problem.graph(), problem.values(), params)
 
 
 class _CurrentValues:
