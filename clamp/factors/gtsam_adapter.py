@@ -26,6 +26,22 @@ from .family import Family, Linearization
 from .states import StateWindow
 
 
+class _Rows:
+    """One family's linearization at the shared window, indexed by factor: ``at[row]`` its
+    position (-1: an exactly zero factor left out), ``error[pos]`` (m,) and ``blocks[k][pos]``
+    (m, d) contiguous, the Jacobian block of its k-th state (None when not computed)."""
+
+    __slots__ = ("at", "error", "blocks")
+
+    def __init__(self, lin: Linearization, size: int, arity: int, d: int):
+        at = np.full(size, -1)
+        at[lin.rows] = np.arange(len(lin.rows))
+        self.at: list[int] = at.tolist()
+        self.error = lin.error
+        self.blocks = None if lin.jacobian is None else np.ascontiguousarray(
+            lin.jacobian.reshape(len(lin.rows), lin.jacobian.shape[1], arity, d).transpose(2, 0, 1, 3))
+
+
 class SharedStates:
     """The latest support states read from GTSAM values and the families' results at them."""
 
@@ -34,7 +50,7 @@ class SharedStates:
         self.keys = list(keys)
         self.window: StateWindow | None = None
         self._bytes: list[bytes] = []
-        self._results: dict[int, tuple[bool, Linearization]] = {}
+        self._results: dict[int, _Rows] = {}
 
     def window_for(self, values: gtsam.Values, states: range) -> StateWindow:
         """The shared window if it agrees with ``values`` on ``states``, else a fresh one."""
@@ -42,9 +58,12 @@ class SharedStates:
             own = [values.atVector(self.keys[s]) for s in states]
         except RuntimeError as exc:  # a state of this factor is missing: GTSAM's own error
             raise RuntimeError(f"values lack a support state of this factor: {exc}") from None
-        if self.window is not None and all(v.tobytes() == self._bytes[s]
-                                           for v, s in zip(own, states)):
-            return self.window
+        if self.window is not None:
+            for v, s in zip(own, states):
+                if v.tobytes() != self._bytes[s]:
+                    break
+            else:
+                return self.window
         try:
             theta = values_to_states(values, self.keys)
         except RuntimeError:  # not all support states in values: the factor's own states only
@@ -54,34 +73,35 @@ class SharedStates:
         self._results = {}
         return self.window
 
-    def linearization(self, family: Family, jacobians: bool) -> Linearization:
+    def rows(self, family: Family, jacobians: bool) -> _Rows:
         """All factors of ``family`` at the shared window (memoised until the states change)."""
         hit = self._results.get(id(family))
-        if hit is None or (jacobians and not hit[0]):
+        if hit is None or (jacobians and hit.blocks is None):
             lin = family.residual(self.window, np.arange(len(family)), jacobians)
-            hit = (jacobians, lin)
+            hit = _Rows(lin, len(family), family.arity, self.window.theta.shape[1])
             self._results[id(family)] = hit
-        return hit[1]
+        return hit
 
 
-def _error(shared: SharedStates, family: Family, row: int, this: gtsam.CustomFactor,
-           values: gtsam.Values, H: list | None) -> np.ndarray:
+def _error(shared: SharedStates, family: Family, row: int, states: range,
+           this: gtsam.CustomFactor, values: gtsam.Values, H: list | None) -> np.ndarray:
     """CustomFactor error function: factor ``row`` of ``family`` (unwhitened, (m,))."""
-    states = family.states(row)
     window = shared.window_for(values, states)
-    jacobians = H is not None
-    if window is shared.window:
-        lin = shared.linearization(family, jacobians)
+    if window is not shared.window:  # a window of this factor's states only
+        lin = family.residual(window, np.array([row]), H is not None)
+        rows = _Rows(lin, row + 1, family.arity, window.theta.shape[1])
     else:
-        lin = family.residual(window, np.array([row]), jacobians)
-    pos = int(np.searchsorted(lin.rows, row))
-    found = pos < len(lin.rows) and lin.rows[pos] == row
-    d = window.theta.shape[1]
-    if jacobians:
+        rows = shared.rows(family, H is not None)
+    pos = rows.at[row]
+    if pos < 0:
+        if H is not None:
+            for k in range(family.arity):
+                H[k] = np.zeros((family.dim, window.theta.shape[1]))
+        return np.zeros(family.dim)
+    if H is not None:
         for k in range(family.arity):
-            H[k] = (np.ascontiguousarray(lin.jacobian[pos][:, k * d:(k + 1) * d]) if found
-                    else np.zeros((family.dim, d)))
-    return lin.error[pos] if found else np.zeros(family.dim)
+            H[k] = rows.blocks[k, pos]
+    return rows.error[pos]
 
 
 def _linear_factor(family: Family, robot, row: int, keys: list[int],
@@ -109,5 +129,6 @@ def gtsam_factors(family: Family, shared: SharedStates, d: int) -> list[gtsam.No
             out.append(_linear_factor(family, shared.robot, row, keys, d))
         else:
             out.append(gtsam.CustomFactor(family.noise_model(row), gtsam.KeyVector(keys),
-                                          partial(_error, shared, family, row)))
+                                          partial(_error, shared, family, row,
+                                                  family.states(row))))
     return out
