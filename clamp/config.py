@@ -89,6 +89,12 @@ class OptimizerConfig:
     #: or a constraint family (orientation), rounds of 4x stiffer hinges of those; 0: the
     #: weighted solve only
     constraint_rounds: int = 3
+    #: a fresh plan with obstacles first solves with the obstacle hinge noise multiplied by
+    #: this, loosely (:data:`clamp.continuation.SOFT_START_TOLERANCE`), then the configured
+    #: weight warm-started from there (:mod:`clamp.continuation`); 1: the configured weight
+    #: directly. A penalty schedule: soft hinges let the path slide around the obstacles first
+    #: (box_closing + box, Jaco: 43 -> 10 iterations)
+    soft_start: float = 4.0
     #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
     #: workspace states (0 = plain LM, which crawls against stiff learned priors)
     workspace_correction: int = 2
@@ -195,6 +201,7 @@ class PlannerConfig:
             as_scalar(getattr(o, name), f"config.optimizer.{name}", minimum=0.0)
         for name in ("lambda_initial", "lambda_upper_bound"):
             as_scalar(getattr(o, name), f"config.optimizer.{name}", strictly_positive=True)
+        as_scalar(o.soft_start, "config.optimizer.soft_start", minimum=1.0)
         as_count(o.max_iterations, "config.optimizer.max_iterations", minimum=0)
         as_count(o.workspace_correction, "config.optimizer.workspace_correction", minimum=0)
         as_count(o.constraint_rounds, "config.optimizer.constraint_rounds", minimum=0)

@@ -5,7 +5,13 @@ obstacle weight suits every scene. :func:`solve_collision_free` treats "no colli
 on the robot's own collision geometry, :mod:`clamp.clearance`) as a constraint:
 
 1. solve the problem as configured (obstacle hinge noise ``sigma_obs``); a collision-free plan
-   is returned as it is (one real-geometry check, which the verdict reuses);
+   is returned as it is (one real-geometry check, which the verdict reuses). A fresh plan
+   (no warm start) is solved in two stages, a penalty schedule: first with the hinge noise
+   multiplied by ``config.optimizer.soft_start`` and a loose stopping rule
+   (:data:`SOFT_START_TOLERANCE`, one small step), then at ``sigma_obs`` from there with the
+   solver's warm-start rule. Soft hinges let the path slide around an obstacle before the stiff
+   ones pin it (box_closing + box on the Jaco: 43 -> 10 iterations; on 25 random boxes 31 %
+   fewer iterations, final errors lower or higher case by case: a different local optimum);
 2. otherwise run candidates, each a penalty continuation: solve with the hinge noise multiplied
    by ``SHRINK`` per round (``rounds`` rounds at most, each warm-started from the last), stop
    at the first collision-free solution. The candidates, in order: the infeasible optimum
@@ -52,6 +58,8 @@ log = logging.getLogger(__name__)
 SHRINK = 0.25
 #: collision-free candidates after which the restarts stop
 WANTED = 2
+#: relative error decrease below which the soft-start stage stops (after one such step)
+SOFT_START_TOLERANCE = 1e-2
 
 Check = Callable[[np.ndarray], CollisionReport]
 #: names of the soft constraint families a plan theta (T, 2n) violates
@@ -123,6 +131,12 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
     def attempt(name: str, sigma: float, theta0: np.ndarray,
                 warm: WarmStart | None = None) -> tuple[Optimized, CollisionReport]:
         out = optimize(with_obstacle_sigma(problem, sigma, theta0), config, warm)
+        if soft is not None and name == "configured":
+            out = replace(out, iterations=out.iterations + soft.iterations,
+                          trials=out.trials + soft.trials,
+                          initial_error=problem.error(problem.initial),
+                          timings={k: v + soft.timings.get(k, 0.0)
+                                   for k, v in out.timings.items()})
         started = time.perf_counter()
         report = check(out.theta)
         totals["clearance"] += time.perf_counter() - started
@@ -135,7 +149,14 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
         return out, report
 
     start = time.perf_counter()
-    out, report = attempt("configured", sigma0, problem.initial, warm_start)
+    theta0, soft = problem.initial, None
+    factor = float(config.optimizer.soft_start)
+    if warm_start is None and factor > 1.0:
+        soft = optimize(with_obstacle_sigma(problem, sigma0 * factor, theta0),
+                        config.with_(relative_error_tol=SOFT_START_TOLERANCE,
+                                     convergence_patience=1))
+        theta0, warm_start = soft.theta, WarmStart()
+    out, report = attempt("configured", sigma0, theta0, warm_start)
     if report.collision and rounds > 0:
         # the optimum continued first; the restarts run only while fewer than WANTED
         # candidates are feasible, and once one is, only at the weight that made it feasible

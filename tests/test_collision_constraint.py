@@ -190,6 +190,8 @@ def test_a_velocity_excess_is_tightened_away(jaco):
     problem = scene_benchmark(118, "jaco")[117]
     assert problem.expected == "feasible"
     kwargs = resolve(problem, Path("."))
+    # the configured weight solved directly (no soft start, which happens to avoid the excess)
+    kwargs["config"] = kwargs["config"].with_(soft_start=1.0)
     weighted = plan(**{**kwargs, "config": kwargs["config"].with_(constraint_rounds=0)},
                     covariance=False)
     assert not weighted.success
@@ -200,3 +202,24 @@ def test_a_velocity_excess_is_tightened_away(jaco):
     excess = np.abs(tightened.qdot) - np.asarray(jaco.velocity_limits)
     assert excess.max() <= PlannerConfig().checks.velocity_tolerance
     assert np.abs(weighted.qdot).max() > np.abs(tightened.qdot).max()
+
+
+def test_soft_start_ends_at_an_optimum_of_the_configured_problem(prior, jaco):
+    """The soft start (a first solve with 4x softer obstacle hinges) only chooses where the
+    solve at the configured weight starts: the plan's error is the configured problem's at the
+    plan, the cold solver started from the plan finds nothing better (to its tolerance), and
+    the configured attempt reports the iterations of both stages."""
+    from clamp.solver import levenberg_marquardt
+    scene = Scene([README_BOX])
+    soft = plan(prior, jaco, scene, START, covariance=False)
+    direct = plan(prior, jaco, scene, START, covariance=False,
+                  config=PlannerConfig(soft_start=1.0))
+    assert soft.success and direct.success
+    problem = build(prior, jaco, scene, START)
+    theta = np.hstack([soft.q, soft.qdot])
+    assert soft.final_error == pytest.approx(problem.error(theta), rel=1e-9)
+    assert soft.initial_error == pytest.approx(direct.initial_error, rel=1e-9)
+    again = levenberg_marquardt(problem, theta)
+    assert again.final_error >= soft.final_error - max(0.1, 1e-3 * soft.final_error)
+    assert soft.attempts[0]["candidate"] == "configured"
+    assert soft.attempts[0]["iterations"] == soft.iterations
