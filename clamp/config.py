@@ -89,10 +89,11 @@ class OptimizerConfig:
     #: or a constraint family (orientation), rounds of 4x stiffer hinges of those; 0: the
     #: weighted solve only
     constraint_rounds: int = 3
-    #: a fresh plan with obstacles first solves with the obstacle hinge noise multiplied by
-    #: this, loosely (:data:`clamp.continuation.SOFT_START_TOLERANCE`), then the configured
-    #: weight warm-started from there (:mod:`clamp.continuation`); 1: the configured weight
-    #: directly. A penalty schedule: soft hinges let the path slide around the obstacles first
+    #: a fresh plan whose initial trajectory runs through an obstacle first solves with the
+    #: obstacle hinge noise multiplied by this, loosely
+    #: (:data:`clamp.continuation.SOFT_START_TOLERANCE`), then at the configured weight
+    #: warm-started from there (:mod:`clamp.continuation`); 1: the configured weight directly.
+    #: A penalty schedule: soft hinges let the path slide around the obstacles first
     #: (box_closing + box, Jaco: 43 -> 10 iterations)
     soft_start: float = 4.0
     #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted

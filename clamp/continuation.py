@@ -6,7 +6,8 @@ on the robot's own collision geometry, :mod:`clamp.clearance`) as a constraint:
 
 1. solve the problem as configured (obstacle hinge noise ``sigma_obs``); a collision-free plan
    is returned as it is (one real-geometry check, which the verdict reuses). A fresh plan
-   (no warm start) is solved in two stages, a penalty schedule: first with the hinge noise
+   (no warm start) whose initial trajectory runs through an obstacle (a collision sphere
+   penetrates one) is solved in two stages, a penalty schedule: first with the hinge noise
    multiplied by ``config.optimizer.soft_start`` and a loose stopping rule
    (:data:`SOFT_START_TOLERANCE`, one small step), then at ``sigma_obs`` from there with the
    solver's warm-start rule. Soft hinges let the path slide around an obstacle before the stiff
@@ -151,7 +152,9 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
     start = time.perf_counter()
     theta0, soft = problem.initial, None
     factor = float(config.optimizer.soft_start)
-    if warm_start is None and factor > 1.0:
+    obstacles = problem.family(ObstacleFamily.name)
+    if (warm_start is None and factor > 1.0
+            and obstacles.penetration(problem.window(theta0)) > 0.0):
         soft = optimize(with_obstacle_sigma(problem, sigma0 * factor, theta0),
                         config.with_(relative_error_tol=SOFT_START_TOLERANCE,
                                      convergence_patience=1))

@@ -240,3 +240,14 @@ def test_a_reweighted_family_scales_its_noise_and_nothing_else(setup):
         assert np.allclose(stiffer.noise_model(0).sigmas(), sigma / 4.0, rtol=1e-12)
     with pytest.raises(InvalidParameterError, match="factor: expected a positive"):
         families[0].reweighted(0.0)
+
+
+def test_obstacle_penetration_is_the_deepest_sphere(setup):
+    """ObstacleFamily.penetration: max over its states and spheres of r_s - d(c_s), from the
+    robot's sphere centres and the ball's distance computed here."""
+    robot, theta, families = setup
+    family = next(f for f in families if isinstance(f, ObstacleFamily))
+    centres, _ = robot.sphere_centres(theta[:, :robot.n])
+    distance, _ = family.query(centres[family.first])
+    expected = float(np.max(np.asarray(robot.spheres.radii) - distance))
+    assert family.penetration(StateWindow(robot, theta)) == pytest.approx(expected, abs=1e-12)

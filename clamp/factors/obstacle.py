@@ -42,6 +42,12 @@ class ObstacleFamily(Family):
         self.epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
         super().__init__(indices, len(self.radii), sigma=sigma)
 
+    def penetration(self, window: StateWindow) -> float:
+        """Deepest penetration [m] of a sphere into an obstacle over the family's states
+        (r_s - d(c_s); negative: every sphere is clear by that much)."""
+        distance, _ = self.query(window.sphere_centres()[window.local(self.first)])
+        return float(np.max(self.radii - distance))
+
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         i = window.local(self.first[rows])
         centres = window.sphere_centres()[i]
