@@ -94,7 +94,7 @@ class OptimizerConfig:
     #: (:data:`clamp.continuation.SOFT_START_TOLERANCE`), then at the configured weight
     #: warm-started from there (:mod:`clamp.continuation`); 1: the configured weight directly.
     #: A penalty schedule: soft hinges let the path slide around the obstacles first
-    #: (box_closing + box, Jaco: 43 -> 10 iterations)
+    #: (box_closing + box, Jaco: 43 -> 8 iterations)
     soft_start: float = 4.0
     #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
     #: workspace states (0 = plain LM, which crawls against stiff learned priors)
