@@ -132,14 +132,15 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
     solved: list[tuple[Optimized, CollisionReport, float, float]] = []
     totals = {"iterations": 0, "trials": 0, "clearance": 0.0}
 
-    def attempt(name: str, sigma: float, theta0: np.ndarray,
-                warm: WarmStart | None = None) -> tuple[Optimized, CollisionReport]:
+    def attempt(name: str, sigma: float, theta0: np.ndarray, warm: WarmStart | None = None,
+                before: Optimized | None = None) -> tuple[Optimized, CollisionReport]:
+        """Solve at sigma from theta0 (after the stage ``before``, whose work it counts)."""
         out = optimize(with_obstacle_sigma(problem, sigma, theta0), config, warm)
-        if soft is not None and name == "configured":
-            out = replace(out, iterations=out.iterations + soft.iterations,
-                          trials=out.trials + soft.trials,
+        if before is not None:
+            out = replace(out, iterations=out.iterations + before.iterations,
+                          trials=out.trials + before.trials,
                           initial_error=problem.error(problem.initial),
-                          timings={k: v + soft.timings.get(k, 0.0)
+                          timings={k: v + before.timings.get(k, 0.0)
                                    for k, v in out.timings.items()})
         started = time.perf_counter()
         report = check(out.theta)
@@ -162,7 +163,7 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
                         config.with_(relative_error_tol=SOFT_START_TOLERANCE,
                                      convergence_patience=1))
         theta0, warm_start = soft.theta, WarmStart()
-    out, report = attempt("configured", sigma0, theta0, warm_start)
+    out, report = attempt("configured", sigma0, theta0, warm_start, soft)
     if report.collision and rounds > 0:
         # the optimum continued first; the restarts run only while fewer than WANTED
         # candidates are feasible, and once one is, only at the weight that made it feasible

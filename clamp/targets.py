@@ -78,14 +78,13 @@ def violated_families(families: Any, robot: Any, theta: np.ndarray, config: Plan
                       ) -> list[str]:
     """Names of the soft constraint families the plan theta (T, 2n) violates as the verdict
     judges them: the joint-limit family when a position or velocity is out of its limit by more
-    than the checks' tolerances, and every family with a ``violation(robot, q)`` above 0."""
+    than the checks' tolerances (:func:`clamp.limit_report.limit_violations`), and every family
+    :func:`constraint_violations` finds violated."""
     n, checks = robot.n, config.checks
     q, qdot = theta[:, :n], theta[:, n:]
-    names = []
-    for family in families:
-        if isinstance(family, JointLimitFamily):
-            if limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance):
-                names.append(family.name)
-        elif callable(getattr(family, "violation", None)) and family.violation(robot, q) > 0.0:
-            names.append(family.name)
+    violations, _ = constraint_violations(families, robot, q)
+    names = [name for name, value in violations.items() if value > 0.0]
+    if (any(isinstance(f, JointLimitFamily) for f in families)
+            and limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)):
+        names.insert(0, JointLimitFamily.name)
     return names
