@@ -46,6 +46,19 @@ def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | No
     return checker(robot, scene).check(q, time, margin=0.0, max_motion=MAX_MOTION)
 
 
+def state_clearance(robot: Any, scene: Any, q: np.ndarray, cap: float
+                    ) -> tuple[np.ndarray, str]:
+    """Least distance (T,) [m] of the robot's collision geometry to the scene at each support
+    state of q (T, n): exact below ``cap`` [m], ``cap`` at and above it (and everywhere without
+    obstacles); and the geometry measured ("urdf", or "spheres" for a robot without one)."""
+    if not has_obstacles(scene):
+        return np.full(len(q), cap), "urdf"
+    # margin = cap: every state closer than the cap gets its exact distance; a motion bound
+    # larger than any step checks the support states only
+    report = checker(robot, scene).check(q, margin=cap, max_motion=1e3)
+    return np.minimum(report.state_distance, cap), report.geometry
+
+
 def contact_obstacle(robot: Any, scene: Any, contact: Contact) -> Any:
     """The scene obstacle a contact of :func:`check_clearance` names."""
     return scene.obstacles[checker(robot, scene).obstacle_names.index(contact.obstacle)]

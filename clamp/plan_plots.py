@@ -260,22 +260,16 @@ def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
     """Clearance [m] against time [s] at every support state: the distance between the arm's
     collision geometry (the URDF meshes the verdict judges, :mod:`clamp.clearance`; exact up to
     a cap of max(3 epsilon, 15 cm), drawn at the cap beyond it) and the obstacles, the
-    collision spheres' clearance the optimiser works with (dashed), the safety distance
+    collision spheres' clearance the optimiser works with (dotted), the safety distance
     ``epsilon`` [m] (the obstacle factors act below it) and contact (0) marked."""
-    from clamp.clearance import checker
-    from clamp.request import has_obstacles
+    from clamp.clearance import state_clearance
     from clamp.verdict import sphere_clearance
     scene = _check_inputs(result, robot, scene)
     epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
     q = np.asarray(result.q)
     spheres = np.min(sphere_clearance(robot, scene, q), axis=1)
     cap = max(3.0 * epsilon, 0.15)
-    if has_obstacles(scene):
-        # margin = cap: every state closer than the cap gets its exact distance
-        report = checker(robot, scene).check(q, margin=cap, max_motion=1e3)  # states only
-        clearance, geometry = np.minimum(report.state_distance, cap), report.geometry
-    else:
-        clearance, geometry = np.full(len(q), cap), "urdf"
+    clearance, geometry = state_clearance(robot, scene, q, cap)
     t = np.asarray(result.time)
     low = min(clearance.min(), spheres.min(), 0.0) - 0.01
     fig = Figure(figsize=(7.0, 3.6))
