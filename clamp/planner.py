@@ -278,7 +278,8 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     t_end = time.perf_counter()
     timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
                **out.timings}
-    result = evaluate(prior, robot, scene, problem, request, out, config, timings, report)
+    result = evaluate(prior, robot, scene, problem, request, out, config, timings, report,
+                      model_prior)
     result.initial_q = init.q
     result.attempts = attempts
     result.state_covariance, result.ee_covariance = state_cov, ee_cov

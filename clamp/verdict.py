@@ -16,7 +16,8 @@ from clamp.clearance import check_clearance, collision_reason, describe_contact
 from clamp.config import PlannerConfig
 from clamp.limit_report import limit_violations
 from clamp.optimizers import Optimized
-from clamp.plausibility import plausibility_details
+from clamp.conditioning import condition_prior
+from clamp.skill import SkillCheck, skill_checks
 from clamp.problem import PlanningProblem
 from clamp.request import Request, as_scene, has_obstacles
 from clamp.result import PlanResult
@@ -45,7 +46,6 @@ def failed_result(prior: Any, robot: Any, q: np.ndarray, reasons: list[str], t0:
                       family_errors={}, collision_cost=float("nan"),
                       min_clearance=float("nan"), start_error=start_error, goal_error=None,
                       log_likelihood=float("nan"), plausibility=float("nan"),
-                      plausibility_z=float("nan"),
                       within_limits=bool(np.all(robot.within_limits(q))), success=False,
                       reasons=reasons, initialisation=config.optimizer.initialisation,
                       optimizer=config.optimizer.optimizer, stop_reason="not started")
@@ -71,18 +71,37 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     return reasons
 
 
-def _target_position(robot: Any, target: Any) -> np.ndarray | None:
-    """The end-effector position (3,) [m] a start / goal / via target asks for (None: none)."""
-    if target is None:
+def reference_prior(prior: Any, model_prior: Any, request: Request, config: PlannerConfig) -> Any:
+    """Where the skill goes from this request: the prior conditioned on the start position
+    (and the goal / via positions: ``model_prior`` already is, when the request has any)."""
+    if model_prior is not None and model_prior is not prior:
+        return model_prior
+    return condition_prior(prior, [(0, request.start_position)],
+                           config.model.conditioning_sigma)
+
+
+def pusher(scene: Any, reference: np.ndarray):
+    """describe(state) -> the obstacle nearest to where the skill goes at that state, with its
+    distance ("box_0, 12 mm from the skill's path there"), or None without obstacles."""
+    if not has_obstacles(scene):
         return None
-    return target.value if target.kind == "position" else robot.fk(target.value)
+
+    def describe(state: int) -> str:
+        point = reference[state][None]
+        gaps = [float(o.distance(point)[0]) for o in scene.obstacles]
+        k = int(np.argmin(gaps))
+        where = (f"the skill's path runs {-1000 * gaps[k]:.0f} mm inside it there" if gaps[k] < 0
+                 else f"{1000 * gaps[k]:.0f} mm from the skill's path there")
+        return f"{scene.obstacles[k].kind}_{k} ({where})"
+    return describe
 
 
 def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
              out: Optimized, config: PlannerConfig, timings: dict[str, float],
-             report: CollisionReport | None = None) -> PlanResult:
+             report: CollisionReport | None = None, model_prior: Any = None) -> PlanResult:
     """Metrics and success checks of an optimised plan; report: the real-geometry check of
-    ``out.theta`` when the caller already has it (else computed here)."""
+    ``out.theta`` when the caller already has it (else computed here); model_prior: the prior
+    the plan was made with (conditioned on its targets; None: ``prior``)."""
     n, checks = robot.n, config.checks
     q, qdot = out.theta[:, :n], out.theta[:, n:]
     x, _ = problem.window(out.theta).workspace()
@@ -102,9 +121,9 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                   for i, t in request.vias]
     limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
-    score = plausibility_details(prior, x, start=request.start_position,
-                                 goal=_target_position(robot, request.goal),
-                                 via=[(i, _target_position(robot, t)) for i, t in request.vias])
+    reference = reference_prior(prior, model_prior, request, config)
+    skill = skill_checks(prior, reference, position, goal_given=request.goal is not None,
+                         describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3]))
 
     reasons = []
     if not np.isfinite(out.final_error):
@@ -123,14 +142,15 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     reasons += limits
     violations, broken = constraint_violations(problem.families, robot, q)
     reasons += broken
+    reasons += skill.reasons
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float), timings=timings,
                       iterations=out.iterations, initial_error=out.initial_error,
                       final_error=out.final_error, family_errors=families,
                       collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
                       start_error=start_error, goal_error=goal_error,
-                      log_likelihood=log_likelihood, plausibility=float(score.score),
-                      plausibility_z=float(score.z),
+                      log_likelihood=log_likelihood, plausibility=skill.plausibility,
+                      skill=skill.to_dict(),
                       within_limits=not limits, success=not reasons, reasons=reasons,
                       initialisation=config.optimizer.initialisation, trials=out.trials,
                       optimizer=out.optimizer,
