@@ -53,6 +53,11 @@ class ModelConfig:
     limit_margin: float = 0.0
     #: [rad/s] the velocity hinges start this far inside the limits
     velocity_margin: float = 0.0
+    #: [rad] with obstacles, every state's configuration is tied to the plan the skill makes in
+    #: the empty scene (the free plan, one extra solve) with this noise: the arm keeps the
+    #: skill's posture and moves only as far as the obstacles demand (``clamp.factors.posture``;
+    #: 0 = off)
+    posture_sigma: float = 0.1
     #: [m] grid cell for scenes that need a grid signed distance (primitives are exact)
     sdf_cell_size: float = 0.01
 
@@ -182,7 +187,7 @@ class PlannerConfig:
     def validate(self) -> "PlannerConfig":
         """Check every field; raises InvalidParameterError naming the bad one."""
         m, o, c = self.model, self.optimizer, self.checks
-        for name in ("epsilon", "limit_margin", "velocity_margin"):
+        for name in ("epsilon", "limit_margin", "velocity_margin", "posture_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
         for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
                      "conditioning_sigma"):
