@@ -152,3 +152,13 @@ def planning_prior(prior: Any, robot: Any, request: Any, config: Any) -> Any:
         observations.append((T - 1, position(request.goal)))
     observations += [(i, position(t)) for i, t in request.vias]
     return condition_prior(prior, observations, model.conditioning_sigma)
+
+
+def skill_reference(prior: Any, model_prior: Any, request: Any, config: Any) -> Any:
+    """Where the skill goes for ``request``: ``prior`` conditioned on the start position (and
+    on the goal / via positions: ``model_prior``, the :func:`planning_prior`, already is when
+    the request has any and it is not ``prior`` itself)."""
+    if model_prior is not None and model_prior is not prior:
+        return model_prior
+    return condition_prior(prior, [(0, request.start_position)],
+                           config.model.conditioning_sigma)

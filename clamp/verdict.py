@@ -16,7 +16,7 @@ from clamp.clearance import check_clearance, collision_reason, describe_contact
 from clamp.config import PlannerConfig
 from clamp.limit_report import limit_violations
 from clamp.optimizers import Optimized
-from clamp.conditioning import condition_prior
+from clamp.conditioning import skill_reference
 from clamp.skill import SkillCheck, skill_checks
 from clamp.problem import PlanningProblem
 from clamp.request import Request, as_scene, has_obstacles
@@ -71,15 +71,6 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     return reasons
 
 
-def reference_prior(prior: Any, model_prior: Any, request: Request, config: PlannerConfig) -> Any:
-    """Where the skill goes from this request: the prior conditioned on the start position
-    (and the goal / via positions: ``model_prior`` already is, when the request has any)."""
-    if model_prior is not None and model_prior is not prior:
-        return model_prior
-    return condition_prior(prior, [(0, request.start_position)],
-                           config.model.conditioning_sigma)
-
-
 def pusher(scene: Any, reference: np.ndarray):
     """describe(state) -> the obstacle nearest to where the skill goes at that state, with its
     distance ("box_0, 12 mm from the skill's path there"), or None without obstacles."""
@@ -121,7 +112,7 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                   for i, t in request.vias]
     limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
-    reference = reference_prior(prior, model_prior, request, config)
+    reference = skill_reference(prior, model_prior, request, config)
     skill = skill_checks(prior, reference, position, goal_given=request.goal is not None,
                          describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3]))
 
