@@ -21,8 +21,8 @@ collision model of the URDF and coal, at a dense subdivision of the path.
   ``END_SPREAD_FACTOR`` x the demonstrations' end spread (RMS distance of their end points from
   their mean, at least ``END_SPREAD_FLOOR``) of the demonstrations' mean end point.
 - **Stays with the skill where it is tight** (:func:`skill_deviation`): at each state, the
-  end-effector distance from the prior mean conditioned on the plan's start and goal (the
-  skill carried to this start), in units of the unconditioned prior's per-state position
+  end-effector distance from the prior mean conditioned on the plan's start (the skill
+  carried to this start), in units of the unconditioned prior's per-state position
   spread ``sqrt(trace Sigma_i)`` [m] (the RMS distance of a prior sample from the mean, at
   least ``STD_FLOOR``). A state is *tight* when that spread is below its median over the
   states; the plan leaves the skill when a tight state is more than ``TIGHT_SIGMA`` spreads
@@ -201,14 +201,13 @@ def end_error(ee_path: np.ndarray, demo_ends: np.ndarray) -> tuple[float, float]
     return distance, END_SPREAD_FACTOR * max(spread, END_SPREAD_FLOOR)
 
 
-def skill_deviation(prior: Any, ee_path: np.ndarray, start: np.ndarray, goal: np.ndarray
+def skill_deviation(prior: Any, ee_path: np.ndarray, start: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Per-state deviation (T,) of the end-effector path (T, 3) [m] from the prior mean
-    conditioned on ``start`` and ``goal`` (3,), in prior spreads, and the tight states (T,)
-    bool (module docstring)."""
+    conditioned on ``start`` (3,) [m], in prior spreads, and the tight states (T,) bool (module
+    docstring)."""
     from clamp import condition_prior
-    T = prior.T
-    conditioned = condition_prior(prior, [(0, np.asarray(start, float)), (T - 1, np.asarray(goal, float))])
+    conditioned = condition_prior(prior, [(0, np.asarray(start, dtype=float))])
     spread = np.sqrt(np.trace(np.asarray(prior.cov)[:, :3, :3], axis1=1, axis2=2))
     spread = np.maximum(spread, STD_FLOOR)
     distance = np.linalg.norm(np.asarray(ee_path) - np.asarray(conditioned.mean)[:, :3], axis=1)

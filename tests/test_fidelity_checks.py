@@ -106,12 +106,12 @@ def test_completion_and_staying_with_the_skill(jaco, box_closing):
     off = free.ee_path + np.linspace(0.0, 1.0, prior.T)[:, None] * [0.0, 0.1, 0.0]
     distance, tolerance = fc.end_error(off, ends)
     assert distance > tolerance
-    deviation, tight = fc.skill_deviation(prior, free.ee_path, start, prior.mean[-1, :3])
+    deviation, tight = fc.skill_deviation(prior, free.ee_path, start)
     assert tight.sum() == prior.T // 2 and deviation[tight].max() < fc.TIGHT_SIGMA
     # a 10 cm bump over the tightest states leaves the skill
     k = int(np.argmin(np.trace(prior.cov[:, :3, :3], axis1=1, axis2=2)))
     bump = np.exp(-0.5 * ((np.arange(prior.T) - k) / 5.0) ** 2)[:, None] * [0.0, 0.0, 0.1]
-    deviation, tight = fc.skill_deviation(prior, free.ee_path + bump, start, prior.mean[-1, :3])
+    deviation, tight = fc.skill_deviation(prior, free.ee_path + bump, start)
     assert deviation[tight].max() > fc.TIGHT_SIGMA
 
 
