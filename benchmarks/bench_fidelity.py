@@ -28,7 +28,8 @@ apart, whether it leaves the skill where the skill is tight). Prints per arm:
 
 Free plans (their measures and checks) are cached in ``benchmarks/.cache/fidelity_free.json``
 keyed by the problem and a fingerprint of the ``clamp`` sources on the path, so a changed
-planner plans them again.
+planner plans them again (a cached free plan keeps the planning time measured when it was
+planned; ``--no-cache`` times both plans of a problem in the same run).
 
     python benchmarks/bench_fidelity.py [--problems 200] [--arms jaco sawyer] [--skills ...]
                                         [--quick] [--workers N] [--seed 0] [--no-cache]
@@ -85,7 +86,7 @@ def _skill(skill: str, seed: int, num_demos: int, num_points: int) -> tuple[Any,
     return learn_prior(demos), np.asarray(demos.positions)[:, -1]
 
 
-@lru_cache(maxsize=None)
+@lru_cache(maxsize=8)
 def _geometry_check(robot_name: str, scene_json: str) -> checks.GeometryCheck:
     from scenes import Scene
     scene = Scene.from_dict(json.loads(scene_json)) if scene_json != "null" else None
@@ -243,11 +244,11 @@ def oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str, Any]]:
 
 def oracle(data: dict[str, Any], seed: int = 0) -> dict:
     """Search for a plan of problem ``data`` that passes the checks (module docstring)."""
+    from clamp import PlannerConfig
     t0 = time.perf_counter()
     for attempt, (label, make) in enumerate(oracle_candidates(data, seed), start=1):
         try:
             q_start, initial, changes = make()
-            from clamp import PlannerConfig
             config = PlannerConfig().with_(**ORACLE_CONFIG, **changes)
             result = _plan(data, True, start=q_start, goal=data["goal"], initial=initial,
                            config=config)
@@ -288,8 +289,8 @@ def _quantiles(values: list[float]) -> tuple[float, float, float]:
 def summarize(records: list[dict]) -> dict:
     """The benchmark's figures for one arm's records."""
     n = len(records)
-    default_ok = [r for r in records if r["obstacle"]["success"] and not r["obstacle"]["failed"]]
-    completable = [r for r in records if r in default_ok or (r["oracle"] or {}).get("completable")]
+    default_ok = [r["obstacle"]["success"] and not r["obstacle"]["failed"] for r in records]
+    completable = [ok or bool((r["oracle"] or {}).get("completable")) for ok, r in zip(default_ok, records)]
     false = [r for r in records if r["obstacle"]["success"] and r["obstacle"]["failed"]]
     kinds = Counter(kind for r in false for kind in r["obstacle"]["failed"])
     scored = [r for r in records if r["obstacle"]["success"] and r["free"]["success"]]
@@ -297,7 +298,7 @@ def summarize(records: list[dict]) -> dict:
     f = [r["free"] for r in scored]
     ratio = lambda key: [a[key] / b[key] if b[key] > 0 else float("nan") for a, b in zip(o, f)]  # noqa: E731
     return {
-        "problems": n, "completable": len(completable), "completed": len(default_ok),
+        "problems": n, "completable": sum(completable), "completed": sum(default_ok),
         "success": sum(r["obstacle"]["success"] for r in records),
         "false": len(false), "false_kinds": dict(kinds),
         "false_examples": [f"{r['id']}: " + "; ".join(r["obstacle"]["failed"].values()) for r in false[:4]],
@@ -420,30 +421,8 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
     return summary
 
 
-def main(argv: list[str] | None = None) -> int:
-    from scenes.synthetic import SKILLS
-    from clamp.problem_sets import BENCHMARK_SKILLS
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--problems", type=int, default=200, help="problems per arm (default 200)")
-    parser.add_argument("--quick", action="store_true", help="20 problems per arm")
-    parser.add_argument("--arms", nargs="+", default=["jaco", "sawyer"], choices=["jaco", "sawyer"])
-    parser.add_argument("--skills", nargs="+", default=list(BENCHMARK_SKILLS), choices=list(SKILLS))
-    parser.add_argument("--start-offset", type=float, default=0.08,
-                        help="largest start offset per axis [m] (default 0.08: up to ~14 cm)")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--workers", type=int, default=None,
-                        help="worker processes (default: plan in this process)")
-    parser.add_argument("--no-cache", dest="cache", action="store_false",
-                        help="neither read nor write benchmarks/.cache")
-    args = parser.parse_args(argv)
-    if args.quick:
-        args.problems = 20
-    if args.problems < 1 or (args.workers is not None and args.workers < 1) or args.start_offset < 0:
-        print(f"{parser.prog}: error: --problems and --workers: expected at least 1, "
-              f"--start-offset: expected >= 0; got {args.problems}, {args.workers}, "
-              f"{args.start_offset}", file=sys.stderr)
-        return 2
-    logging.basicConfig(level=logging.WARNING)
+def benchmark(args: argparse.Namespace) -> int:
+    """Run the benchmark for the parsed options; exit code 0."""
     print_environment()
     print(f"# clamp sources {clamp_fingerprint()}; seed {args.seed}; start offset <= "
           f"{args.start_offset} m per axis; skills {', '.join(args.skills)}")
@@ -456,6 +435,33 @@ def main(argv: list[str] | None = None) -> int:
         if executor is not None:
             executor.shutdown()
     return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    from clamp.problem_sets import BENCHMARK_SKILLS
+    from scenes.command_line import CommandLineParser, integer_at_least, number
+    from scenes.synthetic import SKILLS
+    out = CommandLineParser(prog="bench_fidelity.py", description=__doc__.splitlines()[0])
+    out.add_argument("--problems", type=integer_at_least(1), default=200,
+                     help="problems per arm (default 200)")
+    out.add_argument("--quick", dest="problems", action="store_const", const=20,
+                     help="20 problems per arm")
+    out.add_argument("--arms", nargs="+", default=["jaco", "sawyer"], choices=["jaco", "sawyer"])
+    out.add_argument("--skills", nargs="+", default=list(BENCHMARK_SKILLS), choices=list(SKILLS))
+    out.add_argument("--start-offset", type=number, default=0.08,
+                     help="largest start offset per axis [m] (default 0.08: up to ~14 cm)")
+    out.add_argument("--seed", type=integer_at_least(0), default=0)
+    out.add_argument("--workers", type=integer_at_least(1), default=None,
+                     help="worker processes (default: plan in this process)")
+    out.add_argument("--no-cache", dest="cache", action="store_false",
+                     help="neither read nor write benchmarks/.cache")
+    out.set_defaults(run=benchmark)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    from scenes.command_line import run
+    return run(parser(), argv)
 
 
 if __name__ == "__main__":
