@@ -18,7 +18,8 @@ apart, whether it leaves the skill where the skill is tight). Prints per arm:
   oracle's outcome is cached per problem (by its parameters) in
   ``benchmarks/.cache/fidelity_oracle.json``;
 - completed: completable problems whose default plan says success and passes the checks;
-- false successes: success but a check fails, by kind (obstacle, self, limits, completion);
+- false successes: success but a check fails, by kind (obstacle, self, limits, completion;
+  leaving the skill where it is tight is reported apart, not as a failure);
 - over the problems whose obstacle plan (and free plan) says success: median / p90 of the joint
   path ratio (sum of |joint steps|, obstacle / free), the added hand rotation (largest rotation
   of the end effector from its start orientation, obstacle minus free, deg), the TOPP-RA
@@ -33,6 +34,7 @@ planned; ``--no-cache`` times both plans of a problem in the same run).
 
     python benchmarks/bench_fidelity.py [--problems 200] [--arms jaco sawyer] [--skills ...]
                                         [--quick] [--workers N] [--seed 0] [--no-cache]
+                                        [--start-offset 0.08] [--records FILE [--force]]
 
 Full run (200 problems per arm): about 25 min of CPU for the plans and checks with cold
 caches, plus the oracle on the problems the default plan does not complete (up to ~1 min
@@ -161,8 +163,16 @@ def _plan(data: dict[str, Any], with_obstacles: bool, start: Any = None, **optio
 
 def plan_and_judge(data: dict[str, Any], with_obstacles: bool) -> dict:
     """The default plan of problem ``data`` (its start, no goal: the skill's own end) with or
-    without its obstacles: its success, its measures and its checks."""
-    result = _plan(data, with_obstacles)
+    without its obstacles: its success, its measures and its checks. A plan() that raises is
+    recorded as a failed plan whose check "error" failed."""
+    try:
+        result = _plan(data, with_obstacles)
+    except ValueError as exc:          # the project's errors derive from ValueError
+        message = f"{type(exc).__name__}: {exc}"[:200]
+        nan = float("nan")
+        return {"success": False, "reasons": [message], "joint_path": nan, "rotation_deg": nan,
+                "toppra_s": nan, "plan_s": nan, "failed": {"error": message}, "end_error_m": nan,
+                "mean_end_error_m": nan, "tight_deviation": nan, "leaves_skill": False}
     robot = _robot(data["robot"]["name"])
     return {"success": bool(result.success), "reasons": [str(r)[:120] for r in result.reasons],
             **measure(robot, result), **judge(data, result.q, result.ee_path, with_obstacles)}
@@ -415,6 +425,10 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
             oracle_cache[ok] = record["oracle"]
     save_cache("fidelity_free.json", free_cache, args.cache)
     save_cache("fidelity_oracle.json", oracle_cache, args.cache)
+    if args.records is not None:
+        from scenes.command_line import atomic_write_text
+        path = args.records.with_name(f"{args.records.stem}_{arm}{args.records.suffix}")
+        atomic_write_text(path, "".join(json.dumps(r) + "\n" for r in records), overwrite=args.force)
     summary = summarize(records)
     print(f"\n# {arm}: {len(records)} problems in {time.perf_counter() - t0:.0f} s wall")
     report(arm, summary)
@@ -423,6 +437,11 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
 
 def benchmark(args: argparse.Namespace) -> int:
     """Run the benchmark for the parsed options; exit code 0."""
+    from scenes.command_line import output_file
+    if args.records is not None:
+        for arm in args.arms:
+            output_file(args.records.with_name(f"{args.records.stem}_{arm}{args.records.suffix}"),
+                        args.force, "--records")
     print_environment()
     print(f"# clamp sources {clamp_fingerprint()}; seed {args.seed}; start offset <= "
           f"{args.start_offset} m per axis; skills {', '.join(args.skills)}")
@@ -455,6 +474,10 @@ def parser() -> argparse.ArgumentParser:
                      help="worker processes (default: plan in this process)")
     out.add_argument("--no-cache", dest="cache", action="store_false",
                      help="neither read nor write benchmarks/.cache")
+    out.add_argument("--records", type=Path, default=None,
+                     help="write every problem's record (plans' checks and measures, oracle) to "
+                          "JSON Lines files <stem>_<arm><suffix>")
+    out.add_argument("--force", action="store_true", help="replace existing --records files")
     out.set_defaults(run=benchmark)
     return out
 

@@ -123,3 +123,48 @@ def test_rotation_from_start_of_a_wrist_roll(arms, name):
     q[:, -1] += np.linspace(0.0, -0.7, 8)
     np.testing.assert_allclose(fc.rotation_from_start(robot, q), np.linspace(0.0, 0.7, 8), atol=1e-9)
     assert fc.joint_path_length(q) == pytest.approx(0.7)
+
+
+# ------------------------------------------------------------------ the benchmark's tally
+def _plan_record(success: bool, failed: dict | None = None, joint_path: float = 2.0,
+                 rotation: float = 30.0, duration: float = 4.0, seconds: float = 0.1) -> dict:
+    return {"success": success, "failed": failed or {}, "joint_path": joint_path,
+            "rotation_deg": rotation, "toppra_s": duration, "plan_s": seconds,
+            "mean_end_error_m": 0.001, "leaves_skill": False}
+
+
+def test_summary_counts_completable_completed_and_false_successes():
+    import bench_fidelity as bench
+    free = _plan_record(True)
+    records = [
+        {"id": "a", "obstacle": _plan_record(True, joint_path=3.0, rotation=40.0), "free": free,
+         "oracle": None},                                              # completed
+        {"id": "b", "obstacle": _plan_record(True, {"completion": "end 90 mm"}, joint_path=5.0,
+                                             rotation=70.0, duration=8.0, seconds=0.4),
+         "free": free, "oracle": {"completable": True}},               # false success
+        {"id": "c", "obstacle": _plan_record(False), "free": free,
+         "oracle": {"completable": False}},                            # not completable
+        {"id": "d", "obstacle": _plan_record(False), "free": free,
+         "oracle": {"completable": True}},                             # completable, missed
+    ]
+    s = bench.summarize(records)
+    assert (s["problems"], s["completable"], s["completed"], s["false"]) == (4, 3, 1, 1)
+    assert s["false_kinds"] == {"completion": 1} and s["scored"] == 2
+    assert s["joint_path"][0] == pytest.approx(2.0)          # median of 1.5x and 2.5x
+    assert s["added_rotation"][0] == pytest.approx(25.0)     # median of 10 and 40 deg
+    assert s["plan_time"][0] == pytest.approx(2.5)
+    # completed 1/3 with a false success; path 2.0x; rotation 25 deg; TOPP-RA 1.5x; time 2.5x
+    assert [ok for _, ok in bench.targets(s)] == [False, False, False, True, True]
+    good = bench.summarize(records[:1])                      # 1/1, path 1.5x, 10 deg, 1x, 1x
+    assert [ok for _, ok in bench.targets(good)] == [True] * 5
+
+
+def test_problem_key_ignores_the_id_and_the_command_line_refuses_bad_options(capsys):
+    import bench_fidelity as bench
+    data = {"id": "x", "meta": {"index": 1}, "start": [0.1, 0.2, 0.3], "goal": None}
+    assert bench.problem_key(data) == bench.problem_key({**data, "id": "y", "meta": {}})
+    assert bench.problem_key(data) != bench.problem_key({**data, "start": [0.1, 0.2, 0.31]})
+    assert bench.main(["--workers", "0"]) == 2
+    assert bench.main(["--arms", "ur5"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "--workers" in err[0] and "--arms" in err[1]
