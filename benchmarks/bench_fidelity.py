@@ -66,7 +66,7 @@ CACHE = Path(__file__).resolve().parent / ".cache"
 ORACLE_RESTARTS = 20
 ORACLE_CONFIG = {"max_iterations": 2000, "constraint_rounds": 6}   # the long budget
 ACCELERATION_LIMIT = 1.5          # [rad/s^2] TOPP-RA
-MEASURES_VERSION = 1              # bump when a measure or check changes (invalidates caches)
+MEASURES_VERSION = 2              # bump when a measure or check changes (invalidates caches)
 TARGETS = {"completed": 0.95, "joint_path_median": 1.5, "joint_path_p90": 2.5,
            "added_rotation_median": 15.0, "toppra_median": 1.5, "plan_time_median": 3.0,
            "plan_time_p95": 10.0}
@@ -151,14 +151,14 @@ def measure(robot: Any, result: Any) -> dict:
 
 def _plan(data: dict[str, Any], with_obstacles: bool, start: Any = None, **options: Any) -> Any:
     """plan() on problem ``data`` (its start, or ``start``) with or without its obstacles;
-    ``options``: goal, initial, config."""
+    ``options``: plan()'s other arguments (none: its defaults, posterior covariance included)."""
     from clamp import plan
     from scenes import Scene
     spec = data["prior"]
     prior, _ = _skill(spec["skill"], spec["seed"], spec["num_demos"], spec["num_points"])
     scene = Scene.from_dict(data["scene"]) if with_obstacles else None
     return plan(prior, _robot(data["robot"]["name"]), scene,
-                data["start"] if start is None else start, covariance=False, **options)
+                data["start"] if start is None else start, **options)
 
 
 def plan_and_judge(data: dict[str, Any], with_obstacles: bool) -> dict:
@@ -261,7 +261,7 @@ def oracle(data: dict[str, Any], seed: int = 0) -> dict:
             q_start, initial, changes = make()
             config = PlannerConfig().with_(**ORACLE_CONFIG, **changes)
             result = _plan(data, True, start=q_start, goal=data["goal"], initial=initial,
-                           config=config)
+                           config=config, covariance=False)
         except ValueError as exc:     # IK or planning refused this restart: try the next
             log.info("oracle %s: %s", label, exc)
             continue
