@@ -112,12 +112,14 @@ def problem_key(data: dict[str, Any], *extra: Any) -> str:
 
 
 # ------------------------------------------------------------------ judging one plan
-def judge(data: dict[str, Any], q: np.ndarray, ee_path: np.ndarray, with_obstacles: bool) -> dict:
-    """The independent checks of one plan (T, n) / (T, 3) of problem ``data``: failed kinds
-    ("obstacle", "self", "limits", "completion") with details, and the skill deviation."""
+def judge(data: dict[str, Any], q: np.ndarray, with_obstacles: bool) -> dict:
+    """The independent checks of one plan q (T, n) of problem ``data``: failed kinds
+    ("obstacle", "self", "limits", "completion") with details, and the skill deviation. The
+    end-effector path is the robot's forward kinematics of q, not the planner's."""
     spec = data["prior"]
     prior, ends = _skill(spec["skill"], spec["seed"], spec["num_demos"], spec["num_points"])
     robot = _robot(data["robot"]["name"])
+    ee_path = robot.fk(np.asarray(q))
     scene = json.dumps(data["scene"] if with_obstacles else None, sort_keys=True)
     failed = {kind: str(c) for kind, c in _geometry_check(data["robot"]["name"], scene)
               .first_contacts(q).items()}
@@ -175,7 +177,7 @@ def plan_and_judge(data: dict[str, Any], with_obstacles: bool) -> dict:
                 "mean_end_error_m": nan, "tight_deviation": nan, "leaves_skill": False}
     robot = _robot(data["robot"]["name"])
     return {"success": bool(result.success), "reasons": [str(r)[:120] for r in result.reasons],
-            **measure(robot, result), **judge(data, result.q, result.ee_path, with_obstacles)}
+            **measure(robot, result), **judge(data, result.q, with_obstacles)}
 
 
 # ------------------------------------------------------------------ the oracle
@@ -265,7 +267,7 @@ def oracle(data: dict[str, Any], seed: int = 0) -> dict:
         except ValueError as exc:     # IK or planning refused this restart: try the next
             log.info("oracle %s: %s", label, exc)
             continue
-        if not judge(data, result.q, result.ee_path, True)["failed"]:
+        if not judge(data, result.q, True)["failed"]:
             return {"completable": True, "witness": label, "attempts": attempt,
                     "seconds": time.perf_counter() - t0}
     return {"completable": False, "witness": None, "attempts": ORACLE_RESTARTS,
