@@ -168,3 +168,17 @@ def test_problem_key_ignores_the_id_and_the_command_line_refuses_bad_options(cap
     assert bench.main(["--arms", "ur5"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and "--workers" in err[0] and "--arms" in err[1]
+
+
+def test_prior_samples_stay_with_the_skill(box_closing):
+    """Seeded: paths drawn from the prior itself almost never exceed the threshold."""
+    _, prior = box_closing
+    samples = prior.sample(20, np.random.default_rng(11))[:, :, :3]
+    exceed, total, largest = 0, 0, []
+    for path in samples:
+        deviation, tight = fc.skill_deviation(prior, path, path[0])
+        exceed += int((deviation[tight] > fc.TIGHT_SIGMA).sum())
+        total += int(tight.sum())
+        largest.append(deviation[tight].max())
+    assert exceed / total < 1e-3
+    assert np.median(largest) > 0.5          # the unit is the prior's spread, not a tiny one
