@@ -48,7 +48,7 @@ from itertools import chain
 import numpy as np
 
 from clamp.config import PlannerConfig
-from clamp.factors import ObstacleFamily
+from clamp.factors import ObstacleFamily, PostureFamily
 from clamp.initialisation import joint_velocities
 from clamp.optimizers import Optimized, optimize
 from clamp.problem import PlanningProblem
@@ -110,9 +110,14 @@ def reweighted(problem: PlanningProblem, factors: dict[str, float], initial: np.
 def with_obstacle_sigma(problem: PlanningProblem, sigma: float, initial: np.ndarray
                         ) -> PlanningProblem:
     """The same problem with the obstacle hinges' noise set to sigma [m], starting at initial
-    (T, 2n)."""
+    (T, 2n). Stiffer hinges loosen the posture tie (:class:`~clamp.factors.PostureFamily`) by
+    the same factor: the continuation's later rounds free the arm to leave the free plan's
+    posture when keeping it collides."""
     current = 1.0 / float(problem.family(ObstacleFamily.name).whitening[0])
-    return reweighted(problem, {ObstacleFamily.name: current / sigma}, initial)
+    factors = {ObstacleFamily.name: current / sigma}
+    if sigma < current and any(f.name == PostureFamily.name for f in problem.families):
+        factors[PostureFamily.name] = sigma / current
+    return reweighted(problem, factors, initial)
 
 
 def _prior_cost(problem: PlanningProblem, theta: np.ndarray) -> float:
