@@ -26,7 +26,7 @@ for name, offset in (("jaco", [0.0, 0.0, 0.0]), ("sawyer", [0.3, 0.0, 0.2])):
     prior = learn_prior(demos.translated(np.array(offset)))
     scene = Scene([box.translated(np.array(offset)) for box in builtin_scene("box_closing").obstacles])
     result = plan(prior, robot, scene, start=prior.mean[0, :3])
-    trajectory = result.to_joint_trajectory(robot)        # joint names, t, q, qdot, qddot, verdict
+    trajectory = result.to_joint_trajectory(robot, retime=False)  # the plan's own timing
     before = check_limits(trajectory, robot.velocity_limits, ACCELERATION_LIMIT)
     retimed, report = retime(trajectory, robot, acceleration_limits=ACCELERATION_LIMIT)
     trajectory.to_json(out / f"{name}_plan.json", overwrite=True)

@@ -8,9 +8,9 @@ acceleration limits, so they are an argument: a scalar or one per joint (rad/s^2
 A trajectory is *within limits* when at every sample (tolerance ``1e-6`` relative)
 - its velocity samples and the difference quotients of its positions are within the velocity
   limits, and
-- its stored accelerations and the finite differences of its velocity samples
-  (:func:`robots.trajectory.finite_difference`, as in the export) are within the
-  acceleration limits.
+- its stored accelerations and the difference quotients of its velocity samples (the mean
+  acceleration over each sample interval; they bound the export's finite differences,
+  :func:`robots.trajectory.finite_difference`) are within the acceleration limits.
 
 Two methods keep the geometric path and change only the timing:
 - ``"uniform"``: one time-scaling factor k (time * k, velocity / k, acceleration / k^2), the
@@ -50,7 +50,7 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
 from .errors import RetimingError
-from .trajectory import JointTrajectory, finite_difference
+from .trajectory import JointTrajectory
 
 logger = logging.getLogger(__name__)
 
@@ -100,8 +100,8 @@ class LimitCheck:
     """Peaks of a trajectory against its limits, per joint (n,).
 
     peak_velocity: max of |velocity samples| and |position difference quotients| [rad/s];
-    peak_acceleration: max of |stored accelerations| and |finite differences of the velocity
-    samples| [rad/s^2]; ratios = peak / limit (0 for unlimited joints).
+    peak_acceleration: max of |stored accelerations| and |velocity difference quotients|
+    [rad/s^2]; ratios = peak / limit (0 for unlimited joints).
     """
 
     joint_names: tuple[str, ...]
@@ -160,7 +160,7 @@ def _peaks(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray]:
     t = traj.time_from_start
     quotients = np.diff(traj.positions, axis=0) / np.diff(t)[:, None]
     velocity = np.maximum(np.abs(traj.velocities).max(axis=0), np.abs(quotients).max(axis=0))
-    differenced = finite_difference(traj.velocities, t)
+    differenced = np.diff(traj.velocities, axis=0) / np.diff(t)[:, None]
     acceleration = np.maximum(np.abs(traj.accelerations).max(axis=0), np.abs(differenced).max(axis=0))
     return velocity, acceleration
 
