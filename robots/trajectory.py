@@ -6,7 +6,9 @@ with a ``time_from_start``. Units: s, rad, rad/s, rad/s^2 (m, m/s, m/s^2 for pri
 the ``units`` header says which). A free-form ``verdict`` header carries what the planner
 concluded (success, reasons, ...).
 
-Accelerations are finite differences of the velocity samples over time,
+A plan's accelerations (:meth:`JointTrajectory.from_plan`; a retimed trajectory,
+:func:`robots.retime`, carries its profile's exact ones) are finite differences of the velocity
+samples over time,
 :func:`finite_difference` (``numpy.gradient`` with ``edge_order=1``): second-order central
 differences inside (also on uneven time steps), one-sided first-order differences at both
 ends. Every value is a convex combination of the neighbouring difference quotients
@@ -15,8 +17,11 @@ smooth motion through the samples: a trajectory within acceleration limits stays
 after this differencing.
 
 Files: JSON (:meth:`JointTrajectory.to_json`, validated by the schema shipped in
-``robots/schemas/joint_trajectory.schema.json``) and CSV (:meth:`JointTrajectory.to_csv`,
-one ``#``-line of JSON header, then one row per point). Floats are written with ``repr``
+``robots/schemas/joint_trajectory.schema.json``), CSV (:meth:`JointTrajectory.to_csv`,
+one ``#``-line of JSON header, then one row per point) and the ROS 2
+``trajectory_msgs/msg/JointTrajectory`` message as JSON (:meth:`JointTrajectory.to_ros2_json`,
+schema ``robots/schemas/ros2_joint_trajectory.schema.json``: the message's fields only, times
+as {sec, nanosec}). Floats are written with ``repr``
 precision, so :meth:`JointTrajectory.load` gives back the same float64 values bit for bit.
 Writes are atomic (a temporary file in the target folder, then ``os.replace`` / ``os.link``)
 and refuse to overwrite an existing file unless ``overwrite=True``.
