@@ -144,12 +144,14 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
     [rad/s^2] from rest to rest unless ``retime`` is False. A failed plan, or one the retimer
     cannot parameterise, gets none (files of that name left by an earlier run are removed:
     they would pass for this plan's). Returns what the plan JSON records as "trajectory":
-    files, retimed, acceleration_limits, duration [s], error (why there is none)."""
+    files, retimed, acceleration_limits [rad/s^2] (None when not retimed), duration [s], error
+    (why there is none)."""
     from robots.errors import RetimingError
     paths = [out / pattern.format(name) for pattern in TRAJECTORY_FILES]
-    record: dict[str, Any] = {"files": [], "retimed": retime,
-                              "acceleration_limits": np.broadcast_to(limits, (robot.n,)).tolist(),
+    record: dict[str, Any] = {"files": [], "retimed": retime, "acceleration_limits": None,
                               "duration": None, "error": None}
+    if retime:
+        record["acceleration_limits"] = np.broadcast_to(limits, (robot.n,)).tolist()
     if result.success:
         try:
             trajectory = result.to_joint_trajectory(robot, retime=retime, acceleration_limits=limits)

@@ -144,7 +144,7 @@ def test_no_retime_writes_the_plans_own_timing(planned, tmp_path):
     trajectory = JointTrajectory.load(out / "trajectory_result.json")
     np.testing.assert_array_equal(trajectory.positions, plan["q"])
     np.testing.assert_allclose(trajectory.time_from_start, np.array(plan["time"]) - plan["time"][0])
-    assert plan["trajectory"]["retimed"] is False
+    assert plan["trajectory"]["retimed"] is False and plan["trajectory"]["acceleration_limits"] is None
 
 
 @pytest.mark.parametrize("extra, word", [
