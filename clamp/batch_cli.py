@@ -27,7 +27,7 @@ from scenes.progress import progress
 def add_batch_parser(sub: Any) -> None:
     """Register ``batch`` on the ``clamp`` command's subparsers."""
     p = sub.add_parser("batch", help="plan every problem of a JSON Lines file",
-                       description=__doc__.splitlines()[0])
+                       description=__doc__.splitlines()[0].replace("``", ""))
     p.add_argument("problems", help="problems file (JSON Lines, one clamp problem per line)")
     p.add_argument("--out", required=True, help="results file (JSON Lines; appended, resumable)")
     p.add_argument("--workers", type=integer_at_least(1), default=None,
