@@ -158,6 +158,11 @@ def run_demo(args: argparse.Namespace) -> int:
 def run_plan(args: argparse.Namespace) -> int:
     from clamp.learning import learn_prior
     from scenes import Scene, load_demonstrations
+    from scenes.errors import DemonstrationFileError, SceneFileError
+    from scenes.validation import as_file
+    as_file(args.demos, "--demos", DemonstrationFileError)     # named as the user typed them,
+    if args.scene:                                              # before the output folder is made
+        as_file(args.scene, "--scene", SceneFileError)
     out = output_directory(args.out, args.force)
     robot = load_robot_from_args(args)
     demos = load_demonstrations(args.demos)
