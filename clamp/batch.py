@@ -358,13 +358,13 @@ def plan_many(problems: Iterable[Problem], executor: Any = None, *,
             raise InvalidParameterError(f"trajectories: expected 'inline', 'none' or a folder, "
                                         f"got the existing file {str(trajectories)!r}")
     pending_problems(problems, None)                # ids unique, every item a Problem
-    folder = _trajectory_mode(trajectories)
-    want_trajectory = not (folder is None and trajectories == "none")
     base = str(Path(base_dir if base_dir is not None else os.getcwd()).resolve())
     owned = out is not None and not isinstance(out, ResultsFile)
-    results = ResultsFile(out) if owned else out
+    results = ResultsFile(out) if owned else out    # checked and locked before any work
     try:
         todo = pending_problems(problems, results)
+        folder = _trajectory_mode(trajectories)
+        want_trajectory = not (folder is None and trajectories == "none")
         runner, finish = _runner(executor)
     except BaseException:
         if owned:
