@@ -147,7 +147,8 @@ class ResultsFile:
     def __init__(self, path: str | Path, option: str = "out"):
         self.option = option
         self.path = writable_file(path, option, InvalidParameterError)
-        self._lock = _Lock(self.path, option)
+        self._real = self.path.resolve()     # a symbolic link: lock and rewrite its target
+        self._lock = _Lock(self._real, option)
         try:
             latest = _latest_lines(self.path, option) if self.path.exists() else []
             self._repair()
@@ -229,8 +230,13 @@ class ResultsFile:
 
     def _compact(self) -> None:
         lines = [raw for _, _, raw in _latest_lines(self.path, self.option)]
+        mode = self._real.stat().st_mode & 0o7777
+
+        def write(handle: Any) -> None:
+            os.fchmod(handle.fileno(), mode)        # the file keeps its permissions
+            handle.writelines(lines)
         try:
-            atomic_write(self.path, lambda handle: handle.writelines(lines), overwrite=True)
+            atomic_write(self._real, write, overwrite=True)
         except OSError as exc:
             raise OutputWriteError(f"{self.option}: cannot rewrite {str(self.path)!r} without "
                                    f"the lines of retried problems ({exc}); the file is "
