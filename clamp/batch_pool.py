@@ -37,8 +37,8 @@ import signal
 import sys
 import threading
 import time
-from multiprocessing.connection import Connection, wait
 from collections.abc import Callable
+from multiprocessing.connection import Connection, wait
 from typing import Any
 
 from clamp.errors import InvalidParameterError
