@@ -90,11 +90,12 @@ def finished_hashes(path: str | Path) -> set[str]:
 
 
 class _Lock:
-    """An exclusive flock on ``.NAME.lock`` beside the results file, holding this pid."""
+    """An exclusive flock on ``.NAME.lock`` beside the results file ``results`` (errors name
+    it as the user gave it, ``shown``), holding this pid."""
 
     WAIT_FOR_PID = 0.5          # [s] a holder writes its pid just after taking the lock
 
-    def __init__(self, results: Path, option: str):
+    def __init__(self, results: Path, option: str, shown: Path):
         self.path = results.with_name(f".{results.name}.lock")
         while True:
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
@@ -104,7 +105,7 @@ class _Lock:
                 holder = self._holder(fd)
                 os.close(fd)
                 raise InvalidParameterError(
-                    f"{option}: {str(results)!r} is being written by another batch (pid "
+                    f"{option}: {str(shown)!r} is being written by another batch (pid "
                     f"{holder}); wait for it to end or choose another results file") from None
             try:
                 current = os.stat(self.path).st_ino == os.fstat(fd).st_ino
@@ -148,7 +149,7 @@ class ResultsFile:
         self.option = option
         self.path = writable_file(path, option, InvalidParameterError)
         self._real = self.path.resolve()     # a symbolic link: lock and rewrite its target
-        self._lock = _Lock(self._real, option)
+        self._lock = _Lock(self._real, option, shown=self.path)
         try:
             latest = _latest_lines(self.path, option) if self.path.exists() else []
             self._repair()

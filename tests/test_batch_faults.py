@@ -18,6 +18,7 @@ import pytest
 
 from clamp.batch import LocalPool, ResultsFile, pending_problems, plan_many, read_results
 from clamp.batch_report import reason_key, summarize
+from clamp.errors import InvalidParameterError
 from clamp.problems import make_problem, write_problems
 from test_batch import SHORT, _problems
 
@@ -77,10 +78,10 @@ def test_a_held_results_file_is_refused_naming_the_holder(tmp_path):
     with ResultsFile(out) as held:
         assert held.finished == set()
         run = subprocess.run([sys.executable, "-m", "clamp", "batch", str(problems), "--out",
-                              str(out)], cwd=tmp_path, env=ENV, capture_output=True, text=True,
-                             timeout=300)
-        _one_line_error(run.returncode, run.stderr, "r.jsonl", f"pid {os.getpid()}")
-        with pytest.raises(Exception, match=f"pid {os.getpid()}"):
+                              "r.jsonl"], cwd=tmp_path, env=ENV, capture_output=True, text=True,
+                             timeout=300)                             # named as the user typed it
+        _one_line_error(run.returncode, run.stderr, "--out: 'r.jsonl'", f"pid {os.getpid()}")
+        with pytest.raises(InvalidParameterError, match=f"pid {os.getpid()}"):
             list(plan_many(_problems(3), out=out))                    # in this process too
     assert _lines(out) == []
 
