@@ -180,7 +180,7 @@ class ResultsFile:
     def _failed(self, exc: OSError, doing: str) -> OutputWriteError:
         return OutputWriteError(f"{self.option}: cannot {doing} {str(self.path)!r} "
                                 f"({exc.strerror or exc}); the complete lines written so far "
-                                f"are kept: free space and rerun to resume")
+                                f"are kept: rerun to resume once it can be written")
 
     def append(self, record: dict[str, Any]) -> None:
         """Append ``record`` (strict JSON already, see :func:`strict_json`) as one write of a
