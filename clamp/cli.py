@@ -241,6 +241,11 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
 
 
 def run_plan(args: argparse.Namespace) -> int:
+    from scenes.errors import DemonstrationFileError, SceneFileError
+    from scenes.validation import as_file
+    as_file(args.demos, "--demos", DemonstrationFileError)     # named as the user typed them,
+    if args.scene:                                              # before the output folder is made
+        as_file(args.scene, "--scene", SceneFileError)
     with created_output_directory(args.out, args.force) as out:
         return _plan_from_files(args, out)
 

@@ -69,7 +69,7 @@ def test_process_pool_and_executor_agree(small_batch):
     with LocalPool(2) as pool:
         assert pool.start() > 0 and len(pool.pids) == 2
         pooled = list(plan_many(problems, pool))
-    assert {r["worker"].split(":")[1] for r in pooled} <= {str(p) for p in pool.pids}
+        assert {r["worker"].split(":")[1] for r in pooled} <= {str(p) for p in pool.pids}
     _same_results(serial, pooled)
     with ThreadPoolExecutor(2) as executor:
         _same_results(serial, list(plan_many(problems, executor)))
