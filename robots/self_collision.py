@@ -71,12 +71,17 @@ ALWAYS_SAMPLES = 1000
 ALWAYS_FRACTION = 0.95
 #: seed of the sampled configurations (the rule is deterministic)
 ALWAYS_SEED = 0
+#: a sphere pair (for the planner's hinge) is kept when its gap comes below this [m] in a sample
+SPHERE_REACH = 0.1
+#: spheres fitted to the geometry fixed to the world (the base), at most
+FIXED_SPHERES = 6
 #: contacts coal reports per mesh overlap (the deepest of them is the depth)
 _MAX_CONTACTS = 100_000
 DISABLE_REASONS = ("adjacent", "rigid", "always")
 
 _DISABLED: dict[tuple, tuple[tuple[str, str, str], ...]] = {}      # per URDF + end effector
 _GEOMETRY: "weakref.WeakKeyDictionary[Robot, tuple]" = weakref.WeakKeyDictionary()
+_SPHERE_PAIRS: "weakref.WeakKeyDictionary[Robot, tuple]" = weakref.WeakKeyDictionary()
 
 
 # =================================================================================== report
@@ -233,13 +238,17 @@ def _link_relations(robot: Robot, geo) -> dict[tuple[str, str], str]:
     return relations
 
 
+def _samples(robot: Robot) -> np.ndarray:
+    """The ALWAYS_SAMPLES seeded configurations (N, n) within the joint limits."""
+    rng = np.random.default_rng(ALWAYS_SEED)
+    return np.array([robot.random_configuration(rng) for _ in range(ALWAYS_SAMPLES)])
+
+
 def _always_in_contact(robot: Robot, checker: CollisionChecker, queries: _PairQueries,
                        link_pairs: list[tuple[str, str]]) -> list[tuple[str, str]]:
     """Link pairs in contact in at least ALWAYS_FRACTION of ALWAYS_SAMPLES random configurations."""
     geo = checker._geo
-    rng = np.random.default_rng(ALWAYS_SEED)
-    q = np.array([robot.random_configuration(rng) for _ in range(ALWAYS_SAMPLES)])
-    R, t = checker._poses(q)
+    R, t = checker._poses(_samples(robot))
     allowed_misses = ALWAYS_SAMPLES - math.ceil(ALWAYS_FRACTION * ALWAYS_SAMPLES)
     always = []
     for la, lb in link_pairs:
@@ -304,6 +313,86 @@ def checked_pairs(robot: Robot) -> tuple[tuple[str, str], ...]:
     checker, _, a, b, _ = _geometry(robot)
     names = checker.geometry_names
     return tuple((names[i], names[j]) for i, j in zip(a.tolist(), b.tolist()))
+
+
+@dataclass(frozen=True)
+class SelfCollisionSpheres:
+    """Sphere pairs for a planner's self-collision hinge (see :func:`self_collision_spheres`).
+
+    radii (S + B,) [m]: the robot's collision spheres (``robot.spheres``, S) then B spheres
+    fitted to the geometry fixed to the world (the base); fixed_centres (B, 3) [m] those B in
+    the base frame (constant); first, second (P,) indices into the S + B spheres of each pair;
+    motion_radius (S + B, n): a sphere's centre moves at most ``|dq| @ motion_radius[s]`` [m]
+    along a joint-space segment dq (the bound of :mod:`robots.collision_check`; 0 when fixed);
+    clearance (P,) [m]: the gap each pair keeps in ALWAYS_FRACTION (95 %) of the sampled
+    configurations (its 5 % quantile, at least 0): a hinge asking for more than that would push
+    almost every plan, so a planner asks for at most this much.
+    """
+
+    radii: np.ndarray
+    fixed_centres: np.ndarray
+    first: np.ndarray
+    second: np.ndarray
+    motion_radius: np.ndarray
+    clearance: np.ndarray
+
+
+def _fixed_spheres(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres (centres (B, 3) base frame, radii (B,)) covering the geometry fixed to the world."""
+    if robot.urdf_path is None:
+        return np.zeros((0, 3)), np.zeros(0)
+    model = robot.model
+    fixed = sorted({model.frames[o.parentFrame].name for o in robot.collision_model.geometryObjects
+                    if o.parentJoint == 0})
+    if not fixed:
+        return np.zeros((0, 3)), np.zeros(0)
+    from .spheres import fit_spheres          # sphere fitting lives in its own module (as Robot.spheres)
+    spheres = fit_spheres(model, robot.collision_model, links=fixed, max_spheres=max(FIXED_SPHERES, len(fixed)),
+                          inflation=robot.spheres.inflation)
+    local = np.array([att.rotation @ centre + att.translation for att, centre in
+                      zip(map(robot.attachment, spheres.link_names), spheres.centres)])
+    frames = robot.chain.joint_frames(robot.neutral_configuration()[None])
+    centres, _ = robot.chain.points(frames, np.zeros(spheres.count, dtype=int), local, False)
+    return np.asarray(centres).reshape(-1, 3), np.asarray(spheres.radii, dtype=float)
+
+
+def self_collision_spheres(robot: Robot) -> SelfCollisionSpheres:
+    """The sphere pairs a planner keeps apart, computed once per robot and sphere model.
+
+    Spheres: ``robot.spheres`` plus up to FIXED_SPHERES (6) fitted to the base's geometry (by
+    ``robots.spheres.fit_spheres``, same inflation). A pair (s, t) is kept when the joints that
+    move them are neither the same nor parent and child (the "rigid" and "adjacent" rules of
+    :func:`disabled_pairs`), their gap ``|c_s - c_t| - r_s - r_t`` comes below SPHERE_REACH
+    (0.1 m) in at least one of the ALWAYS_SAMPLES seeded configurations (pairs that never come
+    near are left out), and they do not overlap in ALWAYS_FRACTION of them (the "always" rule
+    on spheres). Each pair's ``clearance`` is the gap it keeps in ALWAYS_FRACTION of them.
+    """
+    if not isinstance(robot, Robot):
+        raise CollisionCheckError(f"robot: expected a robots.Robot, got {type(robot).__name__}")
+    spheres = robot.spheres
+    cached = _SPHERE_PAIRS.get(robot)
+    if cached is not None and cached[0] is spheres:
+        return cached[1]
+    joints, _ = robot.sphere_attachments()
+    fixed_centres, fixed_radii = _fixed_spheres(robot)
+    B = len(fixed_radii)
+    joints = np.concatenate([joints, np.zeros(B, dtype=joints.dtype)])
+    radii = np.concatenate([spheres.radii, fixed_radii])
+    parents = np.asarray(robot.model.parents)
+    first, second = np.triu_indices(len(radii), k=1)
+    ja, jb = joints[first], joints[second]
+    related = (ja == jb) | ((ja > 0) & (parents[ja] == jb)) | ((jb > 0) & (parents[jb] == ja))
+    first, second = first[~related], second[~related]
+    centres, _ = robot.sphere_centres(_samples(robot))                             # (N, S, 3)
+    centres = np.concatenate([centres, np.broadcast_to(fixed_centres, (len(centres), B, 3))], axis=1)
+    gap = np.linalg.norm(centres[:, first] - centres[:, second], axis=2) - radii[first] - radii[second]
+    keep = (gap.min(axis=0) < SPHERE_REACH) & ((gap < 0.0).mean(axis=0) < ALWAYS_FRACTION)
+    motion = CollisionChecker(robot, (), geometry="spheres", include_fixed=True)._geo.motion_radius
+    motion = np.concatenate([motion, np.zeros((B, robot.n))])
+    clearance = np.maximum(np.quantile(gap[:, keep], 1.0 - ALWAYS_FRACTION, axis=0), 0.0)
+    result = SelfCollisionSpheres(radii, fixed_centres, first[keep], second[keep], motion, clearance)
+    _SPHERE_PAIRS[robot] = (spheres, result)
+    return result
 
 
 # ================================================================================== search
