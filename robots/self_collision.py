@@ -294,7 +294,7 @@ def _geometry(robot: Robot) -> tuple[CollisionChecker, _PairQueries, np.ndarray,
             _DISABLED[key] = disabled
     off = {(la, lb) for la, lb, _ in disabled}
     checked = [(a, b) for a, b in combinations(range(len(geo.names)), 2)
-               if tuple(sorted((geo.links[a], geo.links[b]))) not in off]
+               if geo.links[a] != geo.links[b] and tuple(sorted((geo.links[a], geo.links[b]))) not in off]
     a_idx = np.array([p[0] for p in checked], dtype=np.int64)
     b_idx = np.array([p[1] for p in checked], dtype=np.int64)
     _GEOMETRY[robot] = (checker, queries, a_idx, b_idx, disabled, robot.spheres if checker.geometry == "spheres" else None)
