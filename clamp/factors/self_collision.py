@@ -92,26 +92,30 @@ class SelfCollisionFamily(Family):
         sp, n, C = self.spheres, window.n, len(self.tau)
         i = window.local(self.first[rows])
         q0, q1 = window.q[i], window.q[i + 1]
-        moving = window.sphere_centres()
-        fixed = np.broadcast_to(sp.fixed_centres, (len(i),) + sp.fixed_centres.shape)
-        _, start = self._distances(np.concatenate([moving[i], fixed], axis=1))             # (R, P)
-        _, end = self._distances(np.concatenate([moving[i + 1], fixed], axis=1))
+        used = np.unique(np.concatenate([i, i + 1]))                                       # window rows
+        moving = window.sphere_centres()[used]
+        fixed = np.broadcast_to(sp.fixed_centres, (len(used),) + sp.fixed_centres.shape)
+        _, at_state = self._distances(np.concatenate([moving, fixed], axis=1))            # (K', P)
+        start, end = at_state[np.searchsorted(used, i)], at_state[np.searchsorted(used, i + 1)]     # (R, P)
         least = np.minimum(start, end)
         worst = np.where(end < start, C - 1, 0)                                           # (R, P) tau index
         # in between, a pair's distance is at least the mean of its end distances minus half the
         # motion bound of its two spheres: only steps where that leaves a hinge open are sampled
         motion = np.abs(q1 - q0) @ sp.motion_radius.T                                     # (R, S + B)
         floor = 0.5 * (start + end - motion[:, sp.first] - motion[:, sp.second])
-        inside = np.flatnonzero(np.any(floor < self._reach, axis=1))
-        if inside.size and C > 2:
+        r, p = np.nonzero(floor < self._reach)                                            # open (step, pair)
+        if r.size and C > 2:
+            inside, r = np.unique(r, return_inverse=True)
             qs = q0[inside, None] + self.tau[None, 1:-1, None] * (q1 - q0)[inside, None]  # (R', C - 2, n)
             centres, _ = self._centres(window.robot, qs.reshape(-1, n), False)
-            _, between = self._distances(centres.reshape(len(inside), C - 2, -1, 3))    # (R', C - 2, P)
+            centres = centres.reshape(len(inside), C - 2, -1, 3)
+            offset = centres[r, :, sp.first[p]] - centres[r, :, sp.second[p]]            # (M, C - 2, 3)
+            between = np.sqrt(np.einsum("mck,mck->mc", offset, offset))
             closest = np.argmin(between, axis=1)
-            smaller = np.take_along_axis(between, closest[:, None], axis=1)[:, 0] < least[inside]
-            least[inside] = np.where(smaller, np.take_along_axis(between, closest[:, None], axis=1)[:, 0],
-                                     least[inside])
-            worst[inside] = np.where(smaller, closest + 1, worst[inside])
+            value = between[np.arange(len(r)), closest]
+            smaller = value < least[inside[r], p]
+            least[inside[r[smaller]], p[smaller]] = value[smaller]
+            worst[inside[r[smaller]], p[smaller]] = closest[smaller] + 1
         hinge = self._reach - least
         active = hinge > 0.0
         states = np.flatnonzero(np.any(active, axis=1))
