@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
 from clamp import learn_prior, plan
 from clamp.factors import SelfCollisionFamily
 from harness import median_ms, print_environment

@@ -53,12 +53,14 @@ from __future__ import annotations
 import math
 import time as _clock
 import weakref
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from itertools import combinations
 from typing import Any
 
 import coal
 import numpy as np
+
+from scenes.validation import as_time
 
 from .collision_check import SLACK, CollisionChecker
 from .errors import CollisionCheckError
@@ -104,9 +106,7 @@ class SelfContact:
     distance: float
 
     def to_dict(self) -> dict[str, Any]:
-        return {"link_a": self.link_a, "link_b": self.link_b, "geometry_a": self.geometry_a,
-                "geometry_b": self.geometry_b, "index": self.index, "time": self.time,
-                "distance": self.distance}
+        return asdict(self)
 
 
 @dataclass(frozen=True)
@@ -281,23 +281,25 @@ def _geometry(robot: Robot) -> tuple[CollisionChecker, _PairQueries, np.ndarray,
     checker = CollisionChecker(robot, (), include_fixed=True)
     geo = checker._geo
     queries = _PairQueries(checker)
-    key = (checker.geometry, str(robot.urdf_path), robot.end_effector,
-           id(robot.spheres) if checker.geometry == "spheres" else None)
-    disabled = _DISABLED.get(key) if robot.urdf_path is not None else None
+    # the URDF's own geometry is shared by every Robot of that URDF and end effector; a sphere
+    # fallback is the robot's own (cached per robot only)
+    key = (str(robot.urdf_path), robot.end_effector) if checker.geometry == "urdf" else None
+    disabled = _DISABLED.get(key) if key is not None else None
     if disabled is None:
         relations = _link_relations(robot, geo)
         others = [pair for pair in combinations(sorted(set(geo.links)), 2) if pair not in relations]
         always = _always_in_contact(robot, checker, queries, others)
         disabled = tuple(sorted([(la, lb, why) for (la, lb), why in relations.items()]
                                 + [(la, lb, "always") for la, lb in always]))
-        if robot.urdf_path is not None:
+        if key is not None:
             _DISABLED[key] = disabled
     off = {(la, lb) for la, lb, _ in disabled}
     checked = [(a, b) for a, b in combinations(range(len(geo.names)), 2)
                if geo.links[a] != geo.links[b] and tuple(sorted((geo.links[a], geo.links[b]))) not in off]
     a_idx = np.array([p[0] for p in checked], dtype=np.int64)
     b_idx = np.array([p[1] for p in checked], dtype=np.int64)
-    _GEOMETRY[robot] = (checker, queries, a_idx, b_idx, disabled, robot.spheres if checker.geometry == "spheres" else None)
+    spheres = robot.spheres if checker.geometry == "spheres" else None
+    _GEOMETRY[robot] = (checker, queries, a_idx, b_idx, disabled, spheres)
     return checker, queries, a_idx, b_idx, disabled
 
 
@@ -496,9 +498,7 @@ def self_collision_report(robot: Robot, q: Any, time: Any = None, max_motion: fl
     q = checker._trajectory(q)
     T = len(q)
     if time is not None:
-        time = as_array(time, "time", (T,), max_leading=0)
-        if T > 1 and not np.all(np.diff(time) > 0.0):
-            raise CollisionCheckError("time: expected strictly increasing time stamps")
+        time = as_time(time, "time", T, CollisionCheckError) if T > 1 else as_array(time, "time", (1,), 0)
     max_motion = float(max_motion)
     geo = checker._geo
     K, P = len(sub.q), len(a)
