@@ -125,12 +125,28 @@ class PlanResult:
                 "skill": {k: number(v) if isinstance(v, float) else v
                           for k, v in self.skill.items()}}
 
-    def to_joint_trajectory(self, robot: Any) -> Any:
-        """The plan as a ``robots.JointTrajectory`` of ``robot`` (the arm it was planned for):
-        joint names, time from start, positions, velocities, accelerations, and the verdict in
-        its header; ``.to_json(path)`` / ``.to_csv(path)`` write it for a robot driver."""
+    def to_joint_trajectory(self, robot: Any, *, retime: bool = True,
+                            acceleration_limits: Any = None) -> Any:
+        """The plan as an executable ``robots.JointTrajectory`` of ``robot`` (the arm it was
+        planned for): joint names, time from start [s], positions, velocities, accelerations
+        (rad, rad/s, rad/s^2), and the verdict in its header; ``.to_json(path)`` /
+        ``.to_ros2_json(path)`` / ``.to_csv(path)`` write it for a robot driver.
+
+        By default retimed (TOPP-RA, :func:`robots.retime`) within ``robot.velocity_limits``
+        and ``acceleration_limits`` (rad/s^2, a number or one per joint; None =
+        ``robots.retiming.DEFAULT_ACCELERATION_LIMIT``), from rest to rest (zero velocity and
+        acceleration at both ends), sampled every 10 ms; the retiming report is
+        ``verdict["retiming"]``. ``retime=False``: the plan's own T samples and timing (not
+        necessarily within the limits nor at rest). Check ``success`` first: a failed plan's
+        trajectory is no motion to execute (its verdict says so).
+        """
+        from robots.retiming import retime as retime_trajectory
         from robots.trajectory import JointTrajectory
-        return JointTrajectory.from_plan(robot, self.time, self.q, self.qdot, self.verdict())
+        planned = JointTrajectory.from_plan(robot, self.time, self.q, self.qdot, self.verdict())
+        if not retime:
+            return planned
+        retimed, _ = retime_trajectory(planned, robot, acceleration_limits, method="toppra")
+        return retimed
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as nested lists, non-finite floats as None); the joint

@@ -1,6 +1,7 @@
 """The Robot: a Pinocchio model of an arm with its planning joints, end effector and collision spheres."""
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -32,6 +33,27 @@ def _as_sphere_model(spheres) -> SphereModel | None:
     if isinstance(spheres, (str, Path)):
         return load_sphere_file(spheres)
     raise RobotError(f"spheres: expected a SphereModel, a sphere file path or None, got {type(spheres).__name__}")
+
+
+def _is_xacro(path: Path) -> bool:
+    """Whether a robot description file is an unexpanded xacro file (.xacro, or xacro: elements)."""
+    if path.suffix == ".xacro":
+        return True
+    try:
+        return "<xacro:" in path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return False
+
+
+def _package_hint(message: str, package_dirs: Sequence[str]) -> str:
+    """How to resolve a package:// mesh the loader could not find: the folder that holds the
+    package (``package_dirs``; on the command lines ``--package-dir DIR``)."""
+    match = re.search(r"package://([^/\s]+)/", message)
+    if match is None:
+        return ""
+    return (f"; the URDF's meshes are package:// URIs: pass the folder that holds the package "
+            f"{match.group(1)!r} as package_dirs (command line: --package-dir DIR)"
+            + (", in addition to the folders given" if package_dirs else ""))
 
 
 class Robot:
@@ -89,6 +111,9 @@ class Robot:
         """Load an arm from a URDF file; `package_dirs` resolve package:// mesh URIs (only needed
         for the collision geometry). Raises URDFParseError when the file is missing or invalid."""
         path = as_file(path, "path", URDFParseError)
+        if _is_xacro(path):
+            raise URDFParseError(f"path: {str(path)!r} is a xacro file (URDF macros), not a URDF; expand it "
+                                 f"first: xacro {path.name} > robot.urdf (the ROS xacro tool)")
         try:
             with native_stderr_logged():  # urdfdom prints parse errors on fd 2
                 model = pin.buildModelFromUrdf(str(path))
@@ -113,7 +138,8 @@ class Robot:
                     self.model, str(self.urdf_path), pin.GeometryType.COLLISION, package_dirs=list(self.package_dirs))
             except Exception as exc:
                 raise URDFParseError(f"cannot load collision geometry of {str(self.urdf_path)!r} "
-                                     f"(package_dirs={list(self.package_dirs)}): {exc}") from exc
+                                     f"(package_dirs={list(self.package_dirs)}): {str(exc).rstrip('.')}"
+                                     f"{_package_hint(str(exc), self.package_dirs)}") from exc
         return self._collision_model
 
     @property

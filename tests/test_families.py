@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
-                           PostureFamily,
-                           ObstacleFamily, OrientationFamily, StateWindow, WorkspaceGPFamily,
+                           ObstacleFamily, OrientationFamily, PostureFamily,
+                           SelfCollisionFamily, StateWindow, WorkspaceGPFamily,
                            WorkspaceStartFamily)
 from clamp.errors import InvalidParameterError
 from clamp.keys import state_key
@@ -71,6 +71,7 @@ def make_families(robot, theta: np.ndarray, rng) -> list:
         BoundaryFamily(cylinder, T, margin=0.03, sigma=0.01),
         OrientationFamily(np.arange(1, T), axis=[0, 0, 1], direction=[0.3, -0.2, -1.0],
                           tolerance=0.05, sigma=0.01),
+        SelfCollisionFamily.for_robot(robot, np.arange(T - 1), epsilon=0.1, sigma=0.02, between=2),
     ]
 
 
