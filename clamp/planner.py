@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from typing import Any, Union
 
 import gtsam
@@ -273,12 +273,25 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
         # clamp.continuation), judged on the robot's own collision geometry
         def check(theta):
             return check_clearance(robot, scene, theta[:, :robot.n], prior.time)
-        solved = solve_collision_free(
-            problem, config, check,
-            lambda found: _restarts(prior, robot, scene, request, config, init, found),
-            config.optimizer.constraint_rounds, warm_start)
-        out, report, sigma = solved.out, solved.report, solved.sigma
+        def restarts(found):
+            return _restarts(prior, robot, scene, request, config, init, found)
+        solved = solve_collision_free(problem, config, check, restarts,
+                                      config.optimizer.constraint_rounds, warm_start)
         attempts = list(solved.attempts)
+        if solved.report.collision and any(f.name == PostureFamily.name
+                                            for f in problem.families):
+            # the free plan's posture leads into the obstacles however loose the tie: plan
+            # without it from the configured initialisation (the arm may then turn further)
+            untied = PlanningProblem(robot, T, [f for f in problem.families
+                                                if f.name != PostureFamily.name],
+                                     problem.foreign, init.theta)
+            alternative = solve_collision_free(untied, config, check, restarts,
+                                               config.optimizer.constraint_rounds)
+            attempts += [replace(a, candidate="untied " + a.candidate)
+                         for a in alternative.attempts]
+            if not alternative.report.collision:
+                problem, solved = untied, alternative
+        out, report, sigma = solved.out, solved.report, solved.sigma
         base = with_obstacle_sigma(problem, sigma, problem.initial)
     else:
         out = optimize(problem, config, warm_start)

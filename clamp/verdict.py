@@ -71,9 +71,11 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     return reasons
 
 
-def pusher(scene: Any, reference: np.ndarray):
-    """describe(state) -> the obstacle nearest to where the skill goes at that state, with its
-    distance ("box_0, 12 mm from the skill's path there"), or None without obstacles."""
+def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
+    """describe(state) -> what pushed ``path`` (T, 3) away from ``reference`` (T, 3) at that
+    state: the obstacle nearest to where the skill goes, when it is within the plan's departure
+    plus the safety distance ``epsilon`` [m] ("box_0 (the skill's path runs 27 mm inside it
+    there)"), else that no obstacle is near; None without obstacles."""
     if not has_obstacles(scene):
         return None
 
@@ -81,9 +83,13 @@ def pusher(scene: Any, reference: np.ndarray):
         point = reference[state][None]
         gaps = [float(o.distance(point)[0]) for o in scene.obstacles]
         k = int(np.argmin(gaps))
+        name = f"{scene.obstacles[k].kind}_{k}"
+        if gaps[k] > np.linalg.norm(path[state] - reference[state]) + epsilon:
+            return (f"no obstacle (the nearest, {name}, is {1000 * gaps[k]:.0f} mm from the "
+                    "skill's path there): the plan's other factors")
         where = (f"the skill's path runs {-1000 * gaps[k]:.0f} mm inside it there" if gaps[k] < 0
                  else f"{1000 * gaps[k]:.0f} mm from the skill's path there")
-        return f"{scene.obstacles[k].kind}_{k} ({where})"
+        return f"{name} ({where})"
     return describe
 
 
@@ -112,9 +118,10 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                   for i, t in request.vias]
     limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
-    reference = skill_reference(prior, model_prior, request, config)
+    reference = skill_reference(prior, robot, request, config, model_prior)
     skill = skill_checks(prior, reference, position, goal_given=request.goal is not None,
-                         describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3]))
+                         describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3], position,
+                                                config.model.epsilon))
 
     reasons = []
     if not np.isfinite(out.final_error):

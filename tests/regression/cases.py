@@ -9,12 +9,15 @@ SAWYER_SHIFT = np.array([0.3, 0.0, 0.2])
 
 #: the defaults when the fixtures were made (sigma_obs has since become 0.005; goals became
 #: exact by conditioning the prior on them, and the goal tolerance 2 mm instead of 2 cm), and the
-#: weighted solve alone at the configured weight (the collision constraint loop and the soft
-#: start came later: sawyer_box's pinned plan collides, which the loop now repairs)
+#: weighted solve alone at the configured weight (the collision constraint loop, the soft start
+#: and the posture tie came later: sawyer_box's pinned plan collides, which the loop now
+#: repairs). The verdict has changed once: jaco_boundary's pinned plan (kept inside the TLGC
+#: cylinder, then a jump to its goal 5 cm outside over the last states) fails the skill check
+#: of issue 19 (7.7 spreads from where the skill goes at state 37), so its success flag is False
 def _config():
     from clamp import PlannerConfig
     return PlannerConfig().with_(sigma_obs=0.05, condition_on_targets=False, goal_tolerance=0.02,
-                                 constraint_rounds=0, soft_start=1.0)
+                                 constraint_rounds=0, soft_start=1.0, posture_sigma=0.0)
 
 
 CASES = ("jaco_empty", "jaco_box", "jaco_goal", "sawyer_empty", "sawyer_box", "sawyer_goal",
