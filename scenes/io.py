@@ -21,8 +21,8 @@ Formats (chosen by suffix, then by content):
 
 Velocities missing from a file (and joint velocities) are estimated per demonstration as
 ``smoothing=`` chooses (:mod:`scenes.smoothing`: "auto" smooths noisy recordings with a
-smoothing spline and interpolates clean ones, "spline" always smooths, "none" interpolates
-and warns when noise dominates); velocities given in the file are taken as they are.
+Savitzky-Golay filter and interpolates clean ones, "savgol" / "spline" always smooth, "none"
+interpolates and warns when noise dominates); velocities given in the file are kept.
 Joint recordings become end-effector demonstrations by the robot's forward kinematics
 (:mod:`scenes.joint_demonstrations`) and keep their joint trajectories.
 
@@ -60,7 +60,7 @@ def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None, *
     scenes: per demonstration the scene it was recorded in (a scene JSON path or a
     scenes.Scene), whose obstacles become that demonstration's ``obstacles`` (replacing any
     the file records). robot: a robots.Robot, needed for joint-space files (their end-effector
-    paths are its forward kinematics). smoothing: "auto", "spline" or "none", how velocities
+    paths are its forward kinematics). smoothing: "auto", "savgol", "spline" or "none", how velocities
     missing from the file are estimated (module docstring). Raises DemonstrationFileError
     (missing/unreadable file, unknown suffix or content, malformed fields, joint columns
     without a robot, a scene count that is not the demonstration count) naming the file and

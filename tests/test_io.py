@@ -205,5 +205,5 @@ def test_smoothing_choice_is_checked(tmp_path):
     path = tmp_path / "d.csv"
     save_csv(make_demonstrations("two_target_press", num_demos=3, num_points=30), path)
     with pytest.raises(InvalidArgumentError, match=r"smoothing: expected one of \['auto', "
-                                                   r"'spline', 'none'\], got 'gcv'"):
+                                                   r"'savgol', 'spline', 'none'\], got 'gcv'"):
         load_demonstrations(path, smoothing="gcv")

@@ -10,7 +10,7 @@ import pytest
 from clamp import learn_prior, plan
 from scenes import Demonstrations, load_demonstrations
 from scenes.errors import InvalidArgumentError
-from scenes.smoothing import NOISE_RATIO, estimate_noise, smooth_trajectory
+from scenes.smoothing import NOISE_RATIO, estimate_noise, savgol_window, smooth_trajectory
 
 START = [0.2054, -0.4722, 0.2625]
 
@@ -61,10 +61,11 @@ def test_noise_estimate_recovers_the_added_noise():
     assert clean.sigma.max() < 1e-8 and not clean.noisy and clean.ratio < NOISE_RATIO / 100
 
 
-def test_smoothing_spline_recovers_velocities_where_interpolation_cannot():
+@pytest.mark.parametrize("method", ["savgol", "spline"])
+def test_smoothers_recover_velocities_where_interpolation_cannot(method):
     time, positions, velocities = minimum_jerk_reaches(num_demos=1)
     noisy = positions[0] + 1e-3 * np.random.default_rng(3).standard_normal((len(time), 3))
-    smoothed, rate = smooth_trajectory(time, noisy, "spline")
+    smoothed, rate = smooth_trajectory(time, noisy, method)
     raw, raw_rate = smooth_trajectory(time, noisy, "none")
     peak = np.abs(velocities[0]).max()
     assert np.sqrt(np.mean((rate - velocities[0]) ** 2)) < 0.02 * peak
@@ -83,7 +84,7 @@ def test_auto_interpolates_clean_recordings_exactly():
 def test_bad_arguments_name_the_argument():
     time = np.linspace(0.0, 1.0, 20)
     with pytest.raises(InvalidArgumentError, match="smoothing: expected one of"):
-        smooth_trajectory(time, np.zeros((20, 3)), "savgol")
+        smooth_trajectory(time, np.zeros((20, 3)), "gcv")
     with pytest.raises(InvalidArgumentError, match="values: expected shape"):
         estimate_noise(time, np.zeros(20))
 
@@ -117,3 +118,15 @@ def test_unsmoothed_noisy_recordings_warn_with_the_numbers(recordings, caplog):
         clean = load_demonstrations(recordings["clean"], smoothing="none")
     assert not caplog.records
     np.testing.assert_allclose(clean.velocities, recordings["velocities"], atol=1e-6)
+
+
+def test_savgol_window_grows_with_the_noise():
+    """GCV picks a wider window for noisier samples, and never one longer than the recording."""
+    time, positions, _ = minimum_jerk_reaches(num_demos=1)
+    rng = np.random.default_rng(4)
+    quiet, loud = (savgol_window(positions[0] + s * rng.standard_normal((len(time), 3)))
+                   for s in (1e-5, 1e-3))
+    assert np.all(loud >= quiet) and loud.sum() > quiet.sum()
+    assert np.all(loud % 2 == 1) and loud.max() <= len(time) // 2 + 1
+    short = np.linspace(0.0, 1.0, 8)[:, None] + 1e-3 * rng.standard_normal((8, 1))
+    assert savgol_window(short).tolist() == [5]
