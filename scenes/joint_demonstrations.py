@@ -47,8 +47,8 @@ def column_order(columns: Sequence[str], robot: Any, where: str) -> np.ndarray:
 
 
 def from_joint_trajectories(robot: Any, joint_trajectories: Sequence[Any],
-                            times: Sequence[Any], smoothing: str = "auto", name: str = "",
-                            obstacles: Any = None) -> Demonstrations:
+                            times: Sequence[Any], smoothing: str = "auto",
+                            name: str = "") -> Demonstrations:
     """End-effector demonstrations of M joint recordings (T_m, n) [rad] at times (T_m,) [s]
     in the robot's joint order (see the module docstring; unequal time stamps are resampled
     by :meth:`Demonstrations.from_trajectories`)."""
@@ -77,8 +77,7 @@ def from_joint_trajectories(robot: Any, joint_trajectories: Sequence[Any],
     names = tuple(robot.joint_names)
     if len(q_list) >= 2 and all(len(t) == len(stamps[0]) and np.array_equal(t, stamps[0])
                                 for t in stamps):
-        return Demonstrations(np.stack(positions), np.stack(velocities), stamps[0], obstacles,
-                              name, joint_positions=np.stack(q_list), joint_names=names)
-    return Demonstrations.from_trajectories(positions, stamps, velocities=velocities,
-                                            obstacles=obstacles, name=name,
+        return Demonstrations(np.stack(positions), np.stack(velocities), stamps[0], None, name,
+                              joint_positions=np.stack(q_list), joint_names=names)
+    return Demonstrations.from_trajectories(positions, stamps, velocities=velocities, name=name,
                                             joint_positions=q_list, joint_names=names)

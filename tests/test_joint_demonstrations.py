@@ -123,3 +123,19 @@ def test_joint_files_need_a_robot(tmp_path):
         load_demonstrations(path)
     with pytest.raises(ArgumentTypeError, match="robot: expected a robots.Robot"):
         load_demonstrations(path, robot="jaco")
+
+
+def test_joint_recordings_of_unequal_length_are_resampled_together(jaco, tmp_path):
+    demos = make_demonstrations("box_closing", num_demos=2, num_points=80, seed=2)
+    q = joint_recordings(jaco, demos)
+    rows = ["demo,t," + ",".join(jaco.joint_names)]
+    for m, length in enumerate((80, 60)):                   # the second one stops early
+        for i in range(length):
+            rows.append(f"{m},{demos.time[i]:.17g}," + ",".join(f"{v:.17g}" for v in q[m, i]))
+    path = tmp_path / "unequal.csv"
+    path.write_text("\n".join(rows) + "\n")
+    loaded = load_demonstrations(path, robot=jaco)
+    assert loaded.joint_positions.shape == (2, 80, 6)
+    np.testing.assert_allclose(loaded.joint_positions[1, [0, -1]], q[1, [0, 59]], atol=1e-12)
+    # resampled by phase, the paths are still the forward kinematics of the joint trajectories
+    np.testing.assert_allclose(jaco.fk(loaded.joint_positions), loaded.positions, atol=1e-4)
