@@ -24,15 +24,17 @@ conjugate Bayesian model instead (:mod:`clamp.conjugate`); the prior keeps the p
 ``prior.update(demos)`` continues from it.
 
 Demonstrations that agree exactly at some steps (a common start, a common goal reached at
-rest) give a zero residual there, which would make the prior singular. Wherever the
-demonstrations' standard deviation of a coordinate is below SPREAD_FLOOR = 1e-5 (0.01 mm on
-positions, 0.01 mm/s on velocities; rad and rad/s in a joint prior), that coordinate's
-diagonal entry is raised to SPREAD_FLOOR**2: in Q_i when it is the coordinate of the state
-x_{i+1}, in the initial covariance when it is of x_0 (after the jitter). Such a step is
-learned as "every demonstration is here, within 0.01 mm", a precision the planner's solver
-and posterior covariance handle (the reference's 1e-12 alone leaves them singular); steps
-where the demonstrations vary are learned exactly as before. Only demonstrations identical
-at every step are refused.
+rest) give a zero residual there, which would make the prior singular. At every step where
+the demonstrations' largest standard deviation over the state's coordinates is below
+SPREAD_FLOOR = 1e-5 (0.01 mm on positions, 0.01 mm/s on velocities; rad and rad/s in a joint
+prior), the diagonal entries are raised to at least SPREAD_FLOOR**2: of Q_i when that step is
+x_{i+1}, of the initial covariance when it is x_0 (after the jitter). Such a step is learned
+as "every demonstration is here, within 0.01 mm", a precision the planner's solver and
+posterior covariance handle (the reference's 1e-12 alone leaves them singular; on the Jaco a
+plan from a new start then fails its posterior covariance). Steps where the demonstrations
+differ in some coordinate (e.g. all at rest at different places, as the synthetic skills
+start and end) are learned exactly as before. Only demonstrations identical at every step
+are refused.
 """
 from __future__ import annotations
 
@@ -56,9 +58,9 @@ from scenes.validation import MAX_COORDINATE
 #: steps below it (a common start or goal) are learned with the SPREAD_FLOOR.
 MIN_SPREAD = 1e-6
 
-#: Standard deviation (m or rad for positions, m/s or rad/s for velocities) below which the
-#: demonstrations agree in a coordinate at a step; there the coordinate's diagonal entry of
-#: Q_i (of the initial covariance at step 0) is raised to at least SPREAD_FLOOR**2.
+#: Standard deviation (m or rad for positions, m/s or rad/s for velocities): at a step where
+#: the demonstrations' largest one over the coordinates is below it they agree, and the
+#: diagonal of Q_i (of the initial covariance at step 0) is raised to at least SPREAD_FLOOR**2.
 SPREAD_FLOOR = 1e-5
 
 __all__ = ["learn_prior", "learn_joint_prior", "update_prior", "fit_transitions", "state_groups",
@@ -179,11 +181,12 @@ def _block_covariance(full: np.ndarray, groups: np.ndarray, jitter: float) -> np
 
 def floor_agreement(cov: np.ndarray, variance: np.ndarray) -> np.ndarray:
     """Covariances (..., D, D) whose diagonal entries are raised to at least SPREAD_FLOOR**2
-    where the demonstrations' variance (..., D) of that coordinate is below SPREAD_FLOOR**2
+    where the demonstrations' variance (..., D) is below SPREAD_FLOOR**2 in every coordinate
     (a non-negative diagonal added: still symmetric positive semi-definite)."""
     floor = SPREAD_FLOOR ** 2
     diagonal = np.einsum("...ii->...i", cov)
-    lift = np.where(variance < floor, np.maximum(floor - diagonal, 0.0), 0.0)
+    agree = np.max(variance, axis=-1, keepdims=True) < floor
+    lift = np.where(agree, np.maximum(floor - diagonal, 0.0), 0.0)
     return cov + lift[..., :, None] * np.eye(cov.shape[-1])
 
 
