@@ -26,7 +26,8 @@ from clamp.continuation import (detour_restarts, solve_collision_free, tighten_c
                                 with_obstacle_sigma)
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
-                           JointTargetFamily, ObstacleFamily, PostureFamily, WorkspaceGPFamily,
+                           JointTargetFamily, ObstacleFamily, PostureFamily,
+                           SelfCollisionFamily, WorkspaceGPFamily,
                            WorkspaceStartFamily, shifted_start_mean)
 from clamp.initialisation import (Initialisation, joint_velocities, prior_mean_initialisation,
                                   straight_line_initialisation)
@@ -39,8 +40,14 @@ from clamp.result import PlanInputs, PlanResult
 from clamp.targets import target_problems, violated_families
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array, as_bool
+from clamp.solver import WarmStart
 from clamp.verdict import evaluate, failed_result, start_problems
+from robots.self_collision import self_collision_report
 from scenes.threads import single_blas_thread
+
+#: configurations checked between two states by the self-collision hinges (a link swept
+#: through another between states is caught)
+SELF_COLLISION_BETWEEN = 8
 
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
 #: what ``extra_factors`` may hold: a family (fast path), any GTSAM factor on the planner's
@@ -85,6 +92,36 @@ def _restarts(prior, robot, scene, request: Request, config: PlannerConfig, init
     if config.optimizer.initialisation != "straight_line":
         line = _initialise(prior, robot, request, config.with_(initialisation="straight_line"))
         yield "straight_line", line.theta
+
+
+def _free_of_self_collision(problem: PlanningProblem, out: Any, config: PlannerConfig,
+                            check: Callable | None, report: Any, time_: np.ndarray,
+                            attempts: list[dict]) -> tuple:
+    """When the plan ``out`` collides with itself (:func:`robots.self_collision_report`),
+    re-solve from it with the self-collision hinges added (:class:`SelfCollisionFamily`,
+    ``config.model.self_collision_epsilon`` / ``_sigma``), kept if it brings no obstacle
+    collision back; appends the attempt. Returns (problem, out, obstacle report, self report)
+    of the plan chosen."""
+    robot, T = problem.robot, problem.num_states
+    own = self_collision_report(robot, out.theta[:, :robot.n], time_)
+    if not own.collision or config.optimizer.constraint_rounds == 0:
+        return problem, out, report, own
+    model = config.model
+    family = SelfCollisionFamily.for_robot(robot, range(T - 1), model.self_collision_epsilon,
+                                           model.self_collision_sigma, SELF_COLLISION_BETWEEN)
+    guarded = PlanningProblem(robot, T, [*problem.families, family], problem.foreign, out.theta)
+    new = optimize(guarded, config, WarmStart())
+    new_own = self_collision_report(robot, new.theta[:, :robot.n], time_)
+    new_report = check(new.theta) if check is not None else None
+    collides = new_report is not None and new_report.collision
+    attempts.append({"candidate": "self-collision hinges", "sigma": model.self_collision_sigma,
+                     "min_distance": float(new_own.min_distance), "feasible": not collides,
+                     "prior_cost": float("nan"), "iterations": new.iterations})
+    if collides and not (report is not None and report.collision):
+        return problem, out, report, own
+    new = replace(new, iterations=out.iterations + new.iterations,
+                  trials=out.trials + new.trials, initial_error=out.initial_error)
+    return guarded, new, new_report, new_own
 
 
 def warm_start(robot: Any, initial: Any, T: int, dt: float) -> Initialisation:
@@ -302,6 +339,9 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
         lambda theta: violated_families(problem.families, robot, theta, config),
         check, config.optimizer.constraint_rounds, report, sigma)
     attempts = [asdict(a) for a in attempts + tightened]
+    problem, out, report, own = _free_of_self_collision(problem, out, config, check, report,
+                                                        np.asarray(prior.time, dtype=float),
+                                                        attempts)
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
     floor = 0.0
@@ -311,7 +351,7 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
                **out.timings}
     result = evaluate(prior, robot, scene, problem, request, out, config, timings, report,
-                      model_prior)
+                      model_prior, own)
     result.initial_q = init.q
     result.attempts = attempts
     result.state_covariance, result.ee_covariance = state_cov, ee_cov

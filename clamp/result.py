@@ -57,7 +57,10 @@ class PlanResult:
     skill: the skill checks' figures (:class:`clamp.skill.SkillCheck`: max_tube_ratio, the
     plan's largest distance from where the skill goes in units of the demonstrations' spread
     there, limit tube_limit; worst_state; end_distance [m] from where the demonstrations end
-    and completion_radius [m], None when a goal was given); within_limits; success and reasons
+    and completion_radius [m], None when a goal was given); self_clearance [m]: least distance
+    between two of the robot's own links that may touch (:mod:`robots.self_collision`: URDF
+    collision geometry, adjacent / rigid / always-touching pairs left out; at and between
+    states; negative: overlap depth), self_contact: where; within_limits; success and reasons
     (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
@@ -100,6 +103,8 @@ class PlanResult:
     nearest_contact: dict[str, Any] | None = None
     attempts: list[dict[str, Any]] = field(default_factory=list)
     skill: dict[str, Any] = field(default_factory=dict)
+    self_clearance: float = float("inf")
+    self_contact: dict[str, Any] | None = None
     #: the request (not a dataclass field: left out of to_dict / asdict); set by clamp.plan
     inputs = None
 
@@ -122,6 +127,8 @@ class PlanResult:
                 "via_errors": [float(e) for e in self.via_errors],
                 "violations": {k: float(v) for k, v in self.violations.items()},
                 "within_limits": bool(self.within_limits),
+                "self_clearance_m": number(self.self_clearance),
+                "self_contact": self.self_contact,
                 "skill": {k: number(v) if isinstance(v, float) else v
                           for k, v in self.skill.items()}}
 

@@ -23,6 +23,7 @@ from clamp.request import Request, as_scene, has_obstacles
 from clamp.result import PlanResult
 from clamp.targets import constraint_violations, inside_obstacle
 from robots.collision_check import CollisionReport
+from robots.self_collision import SelfCollisionReport, self_collision_report
 
 
 def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
@@ -60,6 +61,9 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     if start.kind == "joint":
         reasons += limit_violations(robot, request.q_start[None], None,
                                     config.checks.limit_tolerance, what="start configuration")
+    own = self_collision_report(robot, request.q_start[None])
+    if own.collision:
+        reasons.append("start configuration is in " + own.reason)
     if has_obstacles(scene):
         inside = inside_obstacle(scene, "start", start)
         if inside:
@@ -95,10 +99,12 @@ def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
 
 def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
              out: Optimized, config: PlannerConfig, timings: dict[str, float],
-             report: CollisionReport | None = None, model_prior: Any = None) -> PlanResult:
+             report: CollisionReport | None = None, model_prior: Any = None,
+             self_report: SelfCollisionReport | None = None) -> PlanResult:
     """Metrics and success checks of an optimised plan; report: the real-geometry check of
     ``out.theta`` when the caller already has it (else computed here); model_prior: the prior
-    the plan was made with (conditioned on its targets; None: ``prior``)."""
+    the plan was made with (conditioned on its targets; None: ``prior``); self_report: the
+    self-collision check of ``out.theta`` when the caller already has it."""
     n, checks = robot.n, config.checks
     q, qdot = out.theta[:, :n], out.theta[:, n:]
     x, _ = problem.window(out.theta).workspace()
@@ -106,6 +112,8 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     families = problem.family_errors(out.theta)
     if report is None:
         report = check_clearance(robot, scene, q, np.asarray(prior.time, dtype=float))
+    if self_report is None:
+        self_report = self_collision_report(robot, q, np.asarray(prior.time, dtype=float))
     clearance = math.inf if report is None else float(report.min_distance)
     start = request.start
     start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
@@ -137,6 +145,8 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     collision = collision_reason(report)
     if collision:
         reasons.append(collision)
+    if self_report.collision:
+        reasons.append(self_report.reason)
     reasons += limits
     violations, broken = constraint_violations(problem.families, robot, q)
     reasons += broken
@@ -148,7 +158,9 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
                       start_error=start_error, goal_error=goal_error,
                       log_likelihood=log_likelihood, plausibility=skill.plausibility,
-                      skill=skill.to_dict(),
+                      skill=skill.to_dict(), self_clearance=float(self_report.min_distance),
+                      self_contact=None if self_report.nearest is None
+                      else self_report.nearest.to_dict(),
                       within_limits=not limits, success=not reasons, reasons=reasons,
                       initialisation=config.optimizer.initialisation, trials=out.trials,
                       optimizer=out.optimizer,
