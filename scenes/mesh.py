@@ -27,11 +27,27 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .errors import InvalidObstacleError
-from .obstacles import Obstacle
+from .nearest import ball_pairs
+from .obstacles import IndexedObstacle
 from .validation import MAX_COORDINATE, as_array, as_shaped
 
 # regions of a triangle's closest point (Ericson's order of tests: A, B, AB, C, AC, BC, face)
 _A, _B, _C, _AB, _BC, _CA, _FACE = range(7)
+
+
+#: Corners of the unit cube about the origin (8,3), index = 4 x_bit + 2 y_bit + z_bit, and its
+#: twelve outward triangles (12,3).
+_CUBE = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+_CUBE_FACES = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                        [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+
+
+def box_triangles(center: Any, size: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (8,3) [m] and outward faces (12,3) of an axis-aligned box of full edge lengths
+    ``size`` (3,) [m] about ``center`` (3,) [m] (e.g. to assemble a table's mesh)."""
+    center = as_shaped(center, "center", (3,), InvalidObstacleError, MAX_COORDINATE)
+    size = as_shaped(size, "size", (3,), InvalidObstacleError, MAX_COORDINATE)
+    return _CUBE * size + center, _CUBE_FACES.copy()
 
 
 def as_faces(faces: Any, num_vertices: int) -> np.ndarray:
@@ -83,11 +99,10 @@ def closest_points(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarr
     return a + v[:, None] * ab + w[:, None] * ac, region
 
 
-class TriangleMesh(Obstacle):
+class TriangleMesh(IndexedObstacle):
     """Triangles ``faces`` (F,3) (vertex indices) over ``vertices`` (V,3) [m] (module docstring)."""
 
     kind = "mesh"
-    primitive = True
 
     def __init__(self, vertices: Any, faces: Any):
         vertices = as_shaped(vertices, "TriangleMesh vertices", (None, 3), InvalidObstacleError,
@@ -142,10 +157,7 @@ class TriangleMesh(Obstacle):
 
     def _pairs(self, points: np.ndarray, reach: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """(point index, face index) pairs whose face may lie within reach (scalar or (P,)) [m]."""
-        lists = self._tree.query_ball_point(points, reach + self._largest + 1e-9, return_sorted=False)
-        counts = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
-        p = np.repeat(np.arange(len(points)), counts)
-        f = np.concatenate(lists).astype(np.intp) if counts.sum() else np.zeros(0, np.intp)
+        p, f = ball_pairs(self._tree, points, reach + self._largest + 1e-9)
         gap = np.linalg.norm(points[p] - self._centre[f], axis=1) - self._radius[f]
         keep = gap <= (reach if np.ndim(reach) == 0 else reach[p]) + 1e-9
         return p[keep], f[keep]
@@ -171,9 +183,6 @@ class TriangleMesh(Obstacle):
                 unit *= sign[:, None]
             unit[on] = normal[on]
             g[p] = unit
-
-    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        return self._evaluate_within(coords, gradient, math.inf)
 
     def _evaluate_within(self, coords: np.ndarray, gradient: bool, max_distance: float
                          ) -> tuple[np.ndarray, np.ndarray | None]:

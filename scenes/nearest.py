@@ -13,7 +13,10 @@ no inner ball, ``d_k(p) <= |p - c_k| + outer_k``). With :data:`INDEX_FROM` obsta
 the centres go into k-d trees (``scipy.spatial.cKDTree``; one per band of outer radii within a
 factor :data:`RADIUS_BAND`, so one large obstacle does not widen every search), and a point
 only evaluates the obstacles whose lower bound is at most its cap: ``max_distance``, or, when
-that is infinite, the least upper bound over the trees' nearest centres. Every obstacle that can
+that is infinite, the least upper bound over the trees' nearest centres. With a finite cap, the
+obstacles that cannot come within it of the points' bounding box are dropped first (one
+vectorised test); when fewer than :data:`SEARCH_FROM` remain, each is evaluated at the points
+within its outer ball grown by the cap. Every obstacle that can
 decide the answer is among them, so the result equals evaluating every obstacle; a planner that
 only needs distances below its hinge's reach pays only for the obstacles within that reach of
 its points. Fewer obstacles are evaluated at every point (the bookkeeping would cost more).
@@ -31,10 +34,23 @@ from .obstacles import Obstacle
 #: Obstacle count from which :class:`Nearest` uses its spatial index (below, every obstacle is
 #: evaluated at every point: on 7,500 points, 8 boxes cost about as much as the index's search).
 INDEX_FROM = 8
+#: With a bounded query, fewer obstacles near the points' bounding box than this are each
+#: tested against every point (one vectorised test per obstacle: cheaper than a k-d tree pair
+#: search, ~10 ms on 7,500 points, until about this many).
+SEARCH_FROM = 128
 #: Outer radii within this factor share a k-d tree.
 RADIUS_BAND = 4.0
 #: [m] slack on the candidate tests (covers the rounding of |p - c|).
 _SLACK = 1e-9
+
+
+def ball_pairs(tree: cKDTree, points: np.ndarray, radius: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (point index (M,), tree index (M,)) of points (P,3) and tree points within radius
+    (a scalar or (P,)) [m] of them, in no particular order."""
+    lists = tree.query_ball_point(points, radius, return_sorted=False)
+    counts = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
+    found = np.concatenate(lists).astype(np.intp) if counts.sum() else np.zeros(0, np.intp)
+    return np.repeat(np.arange(len(points)), counts), found
 
 
 class _Band:
@@ -76,6 +92,15 @@ class Nearest:
             np.minimum(cap, dist + self._above[band.ids[j]], out=cap)
         return cap
 
+    def _near_box(self, points: np.ndarray, cap: np.ndarray | float) -> np.ndarray | None:
+        """The obstacles (ascending) whose outer ball comes within cap (a scalar) of the points'
+        bounding box: those that may be within cap of some point; None for per-point caps."""
+        if np.ndim(cap) != 0:
+            return None
+        lo, hi = points.min(axis=0) - cap, points.max(axis=0) + cap
+        outside = np.maximum(np.maximum(lo - self._centres, self._centres - hi), 0.0)
+        return np.flatnonzero(np.einsum("ij,ij->i", outside, outside) <= (self._outer + _SLACK) ** 2)
+
     def _candidates(self, points: np.ndarray, cap: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Pairs (point index (M,), obstacle index (M,)) with |p - c_k| - outer_k <= cap(p),
         sorted by obstacle."""
@@ -88,10 +113,7 @@ class Nearest:
                                                           output_type="ndarray")
                 p, j = found["i"].astype(np.intp), found["j"].astype(np.intp)
             else:
-                lists = band.tree.query_ball_point(points, cap + band.reach + _SLACK, return_sorted=False)
-                counts = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
-                p = np.repeat(np.arange(len(points)), counts)
-                j = np.concatenate(lists).astype(np.intp) if counts.sum() else np.zeros(0, np.intp)
+                p, j = ball_pairs(band.tree, points, cap + band.reach + _SLACK)
             k = band.ids[j]
             gap = np.linalg.norm(points[p] - self._centres[k], axis=1) - self._outer[k]
             keep = gap <= (cap if scalar else cap[p]) + _SLACK
@@ -106,28 +128,47 @@ class Nearest:
         count = coords.shape[1]
         d = np.full(count, np.inf)
         rows = np.zeros((3, count)) if gradient else None
-        if not self._bands:                       # few obstacles: evaluate each at every point
+        if not self._bands:                       # few obstacles: each at every point
             for ob in self.obstacles:
-                dk, gk = ob._evaluate_within(coords, gradient, max_distance)
-                if gradient:                       # row-wise index copies: a masked copyto is slow
-                    closer = np.flatnonzero(dk < d)
-                    rows[:, closer] = gk.T[:, closer]
-                np.minimum(d, dk, out=d)
+                _lower(d, rows, None, *ob._evaluate_within(coords, gradient, max_distance))
         else:
             points = np.ascontiguousarray(coords.T)
             cap = self._caps(points, max_distance)
-            p, k = self._candidates(points, cap)
-            starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(k) else np.zeros(0, int)
-            for first, last in zip(starts, np.r_[starts[1:], len(k)]):
-                idx = p[first:last]
-                dk, gk = self.obstacles[k[first]]._evaluate_within(coords[:, idx], gradient, max_distance)
-                closer = np.flatnonzero(dk < d[idx])
-                d[idx[closer]] = dk[closer]
-                if gradient:
-                    rows[:, idx[closer]] = gk.T[:, closer]
+            near = self._near_box(points, cap)
+            if near is not None and len(near) < SEARCH_FROM:
+                for k in near:                    # each at the points within its ball + cap
+                    offset = points - self._centres[k]
+                    idx = np.flatnonzero(np.einsum("ij,ij->i", offset, offset)
+                                         <= (self._outer[k] + cap + _SLACK) ** 2)
+                    if idx.size:
+                        _lower(d, rows, idx, *self.obstacles[k]._evaluate_within(
+                            coords[:, idx], gradient, max_distance))
+            else:
+                p, k = self._candidates(points, cap)
+                starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(k) else np.zeros(0, int)
+                for first, last in zip(starts, np.r_[starts[1:], len(k)]):
+                    idx = p[first:last]
+                    _lower(d, rows, idx, *self.obstacles[k[first]]._evaluate_within(
+                        coords[:, idx], gradient, max_distance))
         if math.isfinite(max_distance):
             beyond = d > max_distance
             d[beyond] = max_distance
             if gradient:
                 rows[:, beyond] = 0.0
         return d, (None if rows is None else rows.T)
+
+
+def _lower(d: np.ndarray, rows: np.ndarray | None, idx: np.ndarray | None, dk: np.ndarray,
+           gk: np.ndarray | None) -> None:
+    """Where an obstacle's distances dk at points idx (None: every point) are below d, take
+    them and (rows (3,P), when not None) their gradients gk (M,3); ties keep the earlier."""
+    if idx is None:
+        if rows is not None:                      # row-wise index copies: a masked copyto is slow
+            closer = np.flatnonzero(dk < d)
+            rows[:, closer] = gk.T[:, closer]
+        np.minimum(d, dk, out=d)
+        return
+    closer = np.flatnonzero(dk < d[idx])
+    d[idx[closer]] = dk[closer]
+    if rows is not None:
+        rows[:, idx[closer]] = gk.T[:, closer]

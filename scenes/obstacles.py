@@ -31,6 +31,7 @@ project's machines a fresh 7500 x 3 temporary costs more (memory mapping) than i
 """
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import Any, ClassVar
@@ -152,6 +153,23 @@ class Obstacle(ABC):
     def __repr__(self) -> str:
         fields = ", ".join(f"{k}={v}" for k, v in self.to_dict().items() if k != "type")
         return f"{type(self).__name__}({fields})"
+
+
+class IndexedObstacle(Obstacle):
+    """An obstacle of many parts (a mesh's triangles, a cloud's points) searched through its own
+    spatial index: :meth:`_evaluate_within` measures only the parts within reach, and
+    :meth:`_evaluate` is it without a bound. Exact, so a scene of them needs no grid."""
+
+    primitive = True
+
+    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        return self._evaluate_within(coords, gradient, math.inf)
+
+    @abstractmethod
+    def _evaluate_within(self, coords: np.ndarray, gradient: bool, max_distance: float
+                         ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Exact distance (P,) (and gradient (P,3)) where it is at most max_distance [m]; any
+        value above it elsewhere (+inf where no part is within reach)."""
 
 
 class _FramedObstacle(Obstacle):

@@ -16,7 +16,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .errors import InvalidObstacleError
-from .obstacles import Obstacle
+from .nearest import ball_pairs
+from .obstacles import IndexedObstacle
 from .validation import MAX_COORDINATE, as_array, as_scalar, as_shaped
 
 
@@ -29,11 +30,10 @@ def _unit_from(offset: np.ndarray, length: np.ndarray) -> np.ndarray:
     return unit
 
 
-class PointCloud(Obstacle):
+class PointCloud(IndexedObstacle):
     """Balls of ``radius`` [m] (one number, or (N,) one per point) about ``points`` (N,3) [m]."""
 
     kind = "point_cloud"
-    primitive = True
 
     def __init__(self, points: Any, radius: Any):
         points = as_shaped(points, "PointCloud points", (None, 3), InvalidObstacleError, MAX_COORDINATE)
@@ -56,9 +56,6 @@ class PointCloud(Obstacle):
         self._tree = cKDTree(points)
         self._largest = float(np.max(radius))
 
-    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        return self._evaluate_within(coords, gradient, math.inf)
-
     def _evaluate_within(self, coords: np.ndarray, gradient: bool, max_distance: float
                          ) -> tuple[np.ndarray, np.ndarray | None]:
         points = np.ascontiguousarray(coords.T)
@@ -74,10 +71,7 @@ class PointCloud(Obstacle):
             else:  # the nearest centre bounds the distance: search within that bound
                 dist, j = self._tree.query(points, k=1)
                 reach = dist - self.radius[j] + self._largest
-            lists = self._tree.query_ball_point(points, reach + 1e-9, return_sorted=False)
-            counts = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
-            p = np.repeat(np.arange(len(points)), counts)
-            j = np.concatenate(lists).astype(np.intp) if counts.sum() else np.zeros(0, np.intp)
+            p, j = ball_pairs(self._tree, points, reach + 1e-9)
             length = np.linalg.norm(points[p] - self.points[j], axis=1)
             value = length - self.radius[j]
             order = np.lexsort((value, p))          # per point, least value first

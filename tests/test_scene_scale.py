@@ -13,23 +13,14 @@ import pytest
 from scenes import Box, Capsule, Cylinder, PointCloud, Scene, SceneFileError, Sphere, TriangleMesh
 from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
 from scenes.errors import InvalidArgumentError, InvalidObstacleError
+from scenes.mesh import box_triangles
 from scenes.nearest import INDEX_FROM
-
-CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
-BOX_FACES = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
-
-
-def box_mesh(centre, size) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (8,3) and outward faces (12,3) of an axis-aligned box."""
-    return CORNERS * 0.5 * np.asarray(size, float) + np.asarray(centre, float), BOX_FACES.copy()
-
 
 def table_mesh(top_centre, top_size, thickness, leg) -> TriangleMesh:
     """A closed mesh of a pedestal table: a top slab and one square leg down to z = 0."""
     x, y, z = top_centre
-    v1, f1 = box_mesh([x, y, z - thickness / 2], [top_size[0], top_size[1], thickness])
-    v2, f2 = box_mesh([x, y, (z - thickness) / 2], [leg, leg, z - thickness])
+    v1, f1 = box_triangles([x, y, z - thickness / 2], [top_size[0], top_size[1], thickness])
+    v2, f2 = box_triangles([x, y, (z - thickness) / 2], [leg, leg, z - thickness])
     return TriangleMesh(np.vstack([v1, v2]), np.vstack([f1, f2 + 8]))
 
 
@@ -56,7 +47,7 @@ def random_scene(rng: np.random.Generator, count: int) -> list:
         elif kind == 4:
             obstacles.append(PointCloud(centre + scale * rng.normal(size=(20, 3)), scale * rng.uniform(0.1, 0.3, 20)))
         else:
-            vertices, faces = box_mesh(centre, scale * rng.uniform(0.3, 1.0, 3))
+            vertices, faces = box_triangles(centre, scale * rng.uniform(0.3, 1.0, 3))
             obstacles.append(TriangleMesh(vertices @ random_rotation(rng).T, faces))
     return obstacles
 
@@ -109,7 +100,7 @@ def test_bounded_query_is_the_planner_query_and_checks_its_bound():
 def test_closed_mesh_distance_equals_the_box_it_meshes_and_its_gradient_is_exact():
     rng = np.random.default_rng(5)
     rotation = random_rotation(rng)
-    vertices, faces = box_mesh([0, 0, 0], [0.4, 0.3, 0.2])
+    vertices, faces = box_triangles([0, 0, 0], [0.4, 0.3, 0.2])
     box = Box([0.1, 0.2, 0.3], [0.4, 0.3, 0.2], rotation)
     points = rng.uniform(-0.4, 0.6, (4000, 3))
     for order in (faces, faces[:, [0, 2, 1]]):                 # inward faces are turned outward
@@ -129,7 +120,7 @@ def test_closed_mesh_distance_equals_the_box_it_meshes_and_its_gradient_is_exact
 
 
 def test_open_mesh_is_unsigned_and_mesh_bounds_cover_it():
-    vertices, faces = box_mesh([0, 0, 0], [0.2, 0.2, 0.2])
+    vertices, faces = box_triangles([0, 0, 0], [0.2, 0.2, 0.2])
     surface = TriangleMesh(vertices, faces[:10])               # the top's triangles missing: no inside
     assert not surface.closed
     points = np.random.default_rng(6).uniform(-0.3, 0.3, (2000, 3))
@@ -159,7 +150,7 @@ def test_point_cloud_equals_its_spheres():
 
 def test_coal_shapes_of_mesh_and_cloud_measure_the_same_distances():
     rng = np.random.default_rng(8)
-    vertices, faces = box_mesh([0.1, 0.0, 0.2], [0.3, 0.2, 0.1])
+    vertices, faces = box_triangles([0.1, 0.0, 0.2], [0.3, 0.2, 0.1])
     mesh = TriangleMesh(vertices, faces)
     cloud = PointCloud(rng.uniform(-0.1, 0.1, (5, 3)) + [-0.3, 0.2, 0.0], 0.03)
     scene = Scene([Sphere([0.5, 0.5, 0.5], 0.05), cloud, mesh])
@@ -203,7 +194,7 @@ def test_scene_files_with_mesh_and_cloud_round_trip(tmp_path, arrays):
 
 
 def test_bad_mesh_and_cloud_input_names_the_argument(tmp_path):
-    vertices, faces = box_mesh([0, 0, 0], [0.1, 0.1, 0.1])
+    vertices, faces = box_triangles([0, 0, 0], [0.1, 0.1, 0.1])
     bad_faces = faces.copy()
     bad_faces[3, 1] = 8
     with pytest.raises(InvalidObstacleError, match=r"TriangleMesh faces: face 3 = \[4, 8, 5\] has a vertex index "
