@@ -13,10 +13,12 @@ balls selects those within the query's reach (``max_distance``, the hinge's reac
 or, for an exact distance, within the distance to the nearest vertex. The gradient is the unit
 vector from the nearest surface point (the feature's pseudonormal on the surface itself).
 
-Measured against the alternatives (``benchmarks/bench_scene_scale.py``): one coal BVH distance
-per point costs ~10 us of Python call per point, and a precomputed grid is inexact (one cell)
-and costs a build per mesh; this kernel answers the planner's ~7,500 points near a 12-triangle
-table in a few milliseconds.
+Measured against the alternatives (``benchmarks/bench_scene_scale.py``, section 3; the 7,500
+sphere centres of box_closing's path by a 12-triangle pedestal table): this kernel costs about as
+much as one coal BVH distance per point (~5 us a point, unsigned: coal measures the surface, so
+a point inside reads as outside); a 1 cm grid queries ~40x faster but costs a build of ~0.5 s
+per scene and up to a cell of error. The exact kernel keeps a scene of meshes, clouds and
+primitives on one exact, indexed query.
 """
 from __future__ import annotations
 
@@ -130,7 +132,7 @@ class TriangleMesh(IndexedObstacle):
         faces.setflags(write=False)
         self.vertices, self.faces = vertices, faces
         self._corners = np.stack([a, b, c])                                  # (3,F,3)
-        normals = cross / area2[:, None]
+        normals = self._normals = cross / area2[:, None]
         centre = (a + b + c) / 3.0
         radius = np.max(np.linalg.norm(self._corners - centre, axis=2), axis=0)
         self._tree, self._largest = cKDTree(centre), float(radius.max())
@@ -158,8 +160,12 @@ class TriangleMesh(IndexedObstacle):
     def _pairs(self, points: np.ndarray, reach: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """(point index, face index) pairs whose face may lie within reach (scalar or (P,)) [m]."""
         p, f = ball_pairs(self._tree, points, reach + self._largest + 1e-9)
-        gap = np.linalg.norm(points[p] - self._centre[f], axis=1) - self._radius[f]
-        keep = gap <= (reach if np.ndim(reach) == 0 else reach[p]) + 1e-9
+        reach = (reach if np.ndim(reach) == 0 else reach[p]) + 1e-9
+        offset = points[p] - self._centre[f]
+        keep = np.einsum("ij,ij->i", offset, offset) <= (self._radius[f] + reach) ** 2
+        p, f, offset, reach = p[keep], f[keep], offset[keep], reach if np.ndim(reach) == 0 else reach[keep]
+        # the distance to a face's plane is at most that to the face: a cheap second cut
+        keep = np.abs(np.einsum("ij,ij->i", offset, self._normals[f])) <= reach
         return p[keep], f[keep]
 
     def _nearest(self, points: np.ndarray, p: np.ndarray, f: np.ndarray, d: np.ndarray,

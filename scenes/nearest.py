@@ -38,6 +38,8 @@ INDEX_FROM = 8
 #: tested against every point (one vectorised test per obstacle: cheaper than a k-d tree pair
 #: search, ~10 ms on 7,500 points, until about this many).
 SEARCH_FROM = 128
+#: Largest table of obstacle-point distances (entries) made for that test.
+_MAX_TABLE = 2_000_000
 #: Outer radii within this factor share a k-d tree.
 RADIUS_BAND = 4.0
 #: [m] slack on the candidate tests (covers the rounding of |p - c|).
@@ -135,11 +137,18 @@ class Nearest:
             points = np.ascontiguousarray(coords.T)
             cap = self._caps(points, max_distance)
             near = self._near_box(points, cap)
-            if near is not None and len(near) < SEARCH_FROM:
-                for k in near:                    # each at the points within its ball + cap
-                    offset = points - self._centres[k]
-                    idx = np.flatnonzero(np.einsum("ij,ij->i", offset, offset)
-                                         <= (self._outer[k] + cap + _SLACK) ** 2)
+            if near is not None and len(near) < SEARCH_FROM and len(near) * count <= _MAX_TABLE:
+                # one table (K,P) of |p - c_k|^2 (an expansion about the points' mean: no
+                # cancellation worth the slack), then each obstacle at the points within its
+                # outer ball grown by the cap
+                origin = points.mean(axis=0)
+                rel, centres = points - origin, self._centres[near] - origin
+                table = np.einsum("kj,pj->kp", -2.0 * centres, rel)      # no BLAS: its threads
+                table += np.einsum("ij,ij->i", rel, rel)                  # stall on a busy machine
+                table += np.einsum("ij,ij->i", centres, centres)[:, None]
+                within = table <= ((self._outer[near] + cap + _SLACK) ** 2)[:, None]
+                for k, row in zip(near, within):
+                    idx = np.flatnonzero(row)
                     if idx.size:
                         _lower(d, rows, idx, *self.obstacles[k]._evaluate_within(
                             coords[:, idx], gradient, max_distance))

@@ -289,3 +289,18 @@ def test_plan_avoids_a_table_mesh_and_a_point_cloud_checked_with_coal(jaco):
     # and nothing of the arm inside the closed table: its spheres' centres are outside
     centres = jaco.sphere_centres(result.q)[0].reshape(-1, 3)
     assert table.distance(centres).min() > 0.0
+
+
+def test_animation_draws_mesh_and_cloud(jaco, tmp_path):
+    pytest.importorskip("meshcat", reason="the animation needs meshcat (pip install meshcat)")
+    import meshcat.geometry as mg
+    from clamp.animation import _obstacle_geometry, write_animation
+    table = table_mesh([0.38, -0.31, 0.40], [0.14, 0.14], 0.03, 0.04)
+    geometry, placement = _obstacle_geometry(table, 0, mg, pin)
+    np.testing.assert_allclose(geometry.vertices, table.vertices, atol=1e-6)   # scene frame (float32)
+    np.testing.assert_array_equal(geometry.faces, table.faces)
+    np.testing.assert_array_equal(placement, np.eye(4))
+    cloud = PointCloud([[0.4, 0.0, 0.3], [0.4, 0.1, 0.3]], 0.02)
+    q = np.linspace(np.zeros(jaco.n), np.full(jaco.n, 0.5), 5) + jaco.neutral_configuration()
+    path = write_animation(tmp_path / "a.html", jaco, np.linspace(0.0, 1.0, 5), q, obstacles=[table, cloud])
+    assert path.stat().st_size > 0
