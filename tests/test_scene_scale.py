@@ -304,3 +304,22 @@ def test_animation_draws_mesh_and_cloud(jaco, tmp_path):
     q = np.linspace(np.zeros(jaco.n), np.full(jaco.n, 0.5), 5) + jaco.neutral_configuration()
     path = write_animation(tmp_path / "a.html", jaco, np.linspace(0.0, 1.0, 5), q, obstacles=[table, cloud])
     assert path.stat().st_size > 0
+
+
+def test_far_obstacles_leave_the_plan_unchanged(jaco):
+    """150 boxes out of the arm's reach (beyond INDEX_FROM: the index and the hinge's reach
+    decide what is measured) give the very plan of the near box alone."""
+    from clamp import learn_prior, plan
+    from scenes import make_demonstrations
+    prior = learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
+    start = [0.2054, -0.4722, 0.2625]
+    box = Box([0.32, -0.32, 0.13], [0.09, 0.06, 0.28])
+    rng = np.random.default_rng(12)
+    angle, radius = rng.uniform(0, 2 * np.pi, 150), rng.uniform(1.5, 3.0, 150)
+    far = [Box([r * np.cos(a), r * np.sin(a), z], s) for a, r, z, s in
+           zip(angle, radius, rng.uniform(-0.5, 1.5, 150), rng.uniform(0.02, 0.1, (150, 3)))]
+    alone = plan(prior, jaco, Scene([box]), start, covariance=False)
+    crowded = plan(prior, jaco, Scene([box] + far), start, covariance=False)
+    assert alone.success and crowded.success
+    np.testing.assert_array_equal(crowded.q, alone.q)
+    assert crowded.iterations == alone.iterations
