@@ -15,11 +15,12 @@ factor :data:`RADIUS_BAND`, so one large obstacle does not widen every search), 
 only evaluates the obstacles whose lower bound is at most its cap: ``max_distance``, or, when
 that is infinite, the least upper bound over the trees' nearest centres. With a finite cap, the
 obstacles that cannot come within it of the points' bounding box are dropped first (one
-vectorised test); when fewer than :data:`SEARCH_FROM` remain, each is evaluated at the points
-within its outer ball grown by the cap. Every obstacle that can
-decide the answer is among them, so the result equals evaluating every obstacle; a planner that
-only needs distances below its hinge's reach pays only for the obstacles within that reach of
-its points. Fewer obstacles are evaluated at every point (the bookkeeping would cost more).
+vectorised test), and when fewer than :data:`SEARCH_FROM` remain, one table of their distances
+to the points picks, for each, the points within its outer ball grown by the cap (cheaper than
+the trees' pair search). Every obstacle that can decide the answer is among those evaluated, so
+the result equals evaluating every obstacle; a planner that only needs distances below its
+hinge's reach pays only for the obstacles within that reach of its points. Below
+:data:`INDEX_FROM` obstacles, each is evaluated at every point (the bookkeeping would cost more).
 """
 from __future__ import annotations
 
@@ -34,9 +35,9 @@ from .obstacles import Obstacle
 #: Obstacle count from which :class:`Nearest` uses its spatial index (below, every obstacle is
 #: evaluated at every point: on 7,500 points, 8 boxes cost about as much as the index's search).
 INDEX_FROM = 8
-#: With a bounded query, fewer obstacles near the points' bounding box than this are each
-#: tested against every point (one vectorised test per obstacle: cheaper than a k-d tree pair
-#: search, ~10 ms on 7,500 points, until about this many).
+#: With a bounded query, fewer obstacles near the points' bounding box than this are matched to
+#: the points through one distance table (cheaper than a k-d tree pair search, ~10 ms on 7,500
+#: points, until about this many).
 SEARCH_FROM = 128
 #: Largest table of obstacle-point distances (entries) made for that test.
 _MAX_TABLE = 2_000_000
