@@ -35,7 +35,8 @@ from typing import Any
 import numpy as np
 
 from .command_line import atomic_write, atomic_write_text
-from .errors import ArgumentTypeError, InvalidArgumentError, InvalidObstacleError, SceneFileError
+from .errors import (ArgumentTypeError, InvalidArgumentError, InvalidObstacleError, OutputPathError,
+                     SceneFileError)
 from .mesh import TriangleMesh
 from .nearest import Nearest
 from .obstacles import OBSTACLE_TYPES, Obstacle, as_coords, obstacle_from_dict
@@ -228,10 +229,15 @@ class Scene:
         path = as_path(path, "path", ArgumentTypeError)
         if arrays not in ("inline", "npz"):
             raise InvalidArgumentError(f"arrays: expected 'inline' or 'npz', got {arrays!r}")
+        sidecars = {i: path.with_name(f"{path.stem}.obstacle{i}.npz") for i, ob in enumerate(self._obstacles)
+                    if arrays == "npz" and ob.kind in ARRAY_OBSTACLES}
+        for target in [path, *sidecars.values()]:   # refuse before writing anything
+            if not overwrite and target.exists():
+                raise OutputPathError(f"path: {str(target)!r} already exists; pass overwrite=True to replace it")
         entries = []
         for i, ob in enumerate(self._obstacles):
-            if arrays == "npz" and ob.kind in ARRAY_OBSTACLES:
-                sidecar = path.with_name(f"{path.stem}.obstacle{i}.npz")
+            if i in sidecars:
+                sidecar = sidecars[i]
                 atomic_write(sidecar, functools.partial(_write_npz, ob.arrays()), overwrite=overwrite)
                 entries.append({"type": ob.kind, "file": sidecar.name})
             else:

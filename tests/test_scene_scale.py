@@ -12,7 +12,7 @@ import pytest
 
 from scenes import Box, Capsule, Cylinder, PointCloud, Scene, SceneFileError, Sphere, TriangleMesh
 from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
-from scenes.errors import InvalidArgumentError, InvalidObstacleError
+from scenes.errors import InvalidArgumentError, InvalidObstacleError, OutputPathError
 from scenes.mesh import box_triangles
 from scenes.nearest import INDEX_FROM
 
@@ -189,8 +189,10 @@ def test_scene_files_with_mesh_and_cloud_round_trip(tmp_path, arrays):
     np.testing.assert_array_equal(loaded.bounds, scene.bounds)
     points = rng.uniform(-0.5, 0.5, (1000, 3))
     np.testing.assert_array_equal(loaded.distance(points), scene.distance(points))
-    with pytest.raises(Exception, match="already exists"):
+    before = sorted(tmp_path.iterdir())
+    with pytest.raises(OutputPathError, match="already exists"):
         scene.save(path, overwrite=False, arrays=arrays)
+    assert sorted(tmp_path.iterdir()) == before                  # nothing written
 
 
 def test_bad_mesh_and_cloud_input_names_the_argument(tmp_path):
