@@ -101,7 +101,7 @@ def run_case(near: int, far: int, full_plan: bool) -> dict:
     out["build"] = time.perf_counter() - t0
     centres = robot.sphere_centres(problem.initial[:, :robot.n])[0]
     query = scene.distance_query(max_distance=config.model.epsilon + float(robot.spheres.radii.max()))
-    out["query_index"] = median_seconds(lambda: query(centres), 5)
+    out["query_index"] = median_seconds(lambda: query(centres), 21)
     coords = np.ascontiguousarray(centres.reshape(-1, 3).T)
     out["query_every"] = median_seconds(lambda: every_obstacle(scene, coords), 1 if near + far > 1000 else 3)
     solved = optimize(problem, config)
