@@ -14,10 +14,10 @@ or, for an exact distance, within the distance to the nearest vertex. The gradie
 vector from the nearest surface point (the feature's pseudonormal on the surface itself).
 
 Measured against the alternatives (``benchmarks/bench_scene_scale.py``, section 3; the 7,500
-sphere centres of box_closing's path by a 12-triangle pedestal table): this kernel costs about as
-much as one coal BVH distance per point (~5 us a point, unsigned: coal measures the surface, so
-a point inside reads as outside); a 1 cm grid queries ~40x faster but costs a build of ~0.5 s
-per scene and up to a cell of error. The exact kernel keeps a scene of meshes, clouds and
+sphere centres of box_closing's path by a 12-triangle pedestal table): this kernel costs no more
+than one coal BVH distance per point (5-9 us a point, and unsigned: coal measures the surface,
+so a point inside reads as outside); a 1 cm grid queries ~25-40x faster but costs a build of
+0.25-0.5 s per scene and up to a cell of error. The exact kernel keeps a scene of meshes, clouds and
 primitives on one exact, indexed query.
 """
 from __future__ import annotations
