@@ -145,7 +145,7 @@ def resolve(problem: Problem, base: Path) -> dict[str, Any]:
     if isinstance(scene, str):
         scene = Scene.load(_path(scene, base))
     elif scene is not None:
-        scene = Scene.from_dict(scene, source=f"problem {problem.id!r} scene")
+        scene = Scene.from_dict(scene, source=f"problem {problem.id!r} scene", folder=base)
     return {"prior": prior, "robot": robot, "scene": scene, "start": np.array(problem.start),
             "goal": None if problem.goal is None else np.array(problem.goal),
             "via_points": [(i, np.array(v)) for i, v in problem.via_points],

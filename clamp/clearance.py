@@ -19,7 +19,7 @@ import numpy as np
 
 from clamp.request import has_obstacles
 from robots.collision_check import CollisionChecker, CollisionReport, Contact
-from scenes.coal_shapes import coal_obstacles
+from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
 
 #: [m] largest motion of any link point between two checked configurations of a segment
 MAX_MOTION = 0.005
@@ -61,7 +61,8 @@ def state_clearance(robot: Any, scene: Any, q: np.ndarray, cap: float
 
 def contact_obstacle(robot: Any, scene: Any, contact: Contact) -> Any:
     """The scene obstacle a contact of :func:`check_clearance` names."""
-    return scene.obstacles[checker(robot, scene).obstacle_names.index(contact.obstacle)]
+    triple = checker(robot, scene).obstacle_names.index(contact.obstacle)
+    return scene.obstacles[coal_obstacle_owners(scene)[triple]]
 
 
 def describe_contact(contact: Contact, geometry: str) -> str:

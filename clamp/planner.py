@@ -11,6 +11,7 @@ checks the result.
 """
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, replace
@@ -136,16 +137,18 @@ def warm_start(robot: Any, initial: Any, T: int, dt: float) -> Initialisation:
     return Initialisation(q, qdot, robot.fk(q), np.zeros(T))
 
 
-def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None) -> Callable | None:
+def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None,
+                   reach: float = math.inf) -> Callable | None:
     """The signed-distance query the obstacle family uses: ``sdf.query`` when given, else the
-    scene's (exact for primitives, a grid cached by the scene otherwise); None without
-    obstacles or with obstacle factors off."""
+    scene's (exact for primitives, a grid cached by the scene otherwise), clipped at ``reach``
+    [m] (the hinge's: epsilon + the largest sphere radius), so that only the obstacles near the
+    arm are evaluated; None without obstacles or with obstacle factors off."""
     sdf = as_sdf(sdf, scene)
     if not config.model.obstacle_factors or not has_obstacles(scene):
         return None
     if sdf is not None:
         return sdf.query
-    return scene.distance_query(config.model.sdf_cell_size)
+    return scene.distance_query(config.model.sdf_cell_size, max_distance=reach)
 
 
 def _families(prior: Any, robot: Any, request: Request, config: PlannerConfig,
@@ -241,7 +244,8 @@ def _build(prior, robot, scene, start, goal, via_points, extra_factors, config, 
     extra_families, foreign = _extras(extra_factors, T)
     if model_prior is None:                       # the prior conditioned on the targets
         model_prior = planning_prior(prior, robot, request, config)
-    families = _families(model_prior, robot, request, config, distance_query(scene, config, sdf))
+    families = _families(model_prior, robot, request, config, distance_query(
+        scene, config, sdf, config.model.epsilon + float(np.max(robot.spheres.radii, initial=0.0))))
     init = (_initialise(model_prior, robot, request, config) if initial is None
             else warm_start(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
