@@ -21,7 +21,7 @@ import gtsam
 import numpy as np
 
 from clamp.clearance import check_clearance, contact_obstacle
-from clamp.conditioning import planning_prior
+from clamp.conditioning import planning_prior, skill_reference
 from clamp.config import PlannerConfig
 from clamp.continuation import (detour_restarts, solve_collision_free, tighten_constraints,
                                 with_obstacle_sigma)
@@ -38,6 +38,7 @@ from clamp.problem import PlanningProblem
 from clamp.request import (Request, Target, as_config, as_extras, as_scene, as_sdf, check_prior,
                            check_robot, has_obstacles, make_request)
 from clamp.result import PlanInputs, PlanResult
+from clamp.skill import skill_checks
 from clamp.targets import target_problems, violated_families
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array, as_bool
@@ -316,8 +317,14 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
             return check_clearance(robot, scene, theta[:, :robot.n], prior.time)
         def restarts(found):
             return _restarts(prior, robot, scene, request, config, init, found)
+        reference = skill_reference(prior, robot, request, config, model_prior)
+
+        def with_the_skill(theta):
+            return not skill_checks(prior, reference, robot.fk(theta[:, :robot.n]),
+                                    request.goal is not None, score=False).reasons
         solved = solve_collision_free(problem, config, check, restarts,
-                                      config.optimizer.constraint_rounds, warm_start)
+                                      config.optimizer.constraint_rounds, warm_start,
+                                      with_the_skill)
         attempts = list(solved.attempts)
         if solved.report.collision and any(f.name == PostureFamily.name
                                             for f in problem.families):

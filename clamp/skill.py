@@ -206,11 +206,11 @@ def skill_plausibility(region: SkillRegion, prior: Any, reference_prior: Any,
 
 
 def skill_checks(prior: Any, reference_prior: Any, path: np.ndarray, goal_given: bool,
-                 describe_pusher: Any = None) -> SkillCheck:
+                 describe_pusher: Any = None, score: bool = True) -> SkillCheck:
     """Judge ``path`` (T, 3) [m] against the skill of ``prior``; ``reference_prior`` is the
     prior conditioned on the path's start (and the caller's goal / via positions);
     describe_pusher(state) -> str names what pushed the path there (e.g. the nearest
-    obstacle), or None."""
+    obstacle), or None; score: compute the plausibility (else NaN: the checks alone)."""
     region = SkillRegion.of(prior)
     reference = np.asarray(reference_prior.mean)[:, :3]
     ratio = tube_ratio(region, reference, path)
@@ -237,6 +237,7 @@ def skill_checks(prior: Any, reference_prior: Any, path: np.ndarray, goal_given:
                 f"skill not completed: ends {1000 * end_distance:.0f} mm from where the "
                 f"demonstrations end (limit {1000 * completion:.0f} mm)"
                 + (f", pushed by {why}" if why else ""))
-    score = float(skill_plausibility(region, prior, reference_prior,
-                                     statistic(region, reference, path)))
-    return SkillCheck(ratio, worst, end_distance, completion, score, tuple(reasons))
+    value = (float(skill_plausibility(region, prior, reference_prior,
+                                      statistic(region, reference, path)))
+             if score else float("nan"))
+    return SkillCheck(ratio, worst, end_distance, completion, value, tuple(reasons))
