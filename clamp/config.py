@@ -19,10 +19,13 @@ from scenes.sdf import DEFAULT_CELL_SIZE
 @dataclass(frozen=True)
 class ModelConfig:
     """The factor graph (paper eq. 14-20; defaults are the reference implementation's except
-    ``sigma_obs``)."""
+    ``sigma_obs`` and ``epsilon``)."""
 
-    #: [m] obstacle safety distance: spheres closer than this to an obstacle are penalised
-    epsilon: float = 0.05
+    #: [m] obstacle safety distance: spheres closer than this to an obstacle are penalised (the
+    #: reference's 0.05 pushes the arm 5 cm off every obstacle near the path: on the fidelity
+    #: benchmark 0.02 completes more of the skill with shorter detours, Jaco 14 -> 20 of 20
+    #: quick problems, joint path ratio 2.35x -> 1.73x; the verdict checks the real geometry)
+    epsilon: float = 0.02
     #: [m] obstacle hinge noise (smaller = stronger avoidance; the reference's 0.05 loses
     #: against the stiff learned prior: its optimum still touches obstacles on the path)
     sigma_obs: float = 0.005
