@@ -41,6 +41,7 @@ is therefore uniform on such samples (by construction), has a resolution of
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 from typing import Any
 
@@ -63,6 +64,8 @@ END_WEIGHT = 2.0
 #: sampled executions spread this much wider than the conditioned prior says (calibrated)
 CALIBRATION = 1.5
 _SEED = 20261126
+#: sorted sample statistics per prior and conditioning pattern (see _sample_statistic)
+_STATISTICS: "weakref.WeakKeyDictionary[Any, dict]" = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True)
@@ -191,9 +194,21 @@ def sample_executions(region: SkillRegion, prior: Any, reference_prior: Any, cou
 
 
 def _sample_statistic(region: SkillRegion, prior: Any, reference_prior: Any) -> np.ndarray:
-    """S of PLAUSIBILITY_SAMPLES sampled executions (seeded), ascending."""
-    executions = sample_executions(region, prior, reference_prior, PLAUSIBILITY_SAMPLES, _SEED)
-    return np.sort(statistic(region, np.asarray(reference_prior.mean)[:, :3], executions))
+    """S of PLAUSIBILITY_SAMPLES sampled executions (seeded), ascending.
+
+    S measures the executions' offsets from the conditioned mean, and a Gaussian conditioned on
+    exact positions at some states has the same covariance whatever the positions: S depends on
+    which states are conditioned, not where, so it is computed once per prior and pattern."""
+    info = getattr(reference_prior, "info", {})
+    key = (tuple(int(i) for i, _ in info.get("conditioned_on", ())),
+           info.get("conditioning_sigma"))
+    per_prior = _STATISTICS.setdefault(prior, {})
+    if key not in per_prior:
+        executions = sample_executions(region, prior, reference_prior, PLAUSIBILITY_SAMPLES,
+                                       _SEED)
+        per_prior[key] = np.sort(statistic(region, np.asarray(reference_prior.mean)[:, :3],
+                                           executions))
+    return per_prior[key]
 
 
 def skill_plausibility(region: SkillRegion, prior: Any, reference_prior: Any,
