@@ -50,6 +50,7 @@ from clamp.conjugate import ConjugatePosterior
 from clamp.obstacle_weighting import ObstacleWeighting, as_weighting, demonstration_weights
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
 from clamp.validation import as_array, as_bool, as_scalar, as_time
+from clamp.skill import SkillRegion
 from scenes.validation import MAX_COORDINATE
 
 #: Smallest spread (largest standard deviation over the state's coordinates, across the
@@ -333,6 +334,7 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
                    prior_class=WorkspacePrior, kind=WorkspacePrior.default_kind, state_names=None,
                    method=method, weights=_weights(states, obstacles, weighting),
                    weighting=weighting)
+    prior.info["skill_region"] = SkillRegion.from_positions(states[..., :3]).to_info()
     return cast(WorkspacePrior, prior)
 
 
@@ -355,6 +357,9 @@ def update_prior(prior: LinearGaussianPrior, demos: object) -> LinearGaussianPri
     weighting = None if settings is None else ObstacleWeighting(**settings)
     posterior = posterior.update(states, _weights(states, obstacles, weighting))
     info = {**prior.info, "num_demos": int(prior.info.get("num_demos", 0)) + len(states)}
+    if prior.kind == WorkspacePrior.default_kind:
+        region = SkillRegion.of(prior).merged(SkillRegion.from_positions(states[..., :3]))
+        info["skill_region"] = region.to_info()
     return prior_from_posterior(posterior, prior.time, float(prior.info.get("jitter", 0.0)),
                                 type(prior), prior.kind, prior.state_names, info)
 

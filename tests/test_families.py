@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
-                           ObstacleFamily, OrientationFamily, SelfCollisionFamily, StateWindow,
-                           WorkspaceGPFamily, WorkspaceStartFamily)
+                           ObstacleFamily, OrientationFamily, PostureFamily,
+                           SelfCollisionFamily, StateWindow, WorkspaceGPFamily,
+                           WorkspaceStartFamily)
 from clamp.errors import InvalidParameterError
 from clamp.keys import state_key
 from clamp.problem import PlanningProblem
@@ -61,6 +62,7 @@ def make_families(robot, theta: np.ndarray, rng) -> list:
         WorkspaceStartFamily(rng.normal(size=6), Q[0]),
         JointGPFamily(T, n, 0.16, 1.0),
         JointTargetFamily([0, T - 2], q[[0, T - 2]] + 0.1, [1e-3, 2e-3]),
+        PostureFamily(np.arange(T), q + 0.05 * rng.normal(size=q.shape), np.full(T, 0.1)),
         EEPositionFamily([1, T - 1], path[[1, T - 1]] + 0.05, [1e-3, 1e-2]),
         ObstacleFamily(np.arange(T), robot.spheres.radii,
                        sphere_query(path[T // 2] + [0.05, 0.0, 0.0], 0.05), 0.1, 0.05),
