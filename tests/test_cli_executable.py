@@ -128,7 +128,8 @@ def test_failed_plan_writes_no_trajectory_and_exits_1(planned, tmp_path, capsys)
     plan = json.loads((out / "plan.json").read_text())
     assert not plan["success"] and plan["reasons"] and plan["trajectory"]["files"] == []
     assert not list(out.glob("trajectory*"))
-    assert main(argv + ["--start-joints", *map(str, plan["q"][0]), "--force"]) == 0
+    good = json.loads((planned["jaco"] / "plan.json").read_text())["q"][0]   # a plan that succeeded
+    assert main(argv + ["--start-joints", *map(str, good), "--force"]) == 0
     assert len(list(out.glob("trajectory*"))) == 2
     assert main(argv + ["--start", "5", "5", "5", "--force"]) == 1
     assert not list(out.glob("trajectory*"))

@@ -185,6 +185,8 @@ def test_per_axis_structure_is_block_diagonal(synthetic):
     assert np.all(np.abs(per_axis.Phi[:, 0, 3]) > 0)
     coupled = learn_prior(positions=positions, velocities=velocities, time=time, coupled=True)
     assert np.abs(coupled.Phi[:, ~mask]).max() > 1e-3
+    region = per_axis.info.pop("skill_region")       # where the demonstrations go (clamp.skill)
+    assert np.allclose(region["end_mean"], positions[:, -1].mean(axis=0))
     assert per_axis.info == {"method": "batch", "coupled": False, "ridge": 1e-6, "jitter": 1e-12,
                              "num_demos": 8, "obstacle_weighting": None}
 

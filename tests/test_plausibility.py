@@ -280,7 +280,10 @@ def test_plan_forced_around_an_obstacle_on_the_path_scores_lower(synthetic_prior
     box = Box(mean_path[len(mean_path) // 2], [0.05, 0.05, 0.05])
     forced = plan(prior, jaco, Scene([box]), start=start, covariance=False)
     assert forced.success, forced.reasons
-    assert float(box.distance(forced.ee_path).min()) > 0.0          # it did go around
+    # it did go around (the end-effector frame itself may pass through: it lies between the
+    # Jaco's open fingers, which the real-geometry check keeps clear)
+    assert forced.min_clearance > 0.0
+    assert np.linalg.norm(forced.ee_path - empty.ee_path, axis=1).max() > 0.01
     print(f"\nempty plan: {empty.plausibility:.3g} (tube {empty.skill['max_tube_ratio']:.2f}); "
           f"around the box: {forced.plausibility:.3g} "
           f"(tube {forced.skill['max_tube_ratio']:.2f})")

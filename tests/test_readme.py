@@ -3,6 +3,7 @@ namespace (later blocks use what earlier ones made), in a scratch folder (they w
 from __future__ import annotations
 
 import re
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def python_blocks() -> list[str]:
-    return re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(encoding="utf-8"), re.S)
+    """The README's ```python blocks, in order, each dedented (a block inside a list item is
+    indented with it)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    return [textwrap.dedent(b) for b in re.findall(r"^ *```python\n(.*?)^ *```", text, re.S | re.M)]
 
 
 def test_readme_python_blocks_run_in_order(tmp_path, monkeypatch):

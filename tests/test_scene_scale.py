@@ -283,7 +283,11 @@ def test_plan_avoids_a_table_mesh_and_a_point_cloud_checked_with_coal(jaco):
         shapes.append((coal.Sphere(0.02), placement))
     assert coal_collides(jaco, shapes, free.q)                  # the obstacles are in the way
     result = plan(prior, jaco, Scene([table, cloud]), start, covariance=False)
-    assert result.success, result.reasons
+    # the table and the cloud sit on the skill's path: the plan goes around them, and the
+    # verdict may say it left the skill doing so (issue 19), but never that it collides
+    assert not any(r.startswith(("collision", "self-collision")) for r in result.reasons), \
+        result.reasons
+    assert result.min_clearance > 0.0
     # between support states too: 4 joint-space steps per segment
     steps = np.linspace(0.0, 1.0, 4, endpoint=False)
     dense = (result.q[:-1, None] + steps[None, :, None] * np.diff(result.q, axis=0)[:, None]).reshape(-1, jaco.n)

@@ -19,7 +19,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from clamp import learn_prior, plan
+from clamp import PlannerConfig, learn_prior, plan
 from clamp.errors import ArgumentTypeError, InvalidParameterError
 from clamp.factors import SelfCollisionFamily, StateWindow
 from robots import Robot, SphereModel
@@ -39,12 +39,15 @@ def prior():
 
 @pytest.fixture(scope="module")
 def reproducer(prior):
-    """name -> the reproducer's plan on main's planner (computed once per module)."""
+    """name -> the reproducer's plan as the planner made it before it repaired self-collisions
+    (no constraint rounds; computed once per module)."""
     plans = {}
+    unrepaired = PlannerConfig().with_(constraint_rounds=0)
 
     def get(robot):
         if robot.name not in plans:
-            plans[robot.name] = plan(prior, robot, None, prior.mean[0, :3], goal=REPRODUCERS[robot.name])
+            plans[robot.name] = plan(prior, robot, None, prior.mean[0, :3],
+                                     goal=REPRODUCERS[robot.name], config=unrepaired)
         return plans[robot.name]
     return get
 
