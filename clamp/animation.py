@@ -165,7 +165,7 @@ def _imports():
     return meshcat, pin, TriangleMeshVisualizer
 
 
-def _visual_model(robot, pin) -> tuple[Any, str]:
+def robot_geometry(robot, pin) -> tuple[Any, str]:
     """The URDF's visual GeometryModel for robot.model, or its collision geometry when the URDF
     has no visual elements (the built-in Sawyer); returns (model, "visual" | "collision")."""
     urdf = getattr(robot, "urdf_path", None)
@@ -186,7 +186,7 @@ def _visual_model(robot, pin) -> tuple[Any, str]:
     raise AnimationError(f"robot: the URDF {str(urdf)!r} has neither visual nor collision geometry to draw")
 
 
-def _base_inverse(robot, pin) -> np.ndarray:
+def planning_frame_transform(robot, pin) -> np.ndarray:
     """4x4 transform from the URDF root (Pinocchio world) to the robot's planning base frame."""
     base = getattr(robot, "base_frame", None)
     if not base:
@@ -332,7 +332,7 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
 
     recorder = _SceneRecorder()
     vis = meshcat.Visualizer(window=recorder)
-    visual_model, source = _visual_model(robot, pin)
+    visual_model, source = robot_geometry(robot, pin)
     if source == "collision":
         for geometry in visual_model.geometryObjects:
             geometry.meshColor = np.array(COLLISION_COLOR)
@@ -348,7 +348,7 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
     if not any(drawn):
         raise AnimationError(f"robot: none of the {visual_model.ngeoms} visual geometries of {robot.name!r} "
                              "could be drawn")
-    vis[_ROBOT_NODE].set_transform(_base_inverse(robot, pin))
+    vis[_ROBOT_NODE].set_transform(planning_frame_transform(robot, pin))
     q_pin = robot.to_pinocchio(q)
     viz.display(q_pin[0])
 

@@ -146,7 +146,7 @@ def test_arm_is_drawn_in_the_planning_frame(name):
     drawn there must be where robot.fk (the planner's frame) puts it."""
     import pinocchio as pin
 
-    from clamp.animation import _base_inverse
+    from clamp.animation import planning_frame_transform
     from robots import load_robot
 
     robot = load_robot(name)
@@ -154,4 +154,4 @@ def test_arm_is_drawn_in_the_planning_frame(name):
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, robot.to_pinocchio(q))
     world_ee = data.oMf[robot.model.getFrameId(robot.end_effector, pin.FrameType.BODY)].homogeneous
-    np.testing.assert_allclose((_base_inverse(robot, pin) @ world_ee)[:3, 3], robot.fk(q), atol=1e-9)
+    np.testing.assert_allclose((planning_frame_transform(robot, pin) @ world_ee)[:3, 3], robot.fk(q), atol=1e-9)
