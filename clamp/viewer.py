@@ -184,8 +184,8 @@ class PlanViewer:
         try:
             scene = self._server.scene
             scene.set_up_direction("+z")
-            self._server.gui.configure_theme(control_layout="fixed", control_width="medium", show_logo=False,
-                                             show_share_button=False)
+            self._server.gui.configure_theme(control_width="medium", show_logo=False, show_share_button=False)
+            self._server.gui.main_panel.dock_right()     # beside the 3-D view, not over it
             scene.add_grid("/floor", width=2.0, height=2.0, cell_size=0.1, section_size=0.5,
                            position=(0.0, 0.0, 0.0))
             base = planning_frame_transform(self._robot, pin)
@@ -394,8 +394,8 @@ class PlanViewer:
         direction = np.array([1.0, 0.8, 0.6]) / np.linalg.norm([1.0, 0.8, 0.6])
         camera = self._server.initial_camera
         camera.look_at = centre
-        # a ball of `radius` fits the vertical field of view (fov [rad]) with a 20 % margin
-        camera.position = centre + direction * 1.2 * radius / math.sin(0.5 * camera.fov)
+        # the box's half diagonal is a loose bound: 0.9 x the distance fitting it in the vertical fov [rad]
+        camera.position = centre + direction * 0.9 * radius / math.sin(0.5 * camera.fov)
         camera.up = (0.0, 0.0, 1.0)
 
     # ------------------------------------------------------------------ replanning
