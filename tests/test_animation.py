@@ -20,6 +20,7 @@ JACO_B = np.array([1.5, 2.5, 2.5, 1.0, 2.0, 1.0])
 DURATION = 3.0
 CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None)
 # namespace URIs inside three.js are names, not fetched resources
+OVERLAY_TOP, OVERLAY_BOTTOM = 22, 45      # px: meshcat's "Open Controls" strip, our player bar
 ALLOWED_URLS = {"http://www.w3.org/1999/xhtml", "http://www.w3.org/2000/svg"}
 
 
@@ -56,11 +57,13 @@ def test_one_self_contained_file(page):
     assert [p.name for p in folder.iterdir()] == ["plan.html"]  # no side files, no temporary files
     text = path.read_text(encoding="utf-8")
     assert text.startswith("<!DOCTYPE html>") and "MeshCat.Viewer" in text
+    assert 'id="play"' in text and 'id="scrub"' in text      # our own player bar, always visible
     assert not re.search(r"<script[^>]*\bsrc\s*=", text, re.IGNORECASE)
     assert not re.search(r"\b(?:src|href)\s*=\s*[\"']?\s*(?:https?:)?//", text, re.IGNORECASE)
     assert not re.search(r"(?:fetch|import)\s*\(\s*[\"'`]https?:", text)
     assert set(re.findall(r"https?://[^\s\"'<>()`\\]+", text)) <= ALLOWED_URLS
-    assert 0.5e6 < path.stat().st_size < 8e6
+    # meshes, scene commands and meshcat's bundle are gzip-compressed (4.2 MB before on clamp demo)
+    assert 0.3e6 < path.stat().st_size < 2.5e6
 
 
 def test_sawyer_without_visual_elements_draws_collision_geometry(tmp_path):
@@ -87,6 +90,37 @@ def test_capsule_is_drawn_as_its_surface():
     assert v[:, 2].max() == pytest.approx(height / 2 + radius)
     assert v[:, 2].min() == pytest.approx(-height / 2 - radius)
     assert np.asarray(mesh.faces).max() < len(v)
+
+
+def test_floor_lies_at_z_0_under_the_scene():
+    import meshcat.geometry as mg
+    from clamp.animation import FLOOR_CELL, _floor
+    low, high = np.array([-0.33, -0.51, 0.2]), np.array([0.62, 0.4, 0.9])
+    points = np.asarray(_floor(mg, low, high).geometry.position)
+    points = points.T if points.shape[0] == 3 else points
+    assert np.all(points[:, 2] == 0.0)
+    assert np.all(points[:, :2].min(axis=0) <= low[:2] - FLOOR_CELL + 1e-6)
+    assert np.all(points[:, :2].max(axis=0) >= high[:2] + FLOOR_CELL - 1e-6)
+
+
+def test_camera_distance_frames_every_point_tightly():
+    """Projected with a look-at camera (z up), every point lies within CAMERA_FILL of the
+    view's half extents and one reaches it."""
+    from clamp.animation import CAMERA_ASPECT, CAMERA_FILL, CAMERA_FOV, camera_distance
+    rng = np.random.default_rng(1)
+    points = rng.uniform(-0.5, 0.8, size=(200, 3))
+    centre, direction = points.mean(axis=0), np.array([1.0, 0.75, 0.6]) / np.linalg.norm([1.0, 0.75, 0.6])
+    eye = centre + camera_distance(points, centre, direction) * direction
+    forward = (centre - eye) / np.linalg.norm(centre - eye)
+    side = np.cross(forward, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    upward = np.cross(side, forward)
+    depth = (points - eye) @ forward
+    tan_v = np.tan(np.radians(CAMERA_FOV / 2))
+    u = np.abs((points - eye) @ side) / depth / (tan_v * CAMERA_ASPECT)
+    v = np.abs((points - eye) @ upward) / depth / tan_v
+    assert np.all(depth > 0)
+    assert np.max(np.maximum(u, v)) == pytest.approx(CAMERA_FILL, rel=1e-9)
 
 
 def test_surface_from_grid():
@@ -138,6 +172,20 @@ def test_headless_chromium_shows_the_arm_moving(page, tmp_path):
     assert moved.sum() > 2000, "the two animation times look the same"
     # what changed is the arm: many changed pixels are arm pixels in one frame or the other
     assert (moved & (dark[0] | dark[1])).sum() > 0.5 * moved.sum()
+    # the camera frames the scene: the bounding box of what is drawn (the arm: dark pixels; the
+    # obstacles, paths, demonstrations and surface: coloured pixels; not the grey floor, not the
+    # overlays: meshcat's controls strip at the top, the player bar at the bottom), over both
+    # frames, is not cut by the frame's edges and spans >= 70 % of its height or width (a tall
+    # arm in a wide window cannot span both). main before the camera fit: cut at the top, 60 %.
+    rows = slice(OVERLAY_TOP, first.shape[0] - OVERLAY_BOTTOM)
+    drawn = np.zeros(first[rows].shape[:2], dtype=bool)
+    for image in (first[rows], last[rows]):
+        drawn |= (image.max(axis=2) < 110) | (np.ptp(image, axis=2) > 50)
+    ys, xs = np.nonzero(drawn)
+    height, width = drawn.shape
+    assert ys.min() > 0 and xs.min() > 0 and ys.max() < height - 1 and xs.max() < width - 1, "the scene is cut"
+    fill = max((ys.max() - ys.min() + 1) / height, (xs.max() - xs.min() + 1) / width)
+    assert fill >= 0.7, f"the scene spans {fill:.0%} of the frame"
 
 
 @pytest.mark.parametrize("name", ["jaco", "sawyer"])
