@@ -2,15 +2,13 @@
 from __future__ import annotations
 
 import re
-import shutil
-import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 pytest.importorskip("meshcat", reason="the animation needs meshcat (pip install meshcat)")
 
+from chromium import CHROMIUM, MISSING, screenshot  # noqa: E402
 from clamp.animation import AnimationError, surface_from_grid, write_animation  # noqa: E402
 from clamp.errors import ClampError  # noqa: E402
 from scenes import Box, Capsule, Cylinder, Scene, Sphere  # noqa: E402
@@ -18,9 +16,8 @@ from scenes import Box, Capsule, Cylinder, Scene, Sphere  # noqa: E402
 JACO_A = np.array([0.0, 3.5, 1.8, 0.0, 2.5, 0.0])
 JACO_B = np.array([1.5, 2.5, 2.5, 1.0, 2.0, 1.0])
 DURATION = 3.0
-CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None)
-# namespace URIs inside three.js are names, not fetched resources
 OVERLAY_TOP, OVERLAY_BOTTOM = 22, 45      # px: meshcat's "Open Controls" strip, our player bar
+# namespace URIs inside three.js are names, not fetched resources
 ALLOWED_URLS = {"http://www.w3.org/1999/xhtml", "http://www.w3.org/2000/svg"}
 
 
@@ -147,23 +144,11 @@ def test_bad_input_raises_clamp_errors(jaco, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.html"]
 
 
-def screenshot(page: Path, time: float, out: Path) -> np.ndarray:
-    """Headless Chromium screenshot of the page frozen at `time` s (URL fragment #t=...)."""
-    from PIL import Image
-
-    command = [CHROMIUM, "--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-               "--window-size=800,600", "--virtual-time-budget=8000", f"--screenshot={out}",
-               f"file://{page}#t={time}"]
-    subprocess.run(command, capture_output=True, timeout=300, check=False)
-    assert out.is_file(), f"chromium wrote no screenshot: {' '.join(command)}"
-    return np.asarray(Image.open(out).convert("RGB"), dtype=int)
-
-
-@pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium not found (Debian: apt-get install chromium)")
+@pytest.mark.skipif(CHROMIUM is None, reason=MISSING)
 def test_headless_chromium_shows_the_arm_moving(page, tmp_path):
     _, path = page
-    first = screenshot(path, 0.0, tmp_path / "t0.png")
-    last = screenshot(path, DURATION, tmp_path / "t1.png")
+    first = screenshot(f"file://{path}#t=0.0", tmp_path / "t0.png")
+    last = screenshot(f"file://{path}#t={DURATION}", tmp_path / "t1.png")
     assert first.shape == last.shape == (600, 800, 3)
     # the background is a light gradient (>= 200 in every channel); the arm's links are dark grey
     dark = [(image.max(axis=2) < 110) for image in (first, last)]

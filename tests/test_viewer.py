@@ -18,12 +18,12 @@ import pytest
 
 pytest.importorskip("viser", reason="the live viewer needs viser (pip install 'skillplan[viewer]')")
 
+from chromium import CHROMIUM, MISSING, screenshot  # noqa: E402
 from clamp import learn_prior, plan  # noqa: E402
 from clamp.errors import ArgumentTypeError, InvalidParameterError  # noqa: E402
 from clamp.viewer import PlanViewer, tube_mesh  # noqa: E402
 from scenes import Box, Scene, make_demonstrations  # noqa: E402
 
-CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None)
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
@@ -115,25 +115,16 @@ def test_api_replans_when_a_box_moves_and_shuts_down_cleanly(planned):
     assert wait_for_threads(before) == set()
 
 
-def screenshot(url: str, out: Path) -> np.ndarray:
-    from PIL import Image
-    command = [CHROMIUM, "--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-               "--window-size=1000,700", "--virtual-time-budget=8000", f"--screenshot={out}", url]
-    subprocess.run(command, capture_output=True, timeout=300, check=False)
-    assert out.is_file(), f"chromium wrote no screenshot: {' '.join(command)}"
-    return np.asarray(Image.open(out).convert("RGB"), dtype=int)
-
-
-@pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium not found (Debian: apt-get install chromium)")
+@pytest.mark.skipif(CHROMIUM is None, reason=MISSING)
 def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
     demos, result = planned
     before = set(threading.enumerate())
     with result.show(demonstrations=demos) as viewer:
         port = viewer.port
         viewer.set_time(0.5 * viewer.duration)
-        first = screenshot(viewer.url, tmp_path / "before.png")
+        first = screenshot(viewer.url, tmp_path / "before.png", (1000, 700))
         new = viewer.move_obstacle(0, moved_box_centre(result))
-        second = screenshot(viewer.url, tmp_path / "after.png")
+        second = screenshot(viewer.url, tmp_path / "after.png", (1000, 700))
     assert port_is_closed(port) and wait_for_threads(before) == set()
     assert np.max(np.abs(new.q - result.q)) > 0.01
     assert first.shape == second.shape == (700, 1000, 3)
