@@ -426,8 +426,7 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
                 geometry, placement = _obstacle_geometry(obstacle, i, mg, pin)
                 node.set_object(geometry, mg.MeshLambertMaterial(color=COLORS["obstacle"], opacity=0.55))
                 node.set_transform(placement)
-            box = np.clip(obstacle.aabb(), -2.0, 2.0)
-            points.append(np.array(np.meshgrid(*box.T)).reshape(3, -1).T)     # its 8 corners
+            points.append(box_corners(np.clip(obstacle.aabb(), -2.0, 2.0)))
     if demonstrations is not None:
         for m, demo in enumerate(demonstrations):
             vis[f"scene/demonstrations/{m}"].set_object(_line(mg, demo, COLORS["demonstration"]))
@@ -476,18 +475,24 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
                         target=json.dumps(target))
 
 
-def camera_distance(points: np.ndarray, centre: np.ndarray, direction: np.ndarray) -> float:
-    """Distance [m] from ``centre`` (3,) along the unit ``direction`` (3,) at which a camera
-    looking at ``centre`` (z up; vertical field of view CAMERA_FOV, aspect CAMERA_ASPECT) sees
-    every point (P, 3) within CAMERA_FILL of the half-width and half-height of its view."""
+def box_corners(box: np.ndarray) -> np.ndarray:
+    """The 8 corners (8, 3) of an axis-aligned box [[xmin, ymin, zmin], [xmax, ymax, zmax]]."""
+    return np.array(np.meshgrid(*np.asarray(box, dtype=float).T)).reshape(3, -1).T
+
+
+def camera_distance(points: np.ndarray, centre: np.ndarray, direction: np.ndarray, *, fov: float = CAMERA_FOV,
+                    aspect: float = CAMERA_ASPECT, fill: float = CAMERA_FILL) -> float:
+    """Distance [m] from ``centre`` (3,) along ``direction`` (3,) at which a camera looking at
+    ``centre`` (z up; vertical field of view ``fov`` [deg], width / height ``aspect``) sees every
+    point (P, 3) within ``fill`` of the half-width and half-height of its view."""
     back = direction / np.linalg.norm(direction)
     right = np.cross([0.0, 0.0, 1.0], back)
     right /= np.linalg.norm(right)
     up = np.cross(back, right)
     relative = points - centre
     x, y, z = relative @ right, relative @ up, relative @ back
-    half_height = CAMERA_FILL * math.tan(math.radians(0.5 * CAMERA_FOV))
-    half_width = CAMERA_ASPECT * half_height
+    half_height = fill * math.tan(math.radians(0.5 * fov))
+    half_width = aspect * half_height
     # a point is in view when |x| <= half_width (d - z) and |y| <= half_height (d - z)
     need = np.maximum(z + np.abs(x) / half_width, z + np.abs(y) / half_height)
     return max(float(need.max()), 0.3)

@@ -36,6 +36,8 @@ LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
 COLORS = {"obstacle": (217, 83, 79), "demonstration": (91, 140, 192), "mean_path": (27, 127, 59),
           "ee_path": (242, 140, 40), "failed_path": (200, 30, 30), "tube": (242, 140, 40),
           "goal": (27, 127, 59), "arm": (90, 96, 107)}
+#: width / height of the 3-D view the camera is framed for (a browser window less the panel)
+VIEW_ASPECT = 1.0
 #: playback refresh rate [1/s]
 PLAY_RATE = 20.0
 
@@ -176,6 +178,7 @@ class PlanViewer:
         self._lock = threading.RLock()
         self._closed = threading.Event()
         self._time = 0.0
+        self._tube: Any = None
 
         with _quiet():
             self._server = viser.ViserServer(host=host, port=port, verbose=False)
@@ -214,8 +217,8 @@ class PlanViewer:
                                     thickness=0.002)
             self._obstacle_controls = self._draw_obstacles()
             self._goal_control = self._draw_goal()
-            self._draw_plan()
             self._add_gui()
+            self._draw_plan()
             self._frame_camera(demonstrations)
             self.set_time(0.0)
         except BaseException:
@@ -265,7 +268,7 @@ class PlanViewer:
                     handle.position = placement.translation
                     handle.wxyz = pin.Quaternion(placement.rotation).coeffs()[[3, 0, 1, 2]]
             self._time = t
-            if getattr(self, "_slider", None) is not None and abs(self._slider.value - t) > 1e-9:
+            if abs(self._slider.value - t) > 1e-9:
                 self._slider.value = t
 
     def move_obstacle(self, index: int, center: Any) -> Any:
@@ -329,8 +332,10 @@ class PlanViewer:
         return controls
 
     def _draw_goal(self) -> Any | None:
-        goal = None if self._goal is None else np.asarray(self._goal, dtype=float)
-        if goal is None or goal.shape != (3,):       # joint-space goals are not dragged
+        """A drag handle at the goal (the plan's last end-effector position when none was given;
+        none for a joint-space goal)."""
+        goal = np.asarray(self._result.ee_path[-1] if self._goal is None else self._goal, dtype=float)
+        if goal.shape != (3,):
             return None
         control = self._server.scene.add_transform_controls("/goal", scale=0.1, disable_rotations=True,
                                                             position=goal)
@@ -354,15 +359,13 @@ class PlanViewer:
         result, scene = self._result, self._server.scene
         color = COLORS["ee_path"] if result.success else COLORS["failed_path"]
         scene.add_line_segments("/plan/ee_path", _segments(np.asarray(result.ee_path)), color, thickness=0.004)
-        tube = getattr(self, "_tube", None)
-        if tube is not None:
-            tube.remove()
+        if self._tube is not None:
+            self._tube.remove()
             self._tube = None
         if result.ee_covariance is not None:
             vertices, faces = tube_mesh(result.ee_path, result.ee_covariance, self._sigmas, self._tube_states)
             self._tube = scene.add_mesh_simple("/plan/tube", vertices, faces, color=COLORS["tube"], opacity=0.25)
-        if getattr(self, "_status", None) is not None:
-            self._status.content = self._status_text()
+        self._status.content = self._status_text()
 
     def _status_text(self) -> str:
         r = self._result
@@ -376,26 +379,30 @@ class PlanViewer:
         gui = self._server.gui
         self._slider = gui.add_slider("time [s]", min=0.0, max=max(self.duration, 1e-3),
                                       step=max(self.duration, 1e-3) / 200, initial_value=0.0)
-        self._slider.on_update(lambda _: self.set_time(self._slider.value)
-                               if abs(self._slider.value - self._time) > 1e-9 else None)
+        self._slider.on_update(self._slider_moved)
         self._playing = gui.add_checkbox("play", initial_value=False)
         self._status = gui.add_markdown(self._status_text())
 
+    def _slider_moved(self, _event: Any) -> None:
+        if abs(self._slider.value - self._time) > 1e-9:      # not the echo of set_time
+            self.set_time(self._slider.value)
+
     def _frame_camera(self, demonstrations: np.ndarray | None) -> None:
-        """Initial camera: front-right, above, far enough that the arm and the scene fit."""
+        """Initial camera: front-right and above the centre of the arm's motion, the paths and
+        the obstacles, at the distance where they fit (:func:`clamp.animation.camera_distance`)."""
+        from clamp.animation import box_corners, camera_distance
         points = [self._robot.frame_positions(self._result.q).reshape(-1, 3), self._result.ee_path]
         if self._scene is not None:
-            points += [np.clip(o.aabb(), -2.0, 2.0) for o in self._scene.obstacles]
+            points += [box_corners(np.clip(o.aabb(), -2.0, 2.0)) for o in self._scene.obstacles]
         if demonstrations is not None:
             points.append(demonstrations.reshape(-1, 3))
         cloud = np.concatenate(points)
-        low, high = cloud.min(axis=0), cloud.max(axis=0)
-        centre, radius = 0.5 * (low + high), max(0.5 * float(np.linalg.norm(high - low)), 0.2)
+        centre = 0.5 * (cloud.min(axis=0) + cloud.max(axis=0))
         direction = np.array([1.0, 0.8, 0.6]) / np.linalg.norm([1.0, 0.8, 0.6])
         camera = self._server.initial_camera
         camera.look_at = centre
-        # the box's half diagonal is a loose bound: 0.9 x the distance fitting it in the vertical fov [rad]
-        camera.position = centre + direction * 0.9 * radius / math.sin(0.5 * camera.fov)
+        camera.position = centre + direction * camera_distance(cloud, centre, direction, fov=math.degrees(camera.fov),
+                                                                aspect=VIEW_ASPECT)
         camera.up = (0.0, 0.0, 1.0)
 
     # ------------------------------------------------------------------ replanning
@@ -404,14 +411,15 @@ class PlanViewer:
         with self._lock:
             new = replan(self._result, **changes)
             self._result = new
-            self._scene = new.inputs.scene if new.inputs is not None else changes.get("scene", self._scene)
+            self._scene = new.inputs.scene
             if "goal" in changes:
                 self._goal = changes["goal"]
             if "scene" in changes:
                 for control, obstacle in zip(self._obstacle_controls, self._scene.obstacles):
                     control.position = np.asarray(obstacle.center, dtype=float)
-            if self._goal_control is not None and self._goal is not None:
-                self._goal_control.position = np.asarray(self._goal, dtype=float)
+            if self._goal_control is not None:
+                self._goal_control.position = np.asarray(self._result.ee_path[-1] if self._goal is None
+                                                         else self._goal, dtype=float)
             self._slider.max = max(self.duration, 1e-3)
             self._draw_plan()
             self.set_time(min(self._time, self.duration))

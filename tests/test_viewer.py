@@ -108,6 +108,10 @@ def test_api_replans_when_a_box_moves_and_shuts_down_cleanly(planned):
         assert np.min(box.distance(result.ee_path)) < 0
         assert new.success and np.min(box.distance(new.ee_path)) > 0
         assert np.max(np.linalg.norm(new.ee_path - result.ee_path, axis=1)) > 0.01
+        goal = new.ee_path[-1] + np.array([0.0, 0.03, 0.02])
+        moved = viewer.move_goal(goal)
+        assert viewer.result is moved and np.linalg.norm(moved.ee_path[-1] - goal) < 0.003
+        np.testing.assert_allclose(viewer.scene.obstacles[0].center, centre)      # the box stays
     finally:
         viewer.close()
     viewer.close()                     # idempotent
