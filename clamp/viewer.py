@@ -38,6 +38,9 @@ COLORS = {"obstacle": (217, 83, 79), "demonstration": (91, 140, 192), "mean_path
           "goal": (27, 127, 59), "arm": (90, 96, 107)}
 #: width / height of the 3-D view the camera is framed for (a browser window less the panel)
 VIEW_ASPECT = 1.0
+#: fraction of the view's half extents the arm's joints and the paths may reach (room for the
+#: links' thickness, which the joint positions leave out)
+VIEW_FILL = 0.7
 #: playback refresh rate [1/s]
 PLAY_RATE = 20.0
 
@@ -212,9 +215,8 @@ class PlanViewer:
             if demonstrations is not None:
                 segments = np.concatenate([_segments(d) for d in demonstrations])
                 scene.add_line_segments("/demonstrations", segments, COLORS["demonstration"], thickness=0.002)
-            prior = getattr(result.inputs, "model_prior", None) or result.inputs.prior
-            scene.add_line_segments("/mean_path", _segments(np.asarray(prior.mean)[:, :3]), COLORS["mean_path"],
-                                    thickness=0.002)
+            mean_path = np.asarray(result.inputs.prior.mean)[:, :3]       # the learned prior's
+            scene.add_line_segments("/mean_path", _segments(mean_path), COLORS["mean_path"], thickness=0.002)
             self._obstacle_controls = self._draw_obstacles()
             self._goal_control = self._draw_goal()
             self._add_gui()
@@ -346,7 +348,7 @@ class PlanViewer:
     def _released(self, action):
         """A transform-control callback running ``action(event)`` when a drag ends."""
         def callback(event: Any) -> None:
-            if getattr(event, "phase", "end") != "end":
+            if event.phase != "end":
                 return
             try:
                 action(event)
@@ -402,7 +404,7 @@ class PlanViewer:
         camera = self._server.initial_camera
         camera.look_at = centre
         camera.position = centre + direction * camera_distance(cloud, centre, direction, fov=math.degrees(camera.fov),
-                                                                aspect=VIEW_ASPECT)
+                                                                aspect=VIEW_ASPECT, fill=VIEW_FILL)
         camera.up = (0.0, 0.0, 1.0)
 
     # ------------------------------------------------------------------ replanning
