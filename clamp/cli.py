@@ -274,7 +274,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     _figures(out, prior, demos, robot, config, [("result", result, scene)])
-    save_view_inputs(out, {"plan": {"scene": scene, "start": args.start, "goal": goal}}, prior, demos,
+    save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
     if not quiet(args):
         print(summary_table([(Path(args.demos).stem, result)]))
