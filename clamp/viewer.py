@@ -79,12 +79,22 @@ def tube_mesh(ee_path: Any, ee_covariance: Any, sigmas: float = 2.0,
     return vertices.reshape(-1, 3), (faces[None] + offsets).reshape(-1, 3)
 
 
+def obstacle_anchor(obstacle: Any) -> np.ndarray:
+    """The point (3,) [m] a drag handle holds an obstacle by: the middle of its bounding box
+    (the centre of a box, sphere, cylinder or capsule)."""
+    return np.asarray(obstacle.aabb(), dtype=float).mean(axis=0)
+
+
 def _obstacle_mesh(obstacle: Any, index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Triangle mesh of a scenes obstacle in its own frame and that frame's rotation (3, 3)."""
+    """Triangle mesh of a scenes obstacle about its anchor, in a frame rotated by (3, 3) from
+    the scene's (a box's rotation, z along a cylinder's or capsule's axis)."""
     import trimesh
 
-    from scenes import Box, Capsule, Cylinder, Sphere
+    from scenes import Box, Capsule, Cylinder, Sphere, TriangleMesh
     rotation = np.eye(3)
+    if isinstance(obstacle, TriangleMesh):
+        return (np.asarray(obstacle.vertices, dtype=float) - obstacle_anchor(obstacle), np.asarray(obstacle.faces),
+                rotation)
     if isinstance(obstacle, Box):
         mesh = trimesh.creation.box(extents=np.asarray(obstacle.size, dtype=float))
         if obstacle.rotation is not None:
@@ -100,8 +110,8 @@ def _obstacle_mesh(obstacle: Any, index: int) -> tuple[np.ndarray, np.ndarray, n
         axis = np.asarray(obstacle.axis, dtype=float)
         rotation = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], axis / np.linalg.norm(axis))[:3, :3]
     else:
-        raise InvalidParameterError(f"scene.obstacles[{index}]: expected a scenes Box, Sphere, Cylinder "
-                                    f"or Capsule, got {type(obstacle).__name__}")
+        raise InvalidParameterError(f"scene.obstacles[{index}]: expected a scenes Box, Sphere, Cylinder, Capsule, "
+                                    f"TriangleMesh or PointCloud, got {type(obstacle).__name__}")
     return np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces), rotation
 
 
@@ -274,9 +284,9 @@ class PlanViewer:
                 self._slider.value = t
 
     def move_obstacle(self, index: int, center: Any) -> Any:
-        """Move obstacle ``index`` of the scene so its centre is ``center`` (3,) [m], replan
-        (:func:`clamp.replan`, warm-started from the shown plan) and show the new plan;
-        returns it."""
+        """Move obstacle ``index`` of the scene so its centre (the middle of its bounding box,
+        :func:`obstacle_anchor`) is ``center`` (3,) [m], replan (:func:`clamp.replan`,
+        warm-started from the shown plan) and show the new plan; returns it."""
         from scenes.validation import as_vector
         obstacles = () if self._scene is None else self._scene.obstacles
         if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < len(obstacles):
@@ -285,7 +295,7 @@ class PlanViewer:
         center = as_vector(center, "center", 3, InvalidParameterError)
         from scenes import Scene
         moved = list(obstacles)
-        moved[index] = moved[index].translated(center - np.asarray(moved[index].center))
+        moved[index] = moved[index].translated(center - obstacle_anchor(moved[index]))
         return self._replan(scene=Scene(moved))
 
     def move_goal(self, goal: Any) -> Any:
@@ -318,17 +328,26 @@ class PlanViewer:
 
     # ------------------------------------------------------------------ drawing
     def _draw_obstacles(self) -> list[Any]:
+        """Each obstacle under a drag handle at its anchor (:func:`obstacle_anchor`)."""
         import viser
+
+        from scenes import PointCloud
         controls = []
         obstacles = () if self._scene is None else self._scene.obstacles
         for i, obstacle in enumerate(obstacles):
-            vertices, faces, rotation = _obstacle_mesh(obstacle, i)
-            size = float(np.max(np.ptp(vertices, axis=0)))
+            anchor = obstacle_anchor(obstacle)
+            size = float(np.max(np.ptp(np.asarray(obstacle.aabb(), dtype=float), axis=0)))
             control = self._server.scene.add_transform_controls(
-                f"/obstacles/{i}", scale=max(0.15, 0.8 * size), disable_rotations=True,
-                position=np.asarray(obstacle.center, dtype=float))
-            self._server.scene.add_mesh_simple(f"/obstacles/{i}/mesh", vertices, faces, color=COLORS["obstacle"],
-                                               opacity=0.6, wxyz=viser.transforms.SO3.from_matrix(rotation).wxyz)
+                f"/obstacles/{i}", scale=float(np.clip(0.8 * size, 0.15, 0.5)), disable_rotations=True,
+                position=anchor)
+            if isinstance(obstacle, PointCloud):
+                self._server.scene.add_point_cloud(f"/obstacles/{i}/points", np.asarray(obstacle.points) - anchor,
+                                                   COLORS["obstacle"], point_size=2.0 * float(np.max(obstacle.radius)),
+                                                   point_shape="circle")
+            else:
+                vertices, faces, rotation = _obstacle_mesh(obstacle, i)
+                self._server.scene.add_mesh_simple(f"/obstacles/{i}/mesh", vertices, faces, color=COLORS["obstacle"],
+                                                   opacity=0.6, wxyz=viser.transforms.SO3.from_matrix(rotation).wxyz)
             control.on_update(self._released(lambda event, i=i: self.move_obstacle(i, event.target.position)))
             controls.append(control)
         return controls
@@ -418,7 +437,7 @@ class PlanViewer:
                 self._goal = changes["goal"]
             if "scene" in changes:
                 for control, obstacle in zip(self._obstacle_controls, self._scene.obstacles):
-                    control.position = np.asarray(obstacle.center, dtype=float)
+                    control.position = obstacle_anchor(obstacle)
             if self._goal_control is not None:
                 self._goal_control.position = np.asarray(self._result.ee_path[-1] if self._goal is None
                                                          else self._goal, dtype=float)

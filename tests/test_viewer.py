@@ -201,3 +201,23 @@ def test_clamp_view_bad_input_is_one_line_exit_2(plan_folder, tmp_path, capsys, 
     assert main([a.format(**names) for a in argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0] and "Traceback" not in err[0]
+
+
+def test_mesh_and_point_cloud_obstacles_are_drawn_and_moved_by_their_box_centre(planned):
+    from clamp import replan
+    from clamp.viewer import obstacle_anchor
+    from scenes import PointCloud, TriangleMesh
+    from scenes.mesh import box_triangles
+    _, result = planned
+    cloud = PointCloud(np.random.default_rng(0).uniform([-0.5, 0.3, 0.0], [-0.4, 0.4, 0.1], (50, 3)), 0.01)
+    mesh = TriangleMesh(*box_triangles([-0.4, -0.5, 0.05], [0.1, 0.1, 0.1]))
+    start = replan(result, scene=Scene([mesh, cloud]))
+    with start.show() as viewer:
+        target = np.array([-0.35, -0.45, 0.1])
+        viewer.move_obstacle(0, target)
+        moved = viewer.scene.obstacles[0]
+        np.testing.assert_allclose(obstacle_anchor(moved), target, atol=1e-12)
+        np.testing.assert_allclose(moved.vertices - np.asarray(mesh.vertices), np.broadcast_to(
+            target - obstacle_anchor(mesh), np.shape(mesh.vertices)), atol=1e-12)
+        viewer.move_obstacle(1, [-0.45, 0.3, 0.2])
+        np.testing.assert_allclose(obstacle_anchor(viewer.scene.obstacles[1]), [-0.45, 0.3, 0.2], atol=1e-12)
