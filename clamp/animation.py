@@ -4,23 +4,28 @@ The arm is drawn with its real visual geometry (the URDF's visual meshes and pri
 by Pinocchio into a visual ``GeometryModel``; the collision geometry, in one grey, when the URDF
 has no visual elements, like the built-in Sawyer) and moved along the plan by Pinocchio's
 ``MeshcatVisualizer``; obstacles, demonstrations, the mean path, the plan's end-effector path
-and an optional triangle surface (e.g. a TLGC cylinder) are drawn beside it. The page is
-meshcat's static viewer: meshcat's own JavaScript bundle (three.js included) inline, followed
-by the recorded meshcat scene commands, as in ``meshcat.Visualizer.static_html()`` but without
-the ZeroMQ/websocket server that method needs (the commands are recorded in-process). No
-network access is needed to write or to open the file.
+and an optional triangle surface (e.g. a TLGC cylinder) are drawn beside it, over a floor grid
+at z = 0. The page is meshcat's static viewer: meshcat's own JavaScript bundle (three.js
+included) followed by the recorded meshcat scene commands, as in
+``meshcat.Visualizer.static_html()`` but without the ZeroMQ/websocket server that method needs
+(the commands are recorded in-process); bundle and commands are gzip-compressed in the page
+and unpacked by the browser (``DecompressionStream``). No network access is needed to write
+or to open the file.
 
-Meshes are embedded as triangle arrays (the triangles coal read from the mesh files), which
-is about three times smaller than embedding the Collada text. Coordinates are the robot's
-planning frame (``robot.base_frame``): everything the planner sees is drawn where it sees it.
+Meshes are embedded as triangle arrays (the triangles coal read from the mesh files). Coordinates
+are the robot's planning frame (``robot.base_frame``): everything the planner sees is drawn
+where it sees it. The camera looks at the centre of everything drawn from the front-right and
+above, at the distance where it all fits (:func:`camera_distance`), and orbits about that centre.
 
-Open the file in a browser; the "Animations" panel of the viewer plays, pauses and scrubs.
-Append ``#t=SECONDS`` to the URL to show the arm frozen at that time since the plan's start.
+Open the file in a browser; the bar at the bottom plays, pauses and scrubs the plan. Append
+``#t=SECONDS`` to the URL to show the arm frozen at that time since the plan's start.
 """
 from __future__ import annotations
 
 import base64
+import gzip
 import html
+import json
 import logging
 import math
 import warnings
@@ -36,7 +41,16 @@ logger = logging.getLogger(__name__)
 
 #: Colours (0xRRGGBB) of the scene elements.
 COLORS = {"obstacle": 0xD9534F, "demonstration": 0x5B8CC0, "mean_path": 0x1B7F3B, "ee_path": 0xF28C28,
-          "surface": 0x8E44AD}
+          "surface": 0x8E44AD, "floor": 0xB4B9C2}
+#: vertical field of view [deg] of meshcat's camera
+CAMERA_FOV = 75.0
+#: width / height of the browser window the camera is framed for
+CAMERA_ASPECT = 4.0 / 3.0
+#: fraction of the view's half-width and half-height the drawn points may reach (the rest
+#: keeps them clear of the player bar at the bottom)
+CAMERA_FILL = 0.85
+#: floor grid cell [m]
+FLOOR_CELL = 0.1
 #: Background gradient (top, bottom), RGB in [0, 1].
 BACKGROUND = ([1.0, 1.0, 1.0], [0.82, 0.85, 0.9])
 #: RGBA of the arm when it is drawn from collision geometry (URDFs without visual elements).
@@ -165,7 +179,7 @@ def _imports():
     return meshcat, pin, TriangleMeshVisualizer
 
 
-def _visual_model(robot, pin) -> tuple[Any, str]:
+def robot_geometry(robot, pin) -> tuple[Any, str]:
     """The URDF's visual GeometryModel for robot.model, or its collision geometry when the URDF
     has no visual elements (the built-in Sawyer); returns (model, "visual" | "collision")."""
     urdf = getattr(robot, "urdf_path", None)
@@ -186,7 +200,7 @@ def _visual_model(robot, pin) -> tuple[Any, str]:
     raise AnimationError(f"robot: the URDF {str(urdf)!r} has neither visual nor collision geometry to draw")
 
 
-def _base_inverse(robot, pin) -> np.ndarray:
+def planning_frame_transform(robot, pin) -> np.ndarray:
     """4x4 transform from the URDF root (Pinocchio world) to the robot's planning base frame."""
     base = getattr(robot, "base_frame", None)
     if not base:
@@ -257,41 +271,77 @@ _PAGE = """<!DOCTYPE html>
 <style>
 body {{ margin: 0; }}
 #meshcat-pane {{ width: 100vw; height: 100vh; overflow: hidden; }}
-#caption {{ position: fixed; left: 8px; bottom: 8px; font: 13px sans-serif; color: #333;
-           background: rgba(255, 255, 255, 0.75); padding: 4px 8px; border-radius: 4px; }}
+#player {{ position: fixed; left: 8px; right: 8px; bottom: 8px; display: flex; align-items: center; gap: 8px;
+          font: 13px sans-serif; color: #333; background: rgba(255, 255, 255, 0.8); padding: 4px 8px;
+          border-radius: 4px; }}
+#player input[type=range] {{ flex: 1; }}
+#player button {{ width: 4.5em; }}
+#clock {{ font-variant-numeric: tabular-nums; white-space: nowrap; }}
+#caption {{ white-space: nowrap; overflow: hidden; text-overflow: ellipsis; max-width: 40%; }}
 </style>
 </head>
 <body>
 <div id="meshcat-pane"></div>
-<div id="caption">{caption}</div>
+<div id="player"><button id="play" type="button">pause</button>
+<input id="scrub" type="range" min="0" max="{duration}" step="any" value="0" aria-label="time [s]">
+<span id="clock">0.00 / {duration:.2f} s</span><span id="caption">{caption}</span></div>
 <script>
-{bundle}
-</script>
-<script>
-// Scene commands recorded from meshcat (msgpack, base64), replayed in order.
-var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
-var commands = [
-{commands}
-];
-for (const text of commands) {{
+// meshcat's viewer bundle (three.js included) and the recorded meshcat scene commands (msgpack,
+// each preceded by its 4-byte big-endian length), both gzip-compressed and base64-encoded.
+const BUNDLE = "{bundle}";
+const COMMANDS = "{commands}";
+const TARGET = {target};   // the camera's orbit centre, three.js coordinates (y up)
+async function gunzip(text) {{
   const raw = atob(text);
   const bytes = new Uint8Array(raw.length);
   for (let i = 0; i < raw.length; i++) bytes[i] = raw.charCodeAt(i);
-  viewer.handle_command_bytearray(bytes);
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
+  return new Uint8Array(await new Response(stream).arrayBuffer());
 }}
-// "#t=SECONDS" (or "?t=SECONDS") freezes the animation at that time.
-function seekFromUrl() {{
-  const value = new URLSearchParams(location.hash.slice(1)).get("t") ?? new URLSearchParams(location.search).get("t");
-  const t = parseFloat(value);
-  if (value !== null && isFinite(t) && viewer.animator.actions.length > 0) {{
-    viewer.animator.play();
-    viewer.animator.pause();
-    viewer.animator.seek(t);
-    viewer.animator.display_progress(t);
+var viewer;
+(async () => {{
+  const script = document.createElement("script");
+  script.textContent = new TextDecoder().decode(await gunzip(BUNDLE));
+  document.head.appendChild(script);
+  viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
+  const data = await gunzip(COMMANDS);
+  const view = new DataView(data.buffer);
+  for (let at = 0; at < data.length; ) {{
+    const size = view.getUint32(at);
+    viewer.handle_command_bytearray(data.subarray(at + 4, at + 4 + size));
+    at += 4 + size;
   }}
-}}
-seekFromUrl();
-window.addEventListener("hashchange", seekFromUrl);
+  viewer.controls.target.set(TARGET[0], TARGET[1], TARGET[2]);
+  viewer.controls.update();
+  const animator = viewer.animator, play = document.getElementById("play");
+  const scrub = document.getElementById("scrub"), clock = document.getElementById("clock");
+  function show(t) {{
+    animator.play();
+    animator.pause();
+    animator.seek(t);
+    animator.display_progress(t);
+    play.textContent = "play";
+  }}
+  play.onclick = () => {{
+    if (animator.playing) {{ animator.pause(); play.textContent = "play"; }}
+    else {{ animator.play(); play.textContent = "pause"; }}
+  }};
+  scrub.oninput = () => show(parseFloat(scrub.value));
+  (function tick() {{
+    const t = animator.actions.length ? animator.actions[0].time : 0;
+    scrub.value = t;
+    clock.textContent = t.toFixed(2) + " / {duration:.2f} s";
+    requestAnimationFrame(tick);
+  }})();
+  // "#t=SECONDS" (or "?t=SECONDS") freezes the animation at that time.
+  function seekFromUrl() {{
+    const value = new URLSearchParams(location.hash.slice(1)).get("t") ?? new URLSearchParams(location.search).get("t");
+    const t = parseFloat(value);
+    if (value !== null && isFinite(t) && animator.actions.length > 0) show(t);
+  }}
+  seekFromUrl();
+  window.addEventListener("hashchange", seekFromUrl);
+}})();
 </script>
 </body>
 </html>
@@ -332,7 +382,7 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
 
     recorder = _SceneRecorder()
     vis = meshcat.Visualizer(window=recorder)
-    visual_model, source = _visual_model(robot, pin)
+    visual_model, source = robot_geometry(robot, pin)
     if source == "collision":
         for geometry in visual_model.geometryObjects:
             geometry.meshColor = np.array(COLLISION_COLOR)
@@ -348,7 +398,7 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
     if not any(drawn):
         raise AnimationError(f"robot: none of the {visual_model.ngeoms} visual geometries of {robot.name!r} "
                              "could be drawn")
-    vis[_ROBOT_NODE].set_transform(_base_inverse(robot, pin))
+    vis[_ROBOT_NODE].set_transform(planning_frame_transform(robot, pin))
     q_pin = robot.to_pinocchio(q)
     viz.display(q_pin[0])
 
@@ -376,8 +426,7 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
                 geometry, placement = _obstacle_geometry(obstacle, i, mg, pin)
                 node.set_object(geometry, mg.MeshLambertMaterial(color=COLORS["obstacle"], opacity=0.55))
                 node.set_transform(placement)
-            box = obstacle.aabb()
-            points.append(np.clip(box, -2.0, 2.0))
+            points.append(box_corners(np.clip(obstacle.aabb(), -2.0, 2.0)))
     if demonstrations is not None:
         for m, demo in enumerate(demonstrations):
             vis[f"scene/demonstrations/{m}"].set_object(_line(mg, demo, COLORS["demonstration"]))
@@ -394,15 +443,21 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
                                             mg.MeshLambertMaterial(color=COLORS["surface"], opacity=0.3))
             points.append(vertices)
 
-    # camera: meshcat 0.3's orbit controls look at the origin (the robot base); stand far enough
-    # away, front-right and above, that a ball around the origin holding everything drawn fits
-    # into the 75 degree field of view
+    # floor: a grid at z = 0 of the planning frame under everything drawn (meshcat's own grid
+    # and axes are hidden); camera: front-right and above the centre of everything drawn, at
+    # the distance where their bounding box fills the view, orbiting about that centre
     cloud = np.concatenate(points)
-    reach = max(float(np.linalg.norm(cloud, axis=1).max()), 0.3)
+    low, high = cloud.min(axis=0), cloud.max(axis=0)
+    vis["scene/floor"].set_object(_floor(mg, low, high))
+    vis["/Grid"].set_property("visible", False)
+    vis["/Axes"].set_property("visible", False)
+    low[2] = min(low[2], 0.0)
+    centre = 0.5 * (low + high)
     direction = np.array([1.0, 0.75, 0.6]) / np.linalg.norm([1.0, 0.75, 0.6])
-    offset = direction * reach / math.sin(math.radians(37.5))
+    offset = centre + direction * camera_distance(cloud, centre, direction)   # the floor may leave the view
     # the camera's parent node is turned by +90 degrees about x: world (x, y, z) = local (x, -z, y)
     vis["/Cameras/default/rotated/<object>"].set_property("position", [offset[0], offset[2], -offset[1]])
+    target = [float(centre[0]), float(centre[2]), float(-centre[1])]
     vis["/Background"].set_property("top_color", BACKGROUND[0])
     vis["/Background"].set_property("bottom_color", BACKGROUND[1])
     vis.set_animation(animation, play=True, repetitions=math.inf if loop else 1)
@@ -413,11 +468,51 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
     except OSError as exc:
         raise AnimationError(f"meshcat's viewer bundle {str(bundle_path)!r} is missing: {exc}") from exc
     title = title or f"{robot.name} plan"
-    caption = (f"{html.escape(title)} &mdash; {time[-1]:.2f} s, {len(time)} frames. "
-               "Animations panel: play / pause / time; URL #t=SECONDS freezes a time.")
-    commands = ",\n".join(f'"{base64.b64encode(c).decode("ascii")}"' for c in recorder.commands())
-    return _PAGE.format(title=html.escape(title), caption=caption, bundle=bundle.replace("</script", "<\\/script"),
-                        commands=commands)
+    caption = f"{html.escape(title)} &mdash; {len(time)} frames; URL #t=SECONDS freezes a time"
+    return _PAGE.format(title=html.escape(title), caption=caption, duration=float(time[-1]),
+                        bundle=_packed(bundle.encode("utf-8")), commands=_packed(b"".join(
+                            len(c).to_bytes(4, "big") + c for c in recorder.commands())),
+                        target=json.dumps(target))
+
+
+def box_corners(box: np.ndarray) -> np.ndarray:
+    """The 8 corners (8, 3) of an axis-aligned box [[xmin, ymin, zmin], [xmax, ymax, zmax]]."""
+    return np.array(np.meshgrid(*np.asarray(box, dtype=float).T)).reshape(3, -1).T
+
+
+def camera_distance(points: np.ndarray, centre: np.ndarray, direction: np.ndarray, *, fov: float = CAMERA_FOV,
+                    aspect: float = CAMERA_ASPECT, fill: float = CAMERA_FILL) -> float:
+    """Distance [m] from ``centre`` (3,) along ``direction`` (3,) at which a camera looking at
+    ``centre`` (z up; vertical field of view ``fov`` [deg], width / height ``aspect``) sees every
+    point (P, 3) within ``fill`` of the half-width and half-height of its view."""
+    back = direction / np.linalg.norm(direction)
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    relative = points - centre
+    x, y, z = relative @ right, relative @ up, relative @ back
+    half_height = fill * math.tan(math.radians(0.5 * fov))
+    half_width = aspect * half_height
+    # a point is in view when |x| <= half_width (d - z) and |y| <= half_height (d - z)
+    need = np.maximum(z + np.abs(x) / half_width, z + np.abs(y) / half_height)
+    return max(float(need.max()), 0.3)
+
+
+def _packed(data: bytes) -> str:
+    """gzip then base64 (the page unpacks with the browser's DecompressionStream)."""
+    return base64.b64encode(gzip.compress(data, compresslevel=9, mtime=0)).decode("ascii")
+
+
+def _floor(mg, low: np.ndarray, high: np.ndarray, cell: float = FLOOR_CELL):
+    """Grid lines at z = 0 [m] covering [low, high] in x and y plus one cell, on whole cells."""
+    start = np.floor(low[:2] / cell) * cell - cell
+    stop = np.ceil(high[:2] / cell) * cell + cell
+    xs = np.arange(start[0], stop[0] + 0.5 * cell, cell)
+    ys = np.arange(start[1], stop[1] + 0.5 * cell, cell)
+    along_y = [[(x, ys[0], 0.0), (x, ys[-1], 0.0)] for x in xs]
+    along_x = [[(xs[0], y, 0.0), (xs[-1], y, 0.0)] for y in ys]
+    points = np.asarray(along_y + along_x, dtype=np.float32).reshape(-1, 3)
+    return mg.LineSegments(mg.PointsGeometry(points.T), mg.LineBasicMaterial(color=COLORS["floor"]))
 
 
 def write_animation(path: str | Path, robot, time: Any, q: Any, obstacles: Any = None,

@@ -33,6 +33,7 @@ from clamp.initialisation import INITIALISATIONS
 from clamp.optimizers import OPTIMIZERS
 from clamp.planner import plan
 from clamp.result import PlanResult
+from clamp.viewer_cli import add_view_parser, robot_spec, save_view_inputs
 from scenes.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
                                  integer_at_least, number, output_directory, quiet, run,
                                  save_figure)
@@ -231,6 +232,8 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
                scene=scene.to_dict(), trajectory=exported["obstacle"])
     _figures(out, prior, demos, robot, config,
              [("empty", empty, None), ("obstacle", with_obstacle, scene)])
+    save_view_inputs(out, {"empty": {"scene": None, "start": start},
+                           "obstacle": {"scene": scene, "start": start}}, prior, demos, robot_spec(args), config)
     if not quiet(args):
         print(f"CLAMP demo: skill {args.skill!r} ({demos.M} demonstrations, T = {demos.T}), "
               f"robot {robot.name}, start {np.round(start, 4).tolist()}")
@@ -271,6 +274,8 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     _figures(out, prior, demos, robot, config, [("result", result, scene)])
+    save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
+                     robot_spec(args), config)
     if not quiet(args):
         print(summary_table([(Path(args.demos).stem, result)]))
         print(trajectory_summary(exported))
@@ -397,6 +402,7 @@ def parser() -> argparse.ArgumentParser:
     user.set_defaults(run=run_plan)
     from clamp.batch_cli import add_batch_parser
     add_batch_parser(sub)
+    add_view_parser(sub)
     return main
 
 

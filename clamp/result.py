@@ -155,6 +155,14 @@ class PlanResult:
         retimed, _ = retime_trajectory(planned, robot, acceleration_limits, method="toppra")
         return retimed
 
+    def show(self, demonstrations: Any = None, **options: Any) -> Any:
+        """Show the plan live in the browser (:class:`clamp.viewer.PlanViewer`: arm, paths,
+        posterior tube, obstacles; drag a box or the goal to replan) and return the viewer:
+        ``viewer.url``, ``set_time(t)``, ``move_obstacle(k, center)``, ``result``, ``close()``.
+        ``options``: port (0: a free one), host (loopback only), sigmas, tube_states."""
+        from clamp.viewer import PlanViewer
+        return PlanViewer(self, demonstrations=demonstrations, **options)
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as nested lists, non-finite floats as None); the joint
         state covariance (T, 2n, 2n) is left out (the end-effector one is kept)."""

@@ -1,0 +1,223 @@
+"""Live viewer (clamp.viewer): viser on 127.0.0.1, replanning when a box moves, clean shutdown,
+headless Chromium sees the page change.
+
+Set SKILLPLAN_WRITE_DOCS=1 to save the first screenshot as docs/viewer.png (the README's).
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("viser", reason="the live viewer needs viser (pip install 'skillplan[viewer]')")
+
+from chromium import CHROMIUM, MISSING, screenshot  # noqa: E402
+from clamp import learn_prior, plan  # noqa: E402
+from clamp.errors import ArgumentTypeError, InvalidParameterError  # noqa: E402
+from clamp.viewer import PlanViewer, tube_mesh  # noqa: E402
+from scenes import Box, Scene, make_demonstrations  # noqa: E402
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+@pytest.fixture(scope="module")
+def planned(jaco):
+    """box_closing on the Jaco with a box far from the path (the plan ignores it)."""
+    demos = make_demonstrations("box_closing", num_demos=6, num_points=80, seed=0)
+    prior = learn_prior(demos)
+    scene = Scene([Box([-0.4, 0.4, 0.05], [0.08, 0.08, 0.08])])
+    result = plan(prior, jaco, scene, start=prior.mean[0, :3])
+    assert result.success and result.ee_covariance is not None
+    return demos, result
+
+
+def moved_box_centre(result) -> np.ndarray:
+    """A centre putting the 8 cm box under the middle of the path, 2 cm into it."""
+    return result.ee_path[len(result.ee_path) // 2] - np.array([0.0, 0.0, 0.04 - 0.02])
+
+
+def port_is_closed(port: int) -> bool:
+    with socket.socket() as probe:
+        probe.settimeout(1.0)
+        return probe.connect_ex(("127.0.0.1", port)) != 0
+
+
+def wait_for_threads(before: set[threading.Thread], timeout: float = 10.0) -> set[str]:
+    """Names of threads started since ``before`` still alive after up to ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while True:
+        left = {t for t in threading.enumerate() if t not in before and t.is_alive()}
+        if not left or time.monotonic() > deadline:
+            return {t.name for t in left}
+        time.sleep(0.1)
+
+
+def test_tube_vertices_lie_on_the_sigma_ellipsoids():
+    rng = np.random.default_rng(3)
+    T = 7
+    path = rng.normal(size=(T, 3))
+    A = rng.normal(size=(T, 3, 3)) * 0.01
+    cov = A @ np.swapaxes(A, 1, 2) + 1e-6 * np.eye(3)
+    vertices, faces = tube_mesh(path, cov, sigmas=2.0, states=T)
+    per = len(vertices) // T
+    assert len(vertices) == per * T and faces.max() == len(vertices) - 1
+    for i in range(T):
+        d = vertices[i * per:(i + 1) * per] - path[i]
+        mahalanobis = np.einsum("vi,ij,vj->v", d, np.linalg.inv(cov[i]), d)
+        np.testing.assert_allclose(mahalanobis, 4.0, rtol=1e-6)
+    with pytest.raises(InvalidParameterError, match="ee_covariance"):
+        tube_mesh(path, cov[:3])
+
+
+def test_bad_input(planned):
+    _, result = planned
+    with pytest.raises(InvalidParameterError, match="host: expected a loopback address"):
+        PlanViewer(result, host="0.0.0.0")
+    with pytest.raises(ArgumentTypeError, match="result"):
+        PlanViewer(result.to_dict())
+    with pytest.raises(InvalidParameterError, match="port"):
+        PlanViewer(result, port=70000)
+
+
+def test_api_replans_when_a_box_moves_and_shuts_down_cleanly(planned):
+    demos, result = planned
+    before = set(threading.enumerate())
+    viewer = result.show(demonstrations=demos)
+    port = viewer.port
+    try:
+        assert viewer.url == f"http://127.0.0.1:{port}" and not port_is_closed(port)
+        viewer.set_time(1e9)
+        assert viewer.time == pytest.approx(viewer.duration)
+        with pytest.raises(InvalidParameterError, match="index"):
+            viewer.move_obstacle(3, [0.0, 0.0, 0.0])
+        with pytest.raises(InvalidParameterError, match="center"):
+            viewer.move_obstacle(0, [0.0, 0.0])
+        centre = moved_box_centre(result)
+        new = viewer.move_obstacle(0, centre)
+        assert viewer.result is new and new is not result
+        np.testing.assert_allclose(viewer.scene.obstacles[0].center, centre)
+        # independent check: the new plan keeps the moved box clear, the old one went through it
+        box = viewer.scene.obstacles[0]
+        assert np.min(box.distance(result.ee_path)) < 0
+        assert new.success and np.min(box.distance(new.ee_path)) > 0
+        assert np.max(np.linalg.norm(new.ee_path - result.ee_path, axis=1)) > 0.01
+        goal = new.ee_path[-1] + np.array([0.0, 0.03, 0.02])
+        moved = viewer.move_goal(goal)
+        assert viewer.result is moved and np.linalg.norm(moved.ee_path[-1] - goal) < 0.003
+        np.testing.assert_allclose(viewer.scene.obstacles[0].center, centre)      # the box stays
+    finally:
+        viewer.close()
+    viewer.close()                     # idempotent
+    assert port_is_closed(port)
+    assert wait_for_threads(before) == set()
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason=MISSING)
+def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
+    demos, result = planned
+    before = set(threading.enumerate())
+    with result.show(demonstrations=demos) as viewer:
+        port = viewer.port
+        viewer.set_time(0.5 * viewer.duration)
+        first = screenshot(viewer.url, tmp_path / "before.png", (1000, 700))
+        new = viewer.move_obstacle(0, moved_box_centre(result))
+        second = screenshot(viewer.url, tmp_path / "after.png", (1000, 700))
+    assert port_is_closed(port) and wait_for_threads(before) == set()
+    assert np.max(np.abs(new.q - result.q)) > 0.01
+    assert first.shape == second.shape == (700, 1000, 3)
+    # the arm is drawn: many dark grey pixels on the light page
+    assert (first.max(axis=2) < 120).sum() > 3000 and (second.max(axis=2) < 120).sum() > 3000
+    changed = np.abs(first - second).max(axis=2) > 40
+    assert changed.sum() > 1000, "the page looks the same after the box moved and the plan changed"
+    if os.environ.get("SKILLPLAN_WRITE_DOCS"):
+        DOCS.mkdir(exist_ok=True)
+        shutil.copyfile(tmp_path / "after.png", DOCS / "viewer.png")
+
+
+
+@pytest.fixture(scope="module")
+def plan_folder(tmp_path_factory):
+    """The output folder of ``clamp plan`` (small problem: 60 states, a box off the path)."""
+    from clamp.cli import main
+    folder = tmp_path_factory.mktemp("view")
+    make_demonstrations("box_closing", num_demos=6, num_points=60, seed=0).save_npz(folder / "demos_in.npz")
+    Scene([Box([-0.4, 0.4, 0.05], [0.08, 0.08, 0.08])]).save(folder / "scene_in.json")
+    code = main(["-q", "plan", "--robot", "jaco", "--demos", str(folder / "demos_in.npz"), "--scene",
+                 str(folder / "scene_in.json"), "--start", "0.2054", "-0.4722", "0.2625", "--goal", "0.45", "-0.25",
+                 "0.15", "--sigma-obs", "0.02", "--out", str(folder / "out")])
+    assert code == 0
+    return folder / "out"
+
+
+def test_view_plans_the_recorded_problem_again(plan_folder):
+    """The folder's problem file gives the same plan as the command wrote (independent of
+    the viewer: plan.json's q), with the goal, the scene and the changed setting kept."""
+    import json
+
+    from clamp.viewer_cli import load_view
+    written = json.loads((plan_folder / "plan.json").read_text())
+    result, demos = load_view(plan_folder)
+    np.testing.assert_allclose(result.q, np.array(written["q"]), atol=1e-9)
+    assert demos.M == 6 and result.inputs.config.model.sigma_obs == 0.02
+    np.testing.assert_allclose(result.inputs.goal, [0.45, -0.25, 0.15])
+    assert written["q"] and json.loads((plan_folder / "problem_plan.json").read_text())["config"] == {"sigma_obs": 0.02}
+
+
+def test_clamp_view_serves_until_interrupted(plan_folder):
+    import signal
+    import sys
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    process = subprocess.Popen([sys.executable, "-m", "clamp", "view", str(plan_folder), "--port", "0"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        line = process.stdout.readline()
+        assert line.startswith("clamp view: http://127.0.0.1:"), (line, process.stderr.read())
+        port = int(line.split("127.0.0.1:")[1].split()[0])
+        assert not port_is_closed(port)
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=30) == 130
+    finally:
+        process.kill()
+        process.wait()
+    assert port_is_closed(port)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["view", "{missing}"], "FOLDER: expected the output folder"),
+    (["view", "{empty}"], "holds no problem_*.json"),
+    (["view", "{folder}", "--plan", "nope"], "--plan: no plan 'nope'"),
+    (["view", "{folder}", "--port", "-1"], "--port"),
+])
+def test_clamp_view_bad_input_is_one_line_exit_2(plan_folder, tmp_path, capsys, argv, message):
+    from clamp.cli import main
+    names = {"missing": tmp_path / "missing", "empty": tmp_path, "folder": plan_folder}
+    assert main([a.format(**names) for a in argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0] and "Traceback" not in err[0]
+
+
+def test_mesh_and_point_cloud_obstacles_are_drawn_and_moved_by_their_box_centre(planned):
+    from clamp import replan
+    from clamp.viewer import obstacle_anchor
+    from scenes import PointCloud, TriangleMesh
+    from scenes.mesh import box_triangles
+    _, result = planned
+    cloud = PointCloud(np.random.default_rng(0).uniform([-0.5, 0.3, 0.0], [-0.4, 0.4, 0.1], (50, 3)), 0.01)
+    mesh = TriangleMesh(*box_triangles([-0.4, -0.5, 0.05], [0.1, 0.1, 0.1]))
+    start = replan(result, scene=Scene([mesh, cloud]))
+    with start.show() as viewer:
+        target = np.array([-0.35, -0.45, 0.1])
+        viewer.move_obstacle(0, target)
+        moved = viewer.scene.obstacles[0]
+        np.testing.assert_allclose(obstacle_anchor(moved), target, atol=1e-12)
+        np.testing.assert_allclose(moved.vertices - np.asarray(mesh.vertices), np.broadcast_to(
+            target - obstacle_anchor(mesh), np.shape(mesh.vertices)), atol=1e-12)
+        viewer.move_obstacle(1, [-0.45, 0.3, 0.2])
+        np.testing.assert_allclose(obstacle_anchor(viewer.scene.obstacles[1]), [-0.45, 0.3, 0.2], atol=1e-12)
