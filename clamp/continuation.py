@@ -164,7 +164,7 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
                                      convergence_patience=1))
         theta0, warm_start = soft.theta, WarmStart()
     out, report = attempt("configured", sigma0, theta0, warm_start, soft)
-    if report.collision and rounds > 0:
+    if report.collision and report.fault is None and rounds > 0:
         # the optimum continued first; the restarts run only while fewer than WANTED
         # candidates are feasible, and once one is, only at the weight that made it feasible
         candidates = chain([("continuation", out.theta, 1)],

@@ -212,13 +212,10 @@ def _convex_hull(vertices: np.ndarray) -> Any | None:
 def _submesh(vertices: np.ndarray, faces: np.ndarray) -> Any:
     """A coal BVHModelOBBRSS of the triangles faces (F, 3) (indices into vertices (V, 3))."""
     used, local = np.unique(faces, return_inverse=True)
-    points = coal.StdVec_Vec3s()
-    points.extend(list(vertices[used]))
-    triangles = coal.StdVec_Triangle()
-    triangles.extend([coal.Triangle(int(a), int(b), int(c)) for a, b, c in local.reshape(-1, 3)])
     mesh = coal.BVHModelOBBRSS()
     mesh.beginModel(len(faces), len(used))
-    mesh.addSubModel(points, triangles)
+    mesh.addVertices(np.ascontiguousarray(vertices[used]))
+    mesh.addTriangles(np.ascontiguousarray(local.reshape(-1, 3), dtype=np.int64))
     mesh.endModel()
     return mesh
 
@@ -241,9 +238,19 @@ class _Pieces:
                 order = np.argsort(centroid[group, np.argmax(np.ptp(centroid[group], axis=0))], kind="stable")
                 halves += [group[order[:len(group) // 2]], group[order[len(group) // 2:]]]
             groups = [group for group in halves if len(group)]
-        self.parts = [_Pieces(vertices, faces[group]) if len(group) > PIECE_TRIANGLES
-                      else _submesh(vertices, faces[group]) for group in groups]
-        self.hulls = [_convex_hull(vertices[np.unique(faces[group])]) for group in groups]
+        self.parts, self.hulls, points = [], [], []
+        for group in groups:     # a node's hull from its parts' hull vertices (the same hull, faster)
+            if len(group) > PIECE_TRIANGLES:
+                part = _Pieces(vertices, faces[group])
+                inside = part.points
+            else:
+                part = _submesh(vertices, faces[group])
+                inside = vertices[np.unique(faces[group])]
+            hull = _convex_hull(inside)
+            self.parts.append(part)
+            self.hulls.append(hull)
+            points.append(inside if hull is None else np.asarray(hull.points(), dtype=float).reshape(-1, 3))
+        self.points = np.concatenate(points)     # (m, 3): contains the vertices of this node's hull
 
     @classmethod
     def of(cls, geometry: Any) -> Any:
@@ -341,6 +348,7 @@ def _motion_radii(robot: Robot, joints: np.ndarray, points: list[np.ndarray], pa
 def _urdf_items(robot: Robot, include_fixed: bool) -> list[dict]:
     model, cm = robot.model, robot.collision_model
     aligned = np.asarray(robot.chain._aligned)
+    shapes = _CACHE.setdefault(robot, {})
     items = []
     for obj in cm.geometryObjects:
         joint = int(obj.parentJoint)
@@ -349,12 +357,13 @@ def _urdf_items(robot: Robot, include_fixed: bool) -> list[dict]:
         if joint > robot.n:
             raise CollisionCheckError(f"robot: collision object {obj.name!r} hangs off an unknown joint")
         U = aligned[joint]
-        item = dict(name=obj.name, link=model.frames[obj.parentFrame].name, joint=joint,
-                    rotation=U.T @ np.asarray(obj.placement.rotation),
-                    translation=U.T @ np.asarray(obj.placement.translation),
-                    shape=obj.geometry, pin_object=pin.GeometryObject(obj))
-        item.update(_shape_item(obj.geometry, obj.name))
-        items.append(item)
+        key = ("urdf object", obj.name)
+        if key not in shapes:       # hull, bounds and pieces: once per robot and collision object
+            shapes[key] = dict(_shape_item(obj.geometry, obj.name), shape=_Pieces.of(obj.geometry))
+        items.append(dict(shapes[key], name=obj.name, link=model.frames[obj.parentFrame].name, joint=joint,
+                          rotation=U.T @ np.asarray(obj.placement.rotation),
+                          translation=U.T @ np.asarray(obj.placement.translation),
+                          pin_object=pin.GeometryObject(obj)))
     return items
 
 
@@ -392,15 +401,14 @@ def _robot_geometry(robot: Robot, source: str, include_fixed: bool) -> _RobotGeo
     if source == "urdf":
         if robot.urdf_path is None:
             raise CollisionCheckError("geometry: 'urdf' needs a robot loaded from a URDF file (Robot.from_urdf)")
-        objects = _urdf_items(robot, include_fixed)
-        if not objects:
+        items = _urdf_items(robot, include_fixed)
+        if not items:
             raise CollisionCheckError(
                 "geometry: the robot's URDF has no collision geometry on its moving links; use geometry='spheres'")
     else:
-        objects = _sphere_items(robot, include_fixed)
-        if not objects:
+        items = _sphere_items(robot, include_fixed)
+        if not items:
             raise CollisionCheckError("geometry: the robot has no collision spheres on its moving links")
-    items = [dict(obj, shape=_Pieces.of(obj["shape"])) for obj in objects]
     joints = np.array([it["joint"] for it in items], dtype=np.int64)
     motion = [np.asarray(it["motion"][0]).reshape(-1, 3) @ it["rotation"].T + it["translation"] for it in items]
     geometry = _RobotGeometry(
@@ -411,7 +419,7 @@ def _robot_geometry(robot: Robot, source: str, include_fixed: bool) -> _RobotGeo
         exact=np.array([it["exact"] for it in items], dtype=bool),
         sphere_centre=np.array([it["centre"] for it in items]), sphere_radius=np.array([it["radius"] for it in items]),
         motion_radius=_motion_radii(robot, joints, motion, np.array([it["motion"][1] for it in items])),
-        pin_objects=[obj["pin_object"] for obj in objects])
+        pin_objects=[it["pin_object"] for it in items])
     geometry.aligned = bool(np.all(geometry.rotation == np.eye(3)))
     cache[key] = (robot.spheres if source == "spheres" else None, geometry)
     return geometry
@@ -432,21 +440,23 @@ class _Obstacles:
 
 
 def _placement(value: Any, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation (3, 3) and translation (3,) of a placement, checked (made exactly orthonormal
+    by the caller, for all obstacles at once)."""
     if isinstance(value, pin.SE3):
         rotation, translation = np.array(value.rotation), np.array(value.translation)
     elif isinstance(value, coal.Transform3s):
         rotation, translation = np.array(value.getRotation()), np.array(value.getTranslation())
     else:
-        matrix = as_array(value, name, (4, 4), max_leading=0)
-        if not np.allclose(matrix[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9):
+        matrix = value if isinstance(value, np.ndarray) and value.shape == (4, 4) and value.dtype == float \
+            else as_array(value, name, (4, 4), max_leading=0)
+        if np.abs(matrix[3] - [0.0, 0.0, 0.0, 1.0]).max() > 1e-9:
             raise CollisionCheckError(f"{name}: expected a homogeneous 4x4 matrix with last row [0, 0, 0, 1]")
         rotation, translation = matrix[:3, :3], matrix[:3, 3]
-    if not (np.all(np.isfinite(rotation)) and np.all(np.isfinite(translation))):
+    if not (np.isfinite(rotation).all() and np.isfinite(translation).all()):
         raise CollisionCheckError(f"{name}: contains NaN or inf values")
-    if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) <= 0:
+    if np.abs(rotation @ rotation.T - np.eye(3)).max() > 1e-6 or np.linalg.det(rotation) <= 0:
         raise CollisionCheckError(f"{name}: the rotation is not a proper rotation matrix (orthonormal, det +1)")
-    u, _, vt = np.linalg.svd(rotation)
-    return u @ vt, translation.astype(float)
+    return rotation, translation.astype(float)
 
 
 def _obstacle_ball(shape: Any, where: str) -> tuple[np.ndarray, float]:
@@ -479,6 +489,7 @@ def _parse_obstacles(obstacles: Any) -> _Obstacles:
             "obstacles: expected a sequence of (name, coal.CollisionGeometry, placement) triples "
             f"(scenes.coal_shapes.coal_obstacles builds them from a scene), got {type(obstacles).__name__}")
     names, shapes, rotations, translations, centres, radii = [], [], [], [], [], []
+    seen: set[str] = set()
     for i, entry in enumerate(obstacles):
         where = f"obstacles[{i}]"
         if not isinstance(entry, (tuple, list)) or len(entry) != 3:
@@ -487,8 +498,9 @@ def _parse_obstacles(obstacles: Any) -> _Obstacles:
         name, shape, placement = entry
         if not isinstance(name, str) or not name:
             raise CollisionCheckError(f"{where}: the name must be a non-empty string, got {name!r}")
-        if name in names:
+        if name in seen:
             raise CollisionCheckError(f"{where}: duplicate obstacle name {name!r}")
+        seen.add(name)
         if not isinstance(shape, coal.CollisionGeometry):
             raise CollisionCheckError(f"{where}: expected a coal.CollisionGeometry, got {type(shape).__name__}")
         rotation, translation = _placement(placement, f"{where} placement")
@@ -500,7 +512,8 @@ def _parse_obstacles(obstacles: Any) -> _Obstacles:
         centres.append(rotation @ centre + translation)
         radii.append(radius)
     O = len(names)
-    rotation = np.array(rotations).reshape(O, 3, 3)
+    u, _, vt = np.linalg.svd(np.array(rotations).reshape(O, 3, 3))
+    rotation = u @ vt                                            # exactly orthonormal
     translation = np.array(translations).reshape(O, 3)
     transforms = tuple(coal.Transform3s(r, t) for r, t in zip(rotation, translation))
     box_min, box_max = np.empty((O, 3)), np.empty((O, 3))
