@@ -23,7 +23,7 @@ import numpy as np
 
 from clamp.request import has_obstacles
 from robots.collision_check import RESOLUTION, CollisionChecker, CollisionReport, Contact
-from robots.errors import CollisionCheckError
+from robots.errors import CollisionCheckError, URDFParseError
 from scenes.coal_shapes import coal_obstacles
 
 log = logging.getLogger(__name__)
@@ -52,7 +52,7 @@ def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | No
         return None
     try:
         found = checker(robot, scene)
-    except CollisionCheckError as error:          # e.g. a collision mesh coal cannot use
+    except (CollisionCheckError, URDFParseError) as error:   # a collision mesh that cannot be used
         log.warning("collision check failed: %s", error)
         return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q), str(error))
     return found.check(q, time, margin=0.0, max_motion=MAX_MOTION, resolution=RESOLUTION)
