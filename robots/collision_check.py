@@ -8,8 +8,10 @@ per (robot, obstacles) and checks any number of trajectories::
     from robots.collision_check import CollisionChecker
     from scenes.coal_shapes import coal_obstacles            # scene obstacles -> coal shapes
     checker = CollisionChecker(robot, coal_obstacles(scene))
-    report = checker.check(q (T, n), time (T,) | None, margin=0.0, max_motion=0.005)
+    report = checker.check(q (T, n), time (T,) | None, margin=0.0, max_motion=0.005,
+                           resolution=RESOLUTION)
     report.min_distance, report.nearest, report.collision, report.state_distance (T,)
+    report.lower_bound, report.fixed_overlaps, report.fault
 
 Obstacles are ``(name, coal.CollisionGeometry, placement)`` triples; the placement (pin.SE3,
 coal.Transform3s or a 4x4 homogeneous matrix) is given in the robot's base frame (the frame of
@@ -20,7 +22,11 @@ Geometry. ``geometry="urdf"``: every collision object of ``robot.collision_model
 with a joint (geometry fixed to the world, i.e. the base, only with ``include_fixed=True``; it
 is the same at every state and a plan cannot change it). A robot without collision geometry
 (not loaded from a URDF, or a URDF without ``<collision>`` elements) falls back to its
-collision spheres (``geometry="spheres"``, also forced by ``geometry="spheres"``).
+collision spheres (``geometry="spheres"``, also forced by ``geometry="spheres"``; a URDF
+without ``<collision>`` gets its spheres fitted to its ``<visual>`` geometry). Geometry fixed
+to the world is measured once per checker against every obstacle all the same: each overlap is
+logged as a warning and listed in ``report.fixed_overlaps`` (link, obstacle, depth), e.g. a
+table slab through the base or a box around it.
 
 Distances come from coal, and only from coal. The distance of a link geometry g to an obstacle
 O, ``d(g, O)``, is ``coal.distance`` on g's own collision geometry (the URDF mesh as Pinocchio
@@ -36,9 +42,17 @@ from three bounds:
   ``coal.distance(hull, O) <= d(g, O)`` (apart: a distance to a superset; overlapping: a
   superset's penetration depth is at least that of any of its triangles): a lower bound of the
   mesh distance, "hull clear" proves "mesh clear". GJK on the hull costs 2-4 microseconds,
-  coal's mesh distance 0.1-3 ms (the Jaco's hand: 44 578 triangles). A primitive (sphere, box,
-  cylinder, capsule, ...) and a mesh too flat for a hull are their own bound, with an exact
-  bound distance;
+  coal's distance on a whole mesh 0.1-13 ms (the Jaco's hand: 44 578 triangles; against a
+  large obstacle coal's traversal prunes little). A primitive (sphere, box, cylinder,
+  capsule, ...) and a mesh too flat for a hull are their own bound, with an exact bound
+  distance;
+- pieces. A mesh of more than ``PIECE_TRIANGLES`` triangles is measured as a tree of pieces
+  (built once per robot and collision object: 8 parts per node by median cuts of the triangle
+  centroids, sub-meshes of at most PIECE_TRIANGLES triangles at the leaves, a convex hull per
+  part). Its distance is the least of its leaves' (their union is the mesh: the same value
+  apart, to coal's tolerance), nearest hull first, a part opened only while its hull distance
+  is below the least leaf distance so far: a handful of small hull and leaf queries
+  (~0.1-0.5 ms) instead of one traversal of the whole mesh;
 - bounding spheres: ``|c_g - c_O| - r_g - r_O`` (the link's sphere about its hull vertices, the
   obstacle's from its size, or coal's AABB for other shapes): a lower bound without any query;
 - motion. The signed distance of a convex set to an obstacle is 1-Lipschitz in the set's
@@ -69,7 +83,19 @@ support state for the pair that decides a state value below the margin. The resu
 - ``state_distance[i]``: a lower bound of support state i's least exact distance: that
   distance itself when it is below the margin (so ``states_in_collision`` is exact), and at
   least the margin otherwise (then the least hull or exact distance of the state's pairs);
-- ``lower_bound = min_distance - max_step / 2``, as below.
+- ``lower_bound``: what the whole continuous motion keeps, as below.
+
+Broad phase. Obstacles are many (perception gives thousands of boxes or spheres), the arm is
+near few of them. Per segment of the trajectory, each link geometry's bounding sphere at the
+segment's checked configurations sweeps an axis-aligned box; an obstacle's box (coal's AABB)
+farther than ``reach`` from it cannot be nearer than ``reach`` to the geometry at any checked
+configuration (``reach = max(REACH, margin)``, plus ``max_step`` with a resolution), so only
+the pairs within reach are searched (vectorised in numpy, then the bounds above); when the
+least distance found is farther than ``reach``, the search runs again with reach widened to
+it, so the result is the same as over every pair. States whose pairs are all out of reach get
+``reach`` as their state value (a lower bound). The cost grows with the obstacles near the
+arm, not with their number; memory is bounded by searching consecutive segments in windows of
+at most ``WINDOW_PAIRS`` configurations x pairs.
 
 Cost. A clear trajectory needs hull distances near its closest approach and a handful of
 mesh distances. A colliding one needs a mesh distance at (nearly) every overlapping
@@ -96,6 +122,25 @@ configurations (``report.max_step``; geometry g moves at most ``s_g = sum_j |dq_
 per step). The distance is 1-Lipschitz in that motion, so the whole continuous motion keeps at
 least ``report.lower_bound = min_distance - max_step / 2`` (every configuration on a segment is
 within max_step / 2 of a checked one).
+
+Resolution (certified success). With ``resolution`` set (default ``RESOLUTION``, 0.2 mm) and no
+collision found, the check certifies the motion between checked configurations: a pair at
+distances >= a and >= b at the ends of a step in which its geometry moves at most s keeps
+``>= (a + b - s) / 2`` throughout (the Lipschitz bound from both ends). Where that is below the
+margin, the ends get hull, then exact distances, and a step still open is halved (exact
+distance at its midpoint configuration, each half moving at most s / 2) until every part is
+certified, a distance below the margin is found (a collision, at the fractional index where it
+was found) or the part's motion bound is at most ``resolution``. So a report without collision
+guarantees that nowhere along the motion does any link come closer than
+``margin - resolution / 2`` (``report.lower_bound``, the least certified bound, is at least
+that): an obstacle thicker than the resolution cannot slip between checks, however large
+``max_motion`` is. Costs only where the trajectory skims an obstacle (within ~max_step / 2).
+``resolution=None`` skips it (``lower_bound = min_distance - max_step / 2``), e.g. to measure
+the support states alone.
+
+Faults. A check that cannot be made (coal raises on a pair of shapes) gives a report with
+``fault`` set (the reason), ``collision`` True and NaN distances, never an exception; bad
+arguments still raise CollisionCheckError naming them.
 """
 from __future__ import annotations
 
@@ -659,9 +704,10 @@ class _Search:
     geometry); hull / exact (K, P) the coal distances made so far (queried / measured)."""
 
     def __init__(self, checker: "CollisionChecker", poses: _Poses, col_g: np.ndarray, col_o: np.ndarray,
-                 travel: np.ndarray, lower: np.ndarray, offset: int = 0, best: float = math.inf,
-                 nearest: tuple[int, int, int] | None = None):
+                 travel: np.ndarray, lower: np.ndarray, margin: float, offset: int = 0,
+                 best: float = math.inf, nearest: tuple[int, int, int] | None = None):
         self.checker, self.poses, self.col_g, self.col_o = checker, poses, col_g, col_o
+        self.margin = margin
         self.travel, self.lower, self.offset = travel, lower, offset
         self.col_exact = checker._geo.exact[col_g]
         self.hull = np.full(lower.shape, np.nan)
@@ -687,9 +733,15 @@ class _Search:
         return np.where(self.measured, self.exact, np.where(self.queried, np.fmax(self.hull, self.lower), self.lower))
 
     def measure(self, k: np.ndarray, c: np.ndarray) -> None:
-        """Exact distances (coal on the collision geometry) of pairs (k, c)."""
+        """Exact distances (coal on the collision geometry) of pairs (k, c): exact below
+        max(best, margin), which is all the search needs; a mesh measured as pieces stops
+        there (a value at least that is a lower bound, never the least or a state value below
+        the margin)."""
         g, o = self.col_g[c], self.col_o[c]
-        values = self._query(self.checker._geo.shapes, k, g, o, "exact")
+        start = _clock.perf_counter()
+        values = self.checker._query(self.checker._geo.shapes, self.poses, k + self.offset, g, o,
+                                     max(self.best, self.margin))
+        self.seconds["exact"] += _clock.perf_counter() - start
         self.exact[k, c] = values
         self.measured[k, c] = True
         self._offer(k, g, o, values)
@@ -869,19 +921,22 @@ class CollisionChecker:
         rotation = Rj if geo.aligned else Rj @ geo.rotation          # spheres: already aligned
         return rotation, _transform(Rj, oj, geo.translation)
 
-    def _query(self, shapes: list, poses: _Poses, k: np.ndarray, g: np.ndarray, o: np.ndarray) -> np.ndarray:
-        """coal distance (M,) of shapes[g] at configurations k against obstacles o (signed)."""
+    def _query(self, shapes: list, poses: _Poses, k: np.ndarray, g: np.ndarray, o: np.ndarray,
+               cutoff: float = math.inf) -> np.ndarray:
+        """coal distance (M,) of shapes[g] at configurations k against obstacles o (signed);
+        exact below cutoff (see _distance)."""
         out = np.empty(len(k))
         if not len(k):
             return out
         R, t, row = poses.rows(k)
         for m, (r, gg, oo) in enumerate(zip(row.tolist(), g.tolist(), o.tolist())):
-            out[m] = self._distance(shapes[gg], coal.Transform3s(R[r, gg], t[r, gg]), gg, oo)
+            out[m] = self._distance(shapes[gg], coal.Transform3s(R[r, gg], t[r, gg]), gg, oo, cutoff)
         return out
 
-    def _distance(self, shape: Any, transform: Any, g: int, o: int) -> float:
+    def _distance(self, shape: Any, transform: Any, g: int, o: int, cutoff: float = math.inf) -> float:
         """coal's signed distance of one geometry (or _Pieces) placed at transform to obstacle
-        o; counted in self.tally ("hull": on a convex hull, "exact": on the geometry itself)."""
+        o; counted in self.tally ("hull": on a convex hull, "exact": on the geometry itself).
+        _Pieces stop at cutoff: exact below it, a lower bound at least cutoff otherwise."""
         obstacle, placement = self._obs.shapes[o], self._obs.transforms[o]
         result = coal.DistanceResult()
         try:
@@ -893,7 +948,7 @@ class CollisionChecker:
                 self.tally[kind] += 1
                 result.clear()
                 return coal.distance(part, transform, obstacle, placement, self._request, result)
-            return shape.distance(measure)
+            return shape.distance(measure, cutoff)
         except Exception as error:   # coal: a pair of shape types it cannot measure
             raise CollisionCheckError(
                 f"obstacles: coal cannot compute the distance of {self._geo.names[g]!r} "
@@ -1136,7 +1191,8 @@ class CollisionChecker:
                     gap = np.maximum(np.maximum(obs.box_min[col_o] - (c + r[:, None]), (c - r[:, None]) - obs.box_max[col_o]), 0.0)
                     apart = np.sqrt((gap ** 2).sum(axis=2))    # boxes apart: a bound; touching: none
                     lower = np.where(apart > 0.0, np.maximum(lower, apart), lower)
-                search = _Search(self, poses, col_g, col_o, travel[rows][:, col_g], lower, k0, best, nearest)
+                search = _Search(self, poses, col_g, col_o, travel[rows][:, col_g], lower, margin, k0, best,
+                                 nearest)
                 Sw = S[first:min(last, T - 1) + 1] - k0
                 self._search(search, Sw, margin)
                 if resolution is not None and search.best >= margin:
