@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from robots import collision_check
 from robots.collision_check import RESOLUTION, SLACK, CollisionChecker
 from scenes import Box, Sphere
 from scenes.coal_shapes import coal_obstacles
@@ -58,3 +59,34 @@ def test_thin_obstacle_at_the_resolution_between_two_states_is_found(jaco):
     assert not ok.collision and ok.lower_bound >= -RESOLUTION / 2
     dense = clear.distances(np.linspace(START, end, 51)).min()
     assert dense >= ok.lower_bound - SLACK
+
+
+def test_windows_of_segments_give_the_same_report(jaco, monkeypatch):
+    """Memory is bounded by searching windows of consecutive segments: the same result."""
+    rng = np.random.default_rng(12)
+    q = np.linspace(START, START + [0.8, 0.3, -0.3, 0.4, 0.2, 0.1], 8)
+    path = jaco.frame_positions(q)[:, 2:].reshape(-1, 3)
+    obstacles = [Sphere(path[rng.integers(len(path))] + rng.normal(0.0, 0.05, 3), rng.uniform(0.01, 0.04))
+                 for _ in range(8)]
+    checker = CollisionChecker(jaco, coal_obstacles(obstacles))
+    whole = checker.check(q, margin=0.01)
+    monkeypatch.setattr(collision_check, "WINDOW_PAIRS", 200)
+    windows = checker._windows(*_broad_inputs(checker, q))
+    assert len(windows) > 2
+    split = checker.check(q, margin=0.01)
+    assert split.min_distance == pytest.approx(whole.min_distance, abs=SLACK)
+    assert split.collision == whole.collision and split.nearest.obstacle == whole.nearest.obstacle
+    below = whole.state_distance < 0.01
+    np.testing.assert_array_equal(split.state_distance < 0.01, below)
+    np.testing.assert_allclose(split.state_distance[below], whole.state_distance[below], atol=SLACK)
+
+
+def _broad_inputs(checker: CollisionChecker, q: np.ndarray):
+    """(near, support) of the checker's broad phase for q at the default motion and reach."""
+    sub = checker.configurations(q)
+    geo = checker._geo
+    moving = np.flatnonzero(geo.joints != 0)
+    R, t = checker._poses(sub.q)
+    centre = collision_check._transform(R[:, moving], t[:, moving], geo.sphere_centre[moving])
+    near, _ = checker._near_pairs(centre, sub.support, moving, collision_check.REACH)
+    return near, sub.support
