@@ -15,19 +15,17 @@ from robots.collision_check import CollisionChecker
 from robots.errors import URDFParseError
 from scenes import Box, Scene, Sphere
 from scenes.coal_shapes import coal_obstacles
+from test_collision_check import URDF_WITHOUT_COLLISION
 
 START = np.array([-0.52, 2.97, 4.80, 0.0, 2.14, 0.0])
 
-ARM = """<robot name="arm">
-  <link name="base"/>
-  <link name="upper">{geometry}</link>
-  <link name="tool"/>
-  <joint name="j1" type="revolute"><parent link="base"/><child link="upper"/>
-    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><parent link="upper"/><child link="tool"/><origin xyz="0 0 0.3"/>
-    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-</robot>
-"""
+VISUAL = '<visual><geometry><box size="0.1 0.1 0.3"/></geometry></visual>'
+assert VISUAL in URDF_WITHOUT_COLLISION
+
+
+def arm(geometry: str) -> str:
+    """The two-link arm of test_collision_check with ``geometry`` on its upper link instead."""
+    return URDF_WITHOUT_COLLISION.replace(VISUAL, geometry)
 
 
 def test_obstacle_through_the_fixed_base_is_reported(jaco, caplog):
@@ -61,20 +59,19 @@ def test_a_coal_failure_is_a_fault_in_the_report_and_a_verdict_reason(jaco, monk
 
 
 def test_urdf_without_collision_geometry_fits_spheres_to_its_visual_geometry(tmp_path, caplog):
-    visual = '<visual><origin xyz="0 0 0.15"/><geometry><box size="0.1 0.1 0.3"/></geometry></visual>'
     path = tmp_path / "arm.urdf"
-    path.write_text(ARM.format(geometry=visual))
+    path.write_text(URDF_WITHOUT_COLLISION)              # a 0.1 x 0.1 x 0.3 m visual box, centred
     robot = Robot.from_urdf(path, end_effector="tool")
     with caplog.at_level(logging.WARNING, logger="robots"):
         spheres = robot.spheres
     assert "visual geometry" in caplog.text
     centres, _ = robot.sphere_centres(np.zeros((1, 2)))
-    assert np.all(np.abs(centres[0, :, 2] - 0.15) <= 0.15 + 1e-9)    # inside the box's height
-    inside = Sphere([0.0, 0.07, 0.15], 0.03)                         # touches the box's side face
+    assert np.all(np.abs(centres[0, :, 2]) <= 0.15 + 1e-9)           # inside the box's height
+    inside = Sphere([0.0, 0.07, 0.0], 0.03)                          # touches the box's side face
     report = CollisionChecker(robot, coal_obstacles([inside])).check(np.zeros((2, 2)))
     assert report.geometry == "spheres" and report.collision
     assert len(spheres.radii) >= 1
-    path.write_text(ARM.format(geometry=""))
+    path.write_text(arm(""))
     with pytest.raises(RobotError, match="neither collision nor visual"):
         Robot.from_urdf(path, end_effector="tool").spheres
 
@@ -83,7 +80,7 @@ def test_an_empty_mesh_file_is_one_clear_line(tmp_path):
     mesh = tmp_path / "empty.stl"
     mesh.write_text("")
     path = tmp_path / "arm.urdf"
-    path.write_text(ARM.format(geometry=f'<collision><geometry><mesh filename="{mesh}"/></geometry></collision>'))
+    path.write_text(arm(f'<collision><geometry><mesh filename="{mesh}"/></geometry></collision>'))
     robot = Robot.from_urdf(path, end_effector="tool")
     with pytest.raises(URDFParseError) as caught:
         robot.collision_model
@@ -91,6 +88,6 @@ def test_an_empty_mesh_file_is_one_clear_line(tmp_path):
     assert "\n" not in message and "File is empty" in message and str(mesh) in message
     assert "assimp.cpp" not in message
     # the verdict's check turns it into a fault, not an exception
-    robot.spheres = SphereModel(("upper",), [[0.0, 0.0, 0.15]], [0.05])
+    robot.spheres = SphereModel(("upper",), [[0.0, 0.0, 0.0]], [0.05])
     report = check_clearance(robot, Scene([Sphere([0.5, 0.0, 0.2], 0.05)]), np.zeros((3, 2)))
     assert report.fault is not None and "File is empty" in collision_reason(report)
