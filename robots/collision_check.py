@@ -272,9 +272,31 @@ class _Pieces:
     is the least of its leaves' (their union is the mesh), found nearest hull first: a part is
     opened only while its hull distance (a lower bound of every triangle in it) is below the
     least leaf distance so far. The same value as the whole mesh's when apart (to coal's
-    tolerance); when overlapping, coal's depth of a penetrating leaf."""
+    tolerance); when overlapping, coal's depth of a penetrating leaf. Built lazily: a node's
+    parts and hulls when it is first opened (most of a mesh never comes near an obstacle)."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray):
+    def __init__(self, source: Any = None, vertices: np.ndarray | None = None, faces: np.ndarray | None = None):
+        self._source, self._vertices, self._faces = source, vertices, faces
+        self._groups: list[np.ndarray] | None = None
+        self._parts: list = []
+        self._hulls: list = []
+
+    @classmethod
+    def of(cls, geometry: Any) -> Any:
+        """The geometry itself, or its pieces for a mesh of more than PIECE_TRIANGLES triangles."""
+        if not type(geometry).__name__.startswith("BVHModel") or geometry.num_tris <= PIECE_TRIANGLES:
+            return geometry
+        return cls(source=geometry)
+
+    def _open(self) -> None:
+        """Split this node into its parts and build their hulls (once)."""
+        if self._source is not None:           # the root: the mesh's triangles, read once
+            geometry = self._source
+            self._vertices = np.asarray(geometry.vertices(), dtype=float).reshape(-1, 3)
+            self._faces = np.array([[t[0], t[1], t[2]] for t in map(geometry.tri_indices, range(geometry.num_tris))],
+                                   dtype=np.int64)
+            self._source = None
+        vertices, faces = self._vertices, self._faces
         centroid = vertices[faces].mean(axis=1)
         groups = [np.arange(len(faces))]
         for _ in range(3):
@@ -283,37 +305,27 @@ class _Pieces:
                 order = np.argsort(centroid[group, np.argmax(np.ptp(centroid[group], axis=0))], kind="stable")
                 halves += [group[order[:len(group) // 2]], group[order[len(group) // 2:]]]
             groups = [group for group in halves if len(group)]
-        self.parts, self.hulls, points = [], [], []
-        for group in groups:     # a node's hull from its parts' hull vertices (the same hull, faster)
-            if len(group) > PIECE_TRIANGLES:
-                part = _Pieces(vertices, faces[group])
-                inside = part.points
-            else:
-                part = _submesh(vertices, faces[group])
-                inside = vertices[np.unique(faces[group])]
-            hull = _convex_hull(inside)
-            self.parts.append(part)
-            self.hulls.append(hull)
-            points.append(inside if hull is None else np.asarray(hull.points(), dtype=float).reshape(-1, 3))
-        self.points = np.concatenate(points)     # (m, 3): contains the vertices of this node's hull
+        self._groups = [faces[group] for group in groups]
+        self._parts = [None] * len(groups)
+        self._hulls = [_convex_hull(vertices[np.unique(part)]) for part in self._groups]
 
-    @classmethod
-    def of(cls, geometry: Any) -> Any:
-        """The geometry itself, or its pieces for a mesh of more than PIECE_TRIANGLES triangles."""
-        if not type(geometry).__name__.startswith("BVHModel") or geometry.num_tris <= PIECE_TRIANGLES:
-            return geometry
-        vertices = np.asarray(geometry.vertices(), dtype=float).reshape(-1, 3)
-        count = int(geometry.num_tris)
-        faces = np.array([[t[0], t[1], t[2]] for t in map(geometry.tri_indices, range(count))], dtype=np.int64)
-        return cls(vertices, faces)
+    def _part(self, i: int) -> Any:
+        if self._parts[i] is None:
+            faces = self._groups[i]
+            self._parts[i] = (_Pieces(vertices=self._vertices, faces=faces) if len(faces) > PIECE_TRIANGLES
+                              else _submesh(self._vertices, faces))
+        return self._parts[i]
 
     def distance(self, measure: Any, least: float = math.inf) -> float:
-        """Least distance of the leaves; measure(shape, kind) makes one coal query."""
-        bounds = [-math.inf if hull is None else measure(hull, "hull") for hull in self.hulls]
+        """Least distance of the leaves below ``least`` (else ``least``: a lower bound);
+        measure(shape, kind) makes one coal query."""
+        if self._groups is None:
+            self._open()
+        bounds = [-math.inf if hull is None else measure(hull, "hull") for hull in self._hulls]
         for i in np.argsort(bounds, kind="stable").tolist():
             if bounds[i] >= least:
                 break
-            part = self.parts[i]
+            part = self._part(i)
             value = part.distance(measure, least) if isinstance(part, _Pieces) else measure(part, "exact")
             least = min(least, value)
         return least
@@ -708,6 +720,7 @@ class _Search:
                  best: float = math.inf, nearest: tuple[int, int, int] | None = None):
         self.checker, self.poses, self.col_g, self.col_o = checker, poses, col_g, col_o
         self.margin = margin
+        self.support = np.zeros(len(lower), dtype=bool)   # rows that are support states
         self.travel, self.lower, self.offset = travel, lower, offset
         self.col_exact = checker._geo.exact[col_g]
         self.hull = np.full(lower.shape, np.nan)
@@ -733,14 +746,15 @@ class _Search:
         return np.where(self.measured, self.exact, np.where(self.queried, np.fmax(self.hull, self.lower), self.lower))
 
     def measure(self, k: np.ndarray, c: np.ndarray) -> None:
-        """Exact distances (coal on the collision geometry) of pairs (k, c): exact below
-        max(best, margin), which is all the search needs; a mesh measured as pieces stops
-        there (a value at least that is a lower bound, never the least or a state value below
-        the margin)."""
+        """Exact distances (coal on the collision geometry) of pairs (k, c), exact where the
+        search needs them: below the least distance so far, and at support states below the
+        margin too (state values). A mesh measured as pieces stops there (a value at or above
+        that cutoff is a lower bound, which never becomes the least or a state value below the
+        margin)."""
         g, o = self.col_g[c], self.col_o[c]
         start = _clock.perf_counter()
-        values = self.checker._query(self.checker._geo.shapes, self.poses, k + self.offset, g, o,
-                                     max(self.best, self.margin))
+        cutoff = np.where(self.support[k], max(self.best, self.margin), self.best)
+        values = self.checker._query(self.checker._geo.shapes, self.poses, k + self.offset, g, o, cutoff)
         self.seconds["exact"] += _clock.perf_counter() - start
         self.exact[k, c] = values
         self.measured[k, c] = True
@@ -922,15 +936,16 @@ class CollisionChecker:
         return rotation, _transform(Rj, oj, geo.translation)
 
     def _query(self, shapes: list, poses: _Poses, k: np.ndarray, g: np.ndarray, o: np.ndarray,
-               cutoff: float = math.inf) -> np.ndarray:
+               cutoff: float | np.ndarray = math.inf) -> np.ndarray:
         """coal distance (M,) of shapes[g] at configurations k against obstacles o (signed);
-        exact below cutoff (see _distance)."""
+        exact below cutoff (scalar or (M,); see _distance)."""
         out = np.empty(len(k))
         if not len(k):
             return out
         R, t, row = poses.rows(k)
+        cutoffs = np.broadcast_to(np.asarray(cutoff, dtype=float), (len(k),)).tolist()
         for m, (r, gg, oo) in enumerate(zip(row.tolist(), g.tolist(), o.tolist())):
-            out[m] = self._distance(shapes[gg], coal.Transform3s(R[r, gg], t[r, gg]), gg, oo, cutoff)
+            out[m] = self._distance(shapes[gg], coal.Transform3s(R[r, gg], t[r, gg]), gg, oo, cutoffs[m])
         return out
 
     def _distance(self, shape: Any, transform: Any, g: int, o: int, cutoff: float = math.inf) -> float:
@@ -1194,6 +1209,7 @@ class CollisionChecker:
                 search = _Search(self, poses, col_g, col_o, travel[rows][:, col_g], lower, margin, k0, best,
                                  nearest)
                 Sw = S[first:min(last, T - 1) + 1] - k0
+                search.support[Sw] = True
                 self._search(search, Sw, margin)
                 if resolution is not None and search.best >= margin:
                     t0 = _clock.perf_counter()
