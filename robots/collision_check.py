@@ -1050,13 +1050,15 @@ class CollisionChecker:
             high = np.maximum(np.maximum.reduceat(high, starts, axis=0), high[ends])
         else:
             low, high = low[:1], high[:1]
-        O = len(self._obs.names)
         seg_low, seg_high = low.min(axis=1), high.max(axis=1)                      # (I, 3)
-        near_obstacle = np.zeros(O, dtype=bool)
-        for first in range(0, O, _BROAD_CHUNK):
-            block = np.arange(first, min(first + _BROAD_CHUNK, O))
-            near_obstacle[block] = (self._box_gap(seg_low, seg_high, block) <= reach).any(axis=0)
-        chosen = np.flatnonzero(near_obstacle)
+        # obstacles near the whole swept box, then near some segment's
+        chosen = np.flatnonzero(self._box_gap(seg_low.min(axis=0), seg_high.max(axis=0),
+                                              np.arange(len(self._obs.names))) <= reach)
+        near_obstacle = np.zeros(len(chosen), dtype=bool)
+        for first in range(0, len(chosen), _BROAD_CHUNK):
+            block = slice(first, first + _BROAD_CHUNK)
+            near_obstacle[block] = (self._box_gap(seg_low, seg_high, chosen[block]) <= reach).any(axis=0)
+        chosen = chosen[near_obstacle]
         near = np.zeros((len(low), len(moving), len(chosen)), dtype=bool)
         step = max(1, _BROAD_CHUNK * 16 // max(1, len(moving) * len(chosen)))
         for first in range(0, len(low), step):
