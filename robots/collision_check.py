@@ -1205,7 +1205,8 @@ class CollisionChecker:
                 r = geo.sphere_radius[col_g]
                 lower = np.linalg.norm(c - obs.centre[col_o], axis=2) - r - obs.radius[col_o]
                 with np.errstate(over="ignore", invalid="ignore"):
-                    gap = np.maximum(np.maximum(obs.box_min[col_o] - (c + r[:, None]), (c - r[:, None]) - obs.box_max[col_o]), 0.0)
+                    gap = np.maximum(np.maximum(obs.box_min[col_o] - (c + r[:, None]),
+                                                (c - r[:, None]) - obs.box_max[col_o]), 0.0)
                     apart = np.sqrt((gap ** 2).sum(axis=2))    # boxes apart: a bound; touching: none
                     lower = np.where(apart > 0.0, np.maximum(lower, apart), lower)
                 search = _Search(self, poses, col_g, col_o, travel[rows][:, col_g], lower, margin, k0, best,
