@@ -82,7 +82,7 @@ support state for the pair that decides a state value below the margin. The resu
   than the margin, never a collision that the meshes do not have;
 - ``state_distance[i]``: a lower bound of support state i's least exact distance: that
   distance itself when it is below the margin (so ``states_in_collision`` is exact), and at
-  least the margin otherwise (then the least hull or exact distance of the state's pairs);
+  least the margin otherwise (the least bound of the state's pairs: exact, hull or sphere);
 - ``lower_bound``: what the whole continuous motion keeps, as below.
 
 Broad phase. Obstacles are many (perception gives thousands of boxes or spheres), the arm is
@@ -1221,7 +1221,7 @@ class CollisionChecker:
                     low_bound = min(low_bound, low)
                     uncertain.append(items)
                 states = np.arange(first, min(last, T - 1) + 1)
-                state[states] = np.minimum(state[states], search.states(Sw, math.inf))
+                state[states] = np.minimum(state[states], search.bounds()[Sw].min(axis=1))
                 for key in ("hull", "exact"):
                     seconds[key] += search.seconds[key]
                 if search.nearest is not nearest:
@@ -1264,8 +1264,10 @@ class CollisionChecker:
         """The pruned search of one window (S: its support states) until nothing is left open."""
         while True:
             state = search.states(S, math.inf)                                        # (T,)
+            # support states: every pair that may come below the margin, and below that the
+            # state's least (its exact value); elsewhere below the least distance so far
             threshold = np.full(len(search.lower), search.best)
-            threshold[S] = np.maximum(search.best, state)
+            threshold[S] = np.maximum(search.best, np.minimum(state, margin))
             candidate = ~search.queried & (search.lower < threshold[:, None] + SLACK)
             pending = search.queried & ~search.measured
             if pending.any() and not math.isfinite(search.best):
