@@ -846,6 +846,7 @@ class CollisionChecker:
         self._pin = None
         self._fixed: tuple[tuple[str, str, float], ...] | None = None
         self.tally = {"hull": 0, "exact": 0}      # coal queries made (see _distance)
+        self._result = coal.DistanceResult()       # reused by every query (cleared first)
 
     # ------------------------------------------------------------------ description
     @property
@@ -953,10 +954,11 @@ class CollisionChecker:
         o; counted in self.tally ("hull": on a convex hull, "exact": on the geometry itself).
         _Pieces stop at cutoff: exact below it, a lower bound at least cutoff otherwise."""
         obstacle, placement = self._obs.shapes[o], self._obs.transforms[o]
-        result = coal.DistanceResult()
+        result = self._result
         try:
             if not isinstance(shape, _Pieces):
                 self.tally["hull" if isinstance(shape, coal.ConvexBase) else "exact"] += 1
+                result.clear()
                 return coal.distance(shape, transform, obstacle, placement, self._request, result)
 
             def measure(part: Any, kind: str) -> float:
@@ -1072,6 +1074,9 @@ class CollisionChecker:
         near pairs (a segment alone may exceed it): (first segment, last segment + 1, near
         pairs (Gm * On,) bool) each."""
         flat = near.reshape(len(near), -1)
+        every = flat.any(axis=0)
+        if (support[-1] + 1) * int(every.sum()) <= WINDOW_PAIRS:               # one window
+            return [(0, len(flat), every)]
         windows, first, union = [], 0, np.zeros(flat.shape[1], dtype=bool)
         for i in range(len(flat)):
             grown = union | flat[i]
