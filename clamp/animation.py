@@ -219,9 +219,11 @@ def _capsule_mesh(mg, radius: float, height: float, segments: int = 24):
 
 def _obstacle_geometry(obstacle: Any, index: int, mg, pin) -> tuple[Any, np.ndarray]:
     """meshcat geometry and 4x4 placement of one scenes obstacle."""
-    from scenes import Box, Capsule, Cylinder, Sphere
+    from scenes import Box, Capsule, Cylinder, Sphere, TriangleMesh
 
     placement = np.eye(4)
+    if isinstance(obstacle, TriangleMesh):   # vertices in the scene frame
+        return mg.TriangularMeshGeometry(np.asarray(obstacle.vertices, float), np.asarray(obstacle.faces)), placement
     placement[:3, 3] = obstacle.center
     if isinstance(obstacle, Box):
         if obstacle.rotation is not None:
@@ -237,8 +239,8 @@ def _obstacle_geometry(obstacle: Any, index: int, mg, pin) -> tuple[Any, np.ndar
         rotation = pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), np.asarray(obstacle.axis, float))
         placement[:3, :3] = rotation.toRotationMatrix()
         return _capsule_mesh(mg, float(obstacle.radius), float(obstacle.height)), placement
-    raise AnimationError(f"obstacles[{index}]: expected a scenes Box, Sphere, Cylinder or "
-                         f"Capsule, got {type(obstacle).__name__}")
+    raise AnimationError(f"obstacles[{index}]: expected a scenes Box, Sphere, Cylinder, Capsule, "
+                         f"TriangleMesh or PointCloud, got {type(obstacle).__name__}")
 
 
 def _line(mg, points: np.ndarray, color: int):
@@ -363,11 +365,17 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
 
     points = [robot.frame_positions(q).reshape(-1, 3)]
     if obstacles:
+        from scenes import PointCloud
         for i, obstacle in enumerate(obstacles):
-            geometry, placement = _obstacle_geometry(obstacle, i, mg, pin)
             node = vis[f"scene/obstacles/{i}"]
-            node.set_object(geometry, mg.MeshLambertMaterial(color=COLORS["obstacle"], opacity=0.55))
-            node.set_transform(placement)
+            if isinstance(obstacle, PointCloud):   # points drawn at their diameter
+                node.set_object(mg.Points(mg.PointsGeometry(np.ascontiguousarray(obstacle.points.T, dtype=np.float32)),
+                                          mg.PointsMaterial(size=2.0 * float(np.max(obstacle.radius)),
+                                                            color=COLORS["obstacle"])))
+            else:
+                geometry, placement = _obstacle_geometry(obstacle, i, mg, pin)
+                node.set_object(geometry, mg.MeshLambertMaterial(color=COLORS["obstacle"], opacity=0.55))
+                node.set_transform(placement)
             box = obstacle.aabb()
             points.append(np.clip(box, -2.0, 2.0))
     if demonstrations is not None:

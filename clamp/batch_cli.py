@@ -16,10 +16,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from clamp.batch import TRAJECTORY_MODES, LocalPool, pending_problems, plan_many, read_results
+from clamp.batch import (TRAJECTORY_MODES, LocalPool, ResultsFile, pending_problems, plan_many,
+                         read_results)
 from clamp.batch_report import summarize, summary_table
 from clamp.errors import InvalidParameterError
-from clamp.problems import read_problems
+from clamp.problems import ProblemFormatError, read_problems
+from scenes.validation import as_file
 from scenes.command_line import integer_at_least, quiet
 from scenes.progress import progress
 
@@ -27,7 +29,7 @@ from scenes.progress import progress
 def add_batch_parser(sub: Any) -> None:
     """Register ``batch`` on the ``clamp`` command's subparsers."""
     p = sub.add_parser("batch", help="plan every problem of a JSON Lines file",
-                       description=__doc__.splitlines()[0])
+                       description=__doc__.splitlines()[0].replace("``", ""))
     p.add_argument("problems", help="problems file (JSON Lines, one clamp problem per line)")
     p.add_argument("--out", required=True, help="results file (JSON Lines; appended, resumable)")
     p.add_argument("--workers", type=integer_at_least(1), default=None,
@@ -65,36 +67,36 @@ def _executor(args: argparse.Namespace) -> tuple[Any, Any]:
 
 
 def run_batch(args: argparse.Namespace) -> int:
-    problems_path, out = Path(args.problems), Path(args.out)
+    problems_path = as_file(args.problems, "problems", ProblemFormatError)
+    out = Path(args.out)
     if out.exists() and out.resolve() == problems_path.resolve():
         raise InvalidParameterError("--out: must not be the problems file")
-    if not out.parent.is_dir():
-        raise InvalidParameterError(f"--out: folder {str(out.parent)!r} does not exist")
     if args.trajectories not in TRAJECTORY_MODES and Path(args.trajectories).is_file():
         raise InvalidParameterError(f"--trajectories: expected 'inline', 'none' or a folder, got "
                                     f"the file {args.trajectories!r}")
     problems = read_problems(problems_path)
-    todo = pending_problems(problems, out)
-    if len(todo) < len(problems) and not quiet(args):
-        print(f"{out}: {len(problems) - len(todo)} of {len(problems)} problems already done; "
-              f"resuming", file=sys.stderr)
-    executor, close = _executor(args)
     failed = 0
-    bar = progress(description="planning", total=len(todo), unit="plan")
-    try:
-        for record in plan_many(todo, executor, out=out, retries=args.retries,
-                                base_dir=problems_path.resolve().parent,
-                                trajectories=args.trajectories):
-            failed += not (record["status"] == "done" and record["success"])
-            bar.set_postfix(failed=failed, refresh=False)
-            bar.update()
-    except KeyboardInterrupt:
-        bar.close()
-        print("clamp batch: interrupted; rerun the same command to resume", file=sys.stderr)
-        return 130
-    finally:
-        bar.close()
-        close()
+    with ResultsFile(out, option="--out") as results:      # checked and locked before any work
+        todo = pending_problems(problems, results)
+        if len(todo) < len(problems) and not quiet(args):
+            print(f"{out}: {len(problems) - len(todo)} of {len(problems)} problems already "
+                  f"done; resuming", file=sys.stderr)
+        executor, close = _executor(args)
+        bar = progress(description="planning", total=len(todo), unit="plan")
+        try:
+            for record in plan_many(todo, executor, out=results, retries=args.retries,
+                                    base_dir=problems_path.resolve().parent,
+                                    trajectories=args.trajectories):
+                failed += not (record["status"] == "done" and record["success"])
+                bar.set_postfix(failed=failed, refresh=False)
+                bar.update()
+        except KeyboardInterrupt:
+            bar.close()
+            print("clamp batch: interrupted; rerun the same command to resume", file=sys.stderr)
+            return 130
+        finally:
+            bar.close()
+            close()
     hashes = {p.hash for p in problems}
     records = [r for r in read_results(out) if r.get("hash") in hashes]
     summary = summarize(records)

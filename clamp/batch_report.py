@@ -18,12 +18,13 @@ from scenes.validation import as_instance, as_sequence
 
 _DETAIL = re.compile(r"\s*\([^()]*\d[^()]*\)")         # "(clearance -3.0 mm)"
 _LIST = re.compile(r"\[[^\]]*\]")
-_NUMBER = re.compile(r"-?\d+(\.\d+)?(e-?\d+)?")
+#: a number standing alone: not the digits of a name such as "j2s6s200_link_finger_2"
+_NUMBER = re.compile(r"(?<![\w.])-?\d+(\.\d+)?([eE][-+]?\d+)?")
 
 
 def reason_key(reason: str) -> str:
     """A reason with its details in parentheses dropped and its numbers (and bracketed lists)
-    replaced, for grouping."""
+    replaced by "#", for grouping; digits inside names (links, obstacles) are kept."""
     as_instance(reason, "reason", str, "a failure reason (str)", ArgumentTypeError)
     text = _NUMBER.sub("#", _LIST.sub("[..]", _DETAIL.sub("", reason)))
     return re.sub(r"\s+", " ", text).strip()

@@ -23,8 +23,8 @@ import numpy as np
 
 from clamp.request import has_obstacles
 from robots.collision_check import RESOLUTION, CollisionChecker, CollisionReport, Contact
-from robots.errors import CollisionCheckError, URDFParseError
-from scenes.coal_shapes import coal_obstacles
+from robots.errors import CollisionCheckError
+from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
 
 log = logging.getLogger(__name__)
 
@@ -52,7 +52,7 @@ def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | No
         return None
     try:
         found = checker(robot, scene)
-    except (CollisionCheckError, URDFParseError) as error:   # a collision mesh that cannot be used
+    except CollisionCheckError as error:          # a collision mesh coal cannot use
         log.warning("collision check failed: %s", error)
         return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q), str(error))
     return found.check(q, time, margin=0.0, max_motion=MAX_MOTION, resolution=RESOLUTION)
@@ -73,7 +73,8 @@ def state_clearance(robot: Any, scene: Any, q: np.ndarray, cap: float
 
 def contact_obstacle(robot: Any, scene: Any, contact: Contact) -> Any:
     """The scene obstacle a contact of :func:`check_clearance` names."""
-    return scene.obstacles[checker(robot, scene).obstacle_names.index(contact.obstacle)]
+    triple = checker(robot, scene).obstacle_names.index(contact.obstacle)
+    return scene.obstacles[coal_obstacle_owners(scene)[triple]]
 
 
 def describe_contact(contact: Contact, geometry: str) -> str:

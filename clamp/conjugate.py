@@ -111,6 +111,18 @@ class ConjugatePosterior:
         Q = self.S / (self.N + self.k + 1.0)[:, None, None, None]
         return M[..., :-1], M[..., -1], Q
 
+    def next_variance(self) -> np.ndarray:
+        """Weighted variance (T-1, G, k) of every step's next states y over the demonstrations,
+        from the factor's moments (R' R holds sum w, sum w y and sum w y y')."""
+        k = self.k
+        ones = self.factor[..., :, k]                                  # (T-1, G, 2k+1)
+        ys = self.factor[..., :, k + 1:]                               # (T-1, G, 2k+1, k)
+        count = np.einsum("...r,...r->...", ones, ones)
+        total = np.einsum("...r,...rj->...j", ones, ys)
+        square = np.einsum("...rj,...rj->...j", ys, ys)
+        count = np.maximum(count, 1e-300)[..., None]
+        return np.maximum(square / count - (total / count) ** 2, 0.0)
+
     def initial(self) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean (D,) and biased covariance (D, D) of the first states."""
         return self.first_mean, self.first_scatter / max(self.first_weight, 1e-300)

@@ -48,7 +48,7 @@ from itertools import chain
 import numpy as np
 
 from clamp.config import PlannerConfig
-from clamp.factors import ObstacleFamily
+from clamp.factors import ObstacleFamily, PostureFamily
 from clamp.initialisation import joint_velocities
 from clamp.optimizers import Optimized, optimize
 from clamp.problem import PlanningProblem
@@ -110,9 +110,14 @@ def reweighted(problem: PlanningProblem, factors: dict[str, float], initial: np.
 def with_obstacle_sigma(problem: PlanningProblem, sigma: float, initial: np.ndarray
                         ) -> PlanningProblem:
     """The same problem with the obstacle hinges' noise set to sigma [m], starting at initial
-    (T, 2n)."""
+    (T, 2n). Stiffer hinges loosen the posture tie (:class:`~clamp.factors.PostureFamily`) by
+    the same factor: the continuation's later rounds free the arm to leave the free plan's
+    posture when keeping it collides."""
     current = 1.0 / float(problem.family(ObstacleFamily.name).whitening[0])
-    return reweighted(problem, {ObstacleFamily.name: current / sigma}, initial)
+    factors = {ObstacleFamily.name: current / sigma}
+    if sigma < current and any(f.name == PostureFamily.name for f in problem.families):
+        factors[PostureFamily.name] = sigma / current
+    return reweighted(problem, factors, initial)
 
 
 def _prior_cost(problem: PlanningProblem, theta: np.ndarray) -> float:
@@ -122,11 +127,14 @@ def _prior_cost(problem: PlanningProblem, theta: np.ndarray) -> float:
 
 def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check: Check,
                          restarts: Restarts, rounds: int,
-                         warm_start: WarmStart | None = None) -> ConstrainedSolve:
+                         warm_start: WarmStart | None = None,
+                         accept: Callable[[np.ndarray], bool] | None = None) -> ConstrainedSolve:
     """Optimise ``problem`` (which has an obstacle family) until ``check(theta)`` finds no
     collision (see the module docstring); rounds: continuation rounds per candidate (0: the
     configured solve only); warm_start: the solver's warm-start rule for the configured solve
-    (its initial trajectory is a previous plan, :func:`clamp.replan`), never for the others."""
+    (its initial trajectory is a previous plan, :func:`clamp.replan`), never for the others;
+    accept(theta) -> bool: what else a solution must meet to count as feasible (the skill
+    checks): a collision-free solution it refuses sends the loop on to the restarts too."""
     sigma0 = float(config.model.sigma_obs)
     attempts: list[Attempt] = []
     solved: list[tuple[Optimized, CollisionReport, float, float]] = []
@@ -148,10 +156,11 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
         cost = _prior_cost(problem, out.theta)
         totals["iterations"] += out.iterations
         totals["trials"] += out.trials
-        attempts.append(Attempt(name, sigma, float(report.min_distance), not report.collision,
-                                cost, out.iterations))
-        solved.append((out, report, cost, sigma))
-        return out, report
+        ok = not report.collision and (accept is None or accept(out.theta))
+        attempts.append(Attempt(name, sigma, float(report.min_distance), ok, cost,
+                                out.iterations))
+        solved.append((out, report, cost, sigma, ok))
+        return out, report, ok
 
     start = time.perf_counter()
     theta0, soft = problem.initial, None
@@ -163,30 +172,36 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
                         config.with_(relative_error_tol=SOFT_START_TOLERANCE,
                                      convergence_patience=1))
         theta0, warm_start = soft.theta, WarmStart()
-    out, report = attempt("configured", sigma0, theta0, warm_start, soft)
-    if report.collision and report.fault is None and rounds > 0:
+    out, report, ok = attempt("configured", sigma0, theta0, warm_start, soft)
+    if not ok and report.fault is None and rounds > 0:     # a failed check: nothing to repair
         # the optimum continued first; the restarts run only while fewer than WANTED
         # candidates are feasible, and once one is, only at the weight that made it feasible
-        candidates = chain([("continuation", out.theta, 1)],
+        # stiffer hinges only help a collision; a plan refused by ``accept`` alone needs
+        # another way around
+        candidates = chain([("continuation", out.theta, 1)] if report.collision else [],
                            ((name, theta, 0) for name, theta in restarts(report)))
         first_ok = None
         for name, theta, k in candidates:
-            if sum(not s[1].collision for s in solved) >= WANTED:
+            if sum(s[4] for s in solved) >= WANTED:
                 break
             first = k if first_ok is None else first_ok
             last = rounds if first_ok is None else first_ok
             for r in range(first, last + 1):
-                out, report = attempt(name, sigma0 * SHRINK ** r, theta)
-                if not report.collision:
+                out, report, ok = attempt(name, sigma0 * SHRINK ** r, theta)
+                if ok:
                     first_ok = r if first_ok is None else first_ok
                     break
                 theta = out.theta
-    feasible = [s for s in solved if not s[1].collision]
+    feasible = [s for s in solved if s[4]]
+    clear = [s for s in solved if not s[1].collision]
     if feasible:
-        best, report, _, sigma = min(feasible, key=lambda s: s[2])
+        best, report, _, sigma, _ = min(feasible, key=lambda s: s[2])
         stop = best.stop_reason
+    elif clear:           # collision-free but refused by ``accept``: the verdict says why
+        best, report, _, sigma, _ = min(clear, key=lambda s: s[2])
+        stop = "infeasible"
     else:
-        best, report, _, sigma = max(solved, key=lambda s: s[1].min_distance)
+        best, report, _, sigma, _ = max(solved, key=lambda s: s[1].min_distance)
         stop = "infeasible"
         if len(solved) > 1:
             log.info("no collision-free plan after %d attempts; the closest still penetrates "

@@ -4,6 +4,10 @@
 path shifted to start at the requested start position; the offset is blended out along the path
 (cosine ramp) so the end of the skill is kept (or, with a goal, blended onto the goal).
 ``straight_line``: a straight line in joint space between two configurations.
+:func:`demonstration_initialisation`: the joint trajectory of the recorded demonstration
+(kinesthetic teaching, ``scenes.Demonstrations.joint_positions``) that starts nearest the
+start, shifted to start there (the offset blended out, so it ends where the demonstration
+ended); pass its ``theta`` as ``plan(..., initial=...)``.
 Velocities are finite differences of the joint positions.
 """
 from __future__ import annotations
@@ -12,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from clamp.errors import ShapeError
 from clamp.validation import as_array, as_count, as_scalar
 
 INITIALISATIONS = ("prior_mean", "straight_line")
@@ -91,3 +96,41 @@ def straight_line_initialisation(robot, q_first: np.ndarray, q_last: np.ndarray,
     q = (1.0 - s) * q_first + s * q_last
     qdot = np.broadcast_to((q_last - q_first) / (dt * (T - 1)), q.shape).copy()
     return Initialisation(q, qdot, robot.fk(q), np.zeros(T))
+
+
+def demonstration_initialisation(robot, joint_positions: np.ndarray, dt: float,
+                                 start: np.ndarray, tolerance: float = 1e-4) -> Initialisation:
+    """The recorded joint trajectory (M, T, n) [rad] whose first configuration is nearest the
+    start, moved to start there with the offset faded out (cosine ramp); dt [s] its step.
+
+    start: a joint configuration (n,) [rad] or an end-effector position (3,) [m] (then the
+    demonstration whose first end-effector position is nearest, the start solved by IK seeded
+    at its first configuration). Continuous joints are compared modulo 2 pi.
+    """
+    joint_positions = as_array(joint_positions, "joint_positions", (None, None, robot.n))
+    if joint_positions.shape[0] < 1 or joint_positions.shape[1] < 2:
+        raise ShapeError(f"joint_positions: expected (M >= 1, T >= 2, {robot.n}), got "
+                         f"{joint_positions.shape}")
+    dt = as_scalar(dt, "dt", strictly_positive=True)
+    first = joint_positions[:, 0]
+    if np.size(start) == robot.n:
+        q_start = as_array(start, "start", (robot.n,))
+        offsets = _wrapped(robot, q_start - first)
+        m = int(np.argmin(np.linalg.norm(offsets, axis=1)))
+    else:
+        position = as_array(start, "start", (3,))
+        m = int(np.argmin(np.linalg.norm(robot.fk(first) - position, axis=1)))
+        q_start = np.asarray(robot.ik(position, seed=first[m], tol=tolerance).q, dtype=float)
+        offsets = _wrapped(robot, q_start - first)
+    q = joint_positions[m] + blend_weights(joint_positions.shape[1])[:, None] * offsets[m]
+    q[0] = q_start
+    path = robot.fk(q)
+    return Initialisation(q, joint_velocities(q, dt), path, np.zeros(len(q)))
+
+
+def _wrapped(robot, dq: np.ndarray) -> np.ndarray:
+    """Joint differences (..., n) with continuous joints (infinite limits) wrapped to
+    [-pi, pi)."""
+    continuous = ~np.isfinite(np.asarray(robot.lower_limits)) | ~np.isfinite(
+        np.asarray(robot.upper_limits))
+    return np.where(continuous, (dq + np.pi) % (2 * np.pi) - np.pi, dq)

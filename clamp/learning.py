@@ -21,13 +21,24 @@ configuration-space prior (A = n joints, :func:`learn_joint_prior`, paper sectio
 
 ``method="incremental"`` learns the same per-step, per-group regressions with the reference's
 conjugate Bayesian model instead (:mod:`clamp.conjugate`); the prior keeps the posterior and
-``prior.update(demos)`` continues from it. ``obstacle_weighting`` weights every sample by its
-distance to its own demonstration's obstacles (:mod:`clamp.obstacle_weighting`): weighted
-means, weighted residual covariances, a transition weighted by the smaller of its two samples'
-weights (scaled per step so the largest is 1 in batch learning).
+``prior.update(demos)`` continues from it.
+
+Demonstrations that agree exactly at some steps (a common start, a common goal reached at
+rest) give a zero residual there, which would make the prior singular. At every step where
+the demonstrations' largest standard deviation over the state's coordinates is below
+SPREAD_FLOOR = 1e-5 (0.01 mm on positions, 0.01 mm/s on velocities; rad and rad/s in a joint
+prior), the diagonal entries are raised to at least SPREAD_FLOOR**2: of Q_i when that step is
+x_{i+1}, of the initial covariance when it is x_0 (after the jitter). Such a step is learned
+as "every demonstration is here, within 0.01 mm", a precision the planner's solver and
+posterior covariance handle (the reference's 1e-12 alone leaves them singular; on the Jaco a
+plan from a new start then fails its posterior covariance). Steps where the demonstrations
+differ in some coordinate (e.g. all at rest at different places, as the synthetic skills
+start and end) are learned exactly as before. Only demonstrations identical at every step
+are refused.
 """
 from __future__ import annotations
 
+import logging
 import warnings
 from typing import Any, cast
 
@@ -39,16 +50,24 @@ from clamp.conjugate import ConjugatePosterior
 from clamp.obstacle_weighting import ObstacleWeighting, as_weighting, demonstration_weights
 from clamp.prior import LinearGaussianPrior, WorkspacePrior
 from clamp.validation import as_array, as_bool, as_scalar, as_time
+from clamp.skill import SkillRegion
 from scenes.validation import MAX_COORDINATE
 
 #: Smallest spread (largest standard deviation over the state's coordinates, across the
-#: demonstrations; m, m/s or rad, rad/s) accepted at every step. Identical demonstrations have 0
-#: and would give a prior of zero variance (Q = jitter); the real recordings in
-#: shared/datasets spread by 3 mm or more at every step.
+#: demonstrations; m, m/s or rad, rad/s) that counts as "the demonstrations differ" at a step.
+#: Demonstrations below it at every step are identical and refused (they teach no variation);
+#: steps below it (a common start or goal) are learned with the SPREAD_FLOOR.
 MIN_SPREAD = 1e-6
 
+#: Standard deviation (m or rad for positions, m/s or rad/s for velocities): at a step where
+#: the demonstrations' largest one over the coordinates is below it they agree, and the
+#: diagonal of Q_i (of the initial covariance at step 0) is raised to at least SPREAD_FLOOR**2.
+SPREAD_FLOOR = 1e-5
+
 __all__ = ["learn_prior", "learn_joint_prior", "update_prior", "fit_transitions", "state_groups",
-           "METHODS"]
+           "METHODS", "MIN_SPREAD", "SPREAD_FLOOR"]
+
+log = logging.getLogger(__name__)
 
 
 def state_groups(num_axes: int, coupled: bool) -> np.ndarray:
@@ -102,8 +121,9 @@ def fit_transitions(states: np.ndarray, groups: np.ndarray, ridge: float, jitter
 
     states (M, T, D); groups (G, k) index groups regressed jointly (see :func:`state_groups`);
     weights (M, T) per sample (None: unweighted; see :mod:`clamp.obstacle_weighting`).
-    Returns Phi (T-1, D, D), u (T-1, D), Q (T-1, D, D) with ``jitter`` on Q's diagonal; Q is
-    the weighted mean of the residuals' outer products.
+    Returns Phi (T-1, D, D), u (T-1, D), Q (T-1, D, D) with ``jitter`` on Q's diagonal, floored
+    where the next states agree (:func:`floor_agreement`); Q is the weighted mean of the
+    residuals' outer products.
     """
     M, T, D = states.shape
     w = _step_weights(weights, M, T)[:, None, :, None]  # (T-1, 1, M, 1)
@@ -120,15 +140,20 @@ def fit_transitions(states: np.ndarray, groups: np.ndarray, ridge: float, jitter
     u_g = (y_bar - x_bar @ B)[..., 0, :]               # (T-1, G, k)
     R = Yc - Xc @ B
     Q_g = np.swapaxes(R, -1, -2) @ R / total
-    return _assemble(Phi_g, u_g, Q_g, groups, D, jitter)
+    spread_g = (Yc * Yc).sum(axis=2) / total[..., 0, :]   # (T-1, G, k) variance of x_{i+1}
+    return _assemble(Phi_g, u_g, Q_g, groups, D, jitter, spread_g)
 
 
 def _assemble(Phi_g: np.ndarray, u_g: np.ndarray, Q_g: np.ndarray, groups: np.ndarray,
-              D: int, jitter: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              D: int, jitter: float, variance_g: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-group Phi (S, G, k, k), u (S, G, k), Q (S, G, k, k) -> block-structured (S, D, D),
-    (S, D), (S, D, D) with ``jitter`` on Q's diagonal."""
+    (S, D), (S, D, D) with ``jitter`` on Q's diagonal, floored where the next states'
+    variance (S, G, k) shows the demonstrations agree (:func:`floor_agreement`)."""
     Phi = _scatter_blocks(Phi_g, groups, D)
-    Q = _scatter_blocks(Q_g, groups, D) + jitter * np.eye(D)
+    variance = np.zeros((Phi.shape[0], D))
+    variance[:, groups] = variance_g
+    Q = floor_agreement(_scatter_blocks(Q_g, groups, D) + jitter * np.eye(D), variance)
     Q = 0.5 * (Q + np.swapaxes(Q, -1, -2))
     u = np.zeros((Phi.shape[0], D))
     u[:, groups] = u_g
@@ -147,10 +172,23 @@ def _initial_state(states: np.ndarray, groups: np.ndarray, jitter: float,
 
 
 def _block_covariance(full: np.ndarray, groups: np.ndarray, jitter: float) -> np.ndarray:
-    """full (D, D) with entries outside the groups' blocks zeroed, plus jitter I."""
+    """full (D, D) (the first states' covariance) with entries outside the groups' blocks
+    zeroed, plus jitter I, floored where the first states agree."""
     mask = _scatter_blocks(np.ones((groups.shape[0],) + (groups.shape[1],) * 2), groups,
                            full.shape[0]).astype(bool)
-    return np.where(mask, full, 0.0) + jitter * np.eye(full.shape[0])
+    return floor_agreement(np.where(mask, full, 0.0) + jitter * np.eye(full.shape[0]),
+                           np.diag(full))
+
+
+def floor_agreement(cov: np.ndarray, variance: np.ndarray) -> np.ndarray:
+    """Covariances (..., D, D) whose diagonal entries are raised to at least SPREAD_FLOOR**2
+    where the demonstrations' variance (..., D) is below SPREAD_FLOOR**2 in every coordinate
+    (a non-negative diagonal added: still symmetric positive semi-definite)."""
+    floor = SPREAD_FLOOR ** 2
+    diagonal = np.einsum("...ii->...i", cov)
+    agree = np.max(variance, axis=-1, keepdims=True) < floor
+    lift = np.where(agree, np.maximum(floor - diagonal, 0.0), 0.0)
+    return cov + lift[..., :, None] * np.eye(cov.shape[-1])
 
 
 def prior_from_posterior(posterior: ConjugatePosterior, time: np.ndarray, jitter: float,
@@ -158,9 +196,11 @@ def prior_from_posterior(posterior: ConjugatePosterior, time: np.ndarray, jitter
                          state_names: tuple[str, ...] | None,
                          info: dict[str, Any]) -> LinearGaussianPrior:
     """The prior of a conjugate posterior: posterior mean transitions, MAP noise
-    S / (N + k + 1) plus jitter, weighted mean and covariance of the first states."""
+    S / (N + k + 1) plus jitter, weighted mean and covariance of the first states (floored
+    where the demonstrations agree, as in batch learning)."""
     D = len(posterior.first_mean)
-    Phi, u, Q = _assemble(*posterior.transitions(), posterior.groups, D, jitter)
+    Phi, u, Q = _assemble(*posterior.transitions(), posterior.groups, D, jitter,
+                          posterior.next_variance())
     mean0, full0 = posterior.initial()
     cov0 = _block_covariance(full0, posterior.groups, jitter)
     return prior_class(time, Phi, u, Q, mean0, cov0, kind=kind, info=info,
@@ -216,17 +256,22 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
 
 
 def check_spread(states: np.ndarray) -> None:
-    """Refuse demonstrations (M, T, D) that coincide at some step (spread below MIN_SPREAD)."""
+    """Refuse demonstrations (M, T, D) that coincide at every step (spread below MIN_SPREAD);
+    steps where they coincide (a common start or goal) are logged and learned with the floor."""
     states = as_array(states, "states", (None, None, None))
     spread = states.std(axis=0).max(axis=1)                    # (T,)
-    step = int(np.argmin(spread))
-    if spread[step] < MIN_SPREAD:
-        flat = int(np.count_nonzero(spread < MIN_SPREAD))
+    flat = spread < MIN_SPREAD
+    if np.all(flat):
         raise DegenerateDemonstrationsError(
-            f"demonstrations: the {states.shape[0]} demonstrations do not vary at {flat} of "
-            f"{states.shape[1]} steps (e.g. step {step}: largest standard deviation across them "
-            f"{spread[step]:.3g}); a prior needs demonstrations that differ by at least "
-            f"{MIN_SPREAD:g} at every step (identical demonstrations give zero variance)")
+            f"demonstrations: the {states.shape[0]} demonstrations are identical at all "
+            f"{states.shape[1]} steps (largest standard deviation across them "
+            f"{spread.max():.3g}); a prior needs demonstrations that differ by at least "
+            f"{MIN_SPREAD:g} at some step (identical demonstrations teach no variation)")
+    if np.any(flat):
+        steps = np.flatnonzero(flat)
+        log.info("demonstrations agree exactly at %d of %d steps (first %d, last %d): learned "
+                 "with a spread floor of %g (m, m/s)", len(steps), len(spread), steps[0],
+                 steps[-1], SPREAD_FLOOR)
 
 
 def _stack_states(positions: object, velocities: object, time: object, names: tuple[str, str],
@@ -289,6 +334,7 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
                    prior_class=WorkspacePrior, kind=WorkspacePrior.default_kind, state_names=None,
                    method=method, weights=_weights(states, obstacles, weighting),
                    weighting=weighting)
+    prior.info["skill_region"] = SkillRegion.from_positions(states[..., :3]).to_info()
     return cast(WorkspacePrior, prior)
 
 
@@ -311,6 +357,9 @@ def update_prior(prior: LinearGaussianPrior, demos: object) -> LinearGaussianPri
     weighting = None if settings is None else ObstacleWeighting(**settings)
     posterior = posterior.update(states, _weights(states, obstacles, weighting))
     info = {**prior.info, "num_demos": int(prior.info.get("num_demos", 0)) + len(states)}
+    if prior.kind == WorkspacePrior.default_kind:
+        region = SkillRegion.of(prior).merged(SkillRegion.from_positions(states[..., :3]))
+        info["skill_region"] = region.to_info()
     return prior_from_posterior(posterior, prior.time, float(prior.info.get("jitter", 0.0)),
                                 type(prior), prior.kind, prior.state_names, info)
 

@@ -11,22 +11,24 @@ checks the result.
 """
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from typing import Any, Union
 
 import gtsam
 import numpy as np
 
 from clamp.clearance import check_clearance, contact_obstacle
-from clamp.conditioning import planning_prior
+from clamp.conditioning import planning_prior, skill_reference
 from clamp.config import PlannerConfig
 from clamp.continuation import (detour_restarts, solve_collision_free, tighten_constraints,
                                 with_obstacle_sigma)
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
-                           JointTargetFamily, ObstacleFamily, WorkspaceGPFamily,
+                           JointTargetFamily, ObstacleFamily, PostureFamily,
+                           SelfCollisionFamily, WorkspaceGPFamily,
                            WorkspaceStartFamily, shifted_start_mean)
 from clamp.initialisation import (Initialisation, joint_velocities, prior_mean_initialisation,
                                   straight_line_initialisation)
@@ -36,11 +38,18 @@ from clamp.problem import PlanningProblem
 from clamp.request import (Request, Target, as_config, as_extras, as_scene, as_sdf, check_prior,
                            check_robot, has_obstacles, make_request)
 from clamp.result import PlanInputs, PlanResult
+from clamp.skill import skill_checks
 from clamp.targets import target_problems, violated_families
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array, as_bool
+from clamp.solver import WarmStart
 from clamp.verdict import evaluate, failed_result, start_problems
+from robots.self_collision import self_collision_report
 from scenes.threads import single_blas_thread
+
+#: configurations checked between two states by the self-collision hinges (a link swept
+#: through another between states is caught)
+SELF_COLLISION_BETWEEN = 8
 
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
 #: what ``extra_factors`` may hold: a family (fast path), any GTSAM factor on the planner's
@@ -87,6 +96,36 @@ def _restarts(prior, robot, scene, request: Request, config: PlannerConfig, init
         yield "straight_line", line.theta
 
 
+def _free_of_self_collision(problem: PlanningProblem, out: Any, config: PlannerConfig,
+                            check: Callable | None, report: Any, time_: np.ndarray,
+                            attempts: list[dict]) -> tuple:
+    """When the plan ``out`` collides with itself (:func:`robots.self_collision_report`),
+    re-solve from it with the self-collision hinges added (:class:`SelfCollisionFamily`,
+    ``config.model.self_collision_epsilon`` / ``_sigma``), kept if it brings no obstacle
+    collision back; appends the attempt. Returns (problem, out, obstacle report, self report)
+    of the plan chosen."""
+    robot, T = problem.robot, problem.num_states
+    own = self_collision_report(robot, out.theta[:, :robot.n], time_)
+    if not own.collision or config.optimizer.constraint_rounds == 0:
+        return problem, out, report, own
+    model = config.model
+    family = SelfCollisionFamily.for_robot(robot, range(T - 1), model.self_collision_epsilon,
+                                           model.self_collision_sigma, SELF_COLLISION_BETWEEN)
+    guarded = PlanningProblem(robot, T, [*problem.families, family], problem.foreign, out.theta)
+    new = optimize(guarded, config, WarmStart())
+    new_own = self_collision_report(robot, new.theta[:, :robot.n], time_)
+    new_report = check(new.theta) if check is not None else None
+    collides = new_report is not None and new_report.collision
+    attempts.append({"candidate": "self-collision hinges", "sigma": model.self_collision_sigma,
+                     "min_distance": float(new_own.min_distance), "feasible": not collides,
+                     "prior_cost": float("nan"), "iterations": new.iterations})
+    if collides and not (report is not None and report.collision):
+        return problem, out, report, own
+    new = replace(new, iterations=out.iterations + new.iterations,
+                  trials=out.trials + new.trials, initial_error=out.initial_error)
+    return guarded, new, new_report, new_own
+
+
 def warm_start(robot: Any, initial: Any, T: int, dt: float) -> Initialisation:
     """Initialisation from a given trajectory: q (T, n) or joint states [q, qdot] (T, 2n)."""
     n = robot.n
@@ -99,16 +138,18 @@ def warm_start(robot: Any, initial: Any, T: int, dt: float) -> Initialisation:
     return Initialisation(q, qdot, robot.fk(q), np.zeros(T))
 
 
-def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None) -> Callable | None:
+def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None,
+                   reach: float = math.inf) -> Callable | None:
     """The signed-distance query the obstacle family uses: ``sdf.query`` when given, else the
-    scene's (exact for primitives, a grid cached by the scene otherwise); None without
-    obstacles or with obstacle factors off."""
+    scene's (exact for primitives, a grid cached by the scene otherwise), clipped at ``reach``
+    [m] (the hinge's: epsilon + the largest sphere radius), so that only the obstacles near the
+    arm are evaluated; None without obstacles or with obstacle factors off."""
     sdf = as_sdf(sdf, scene)
     if not config.model.obstacle_factors or not has_obstacles(scene):
         return None
     if sdf is not None:
         return sdf.query
-    return scene.distance_query(config.model.sdf_cell_size)
+    return scene.distance_query(config.model.sdf_cell_size, max_distance=reach)
 
 
 def _families(prior: Any, robot: Any, request: Request, config: PlannerConfig,
@@ -204,11 +245,31 @@ def _build(prior, robot, scene, start, goal, via_points, extra_factors, config, 
     extra_families, foreign = _extras(extra_factors, T)
     if model_prior is None:                       # the prior conditioned on the targets
         model_prior = planning_prior(prior, robot, request, config)
-    families = _families(model_prior, robot, request, config, distance_query(scene, config, sdf))
+    families = _families(model_prior, robot, request, config, distance_query(
+        scene, config, sdf, config.model.epsilon + float(np.max(robot.spheres.radii, initial=0.0))))
     init = (_initialise(model_prior, robot, request, config) if initial is None
             else warm_start(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
+    if config.model.posture_sigma > 0 and any(f.name == ObstacleFamily.name for f in families):
+        problem = tied_to_free_plan(problem, config, keep_initial=initial is not None)
     return problem, request, init, model_prior
+
+
+def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,
+                      keep_initial: bool = False) -> PlanningProblem:
+    """``problem`` with every state's configuration tied to the free plan (a
+    :class:`~clamp.factors.PostureFamily` of noise ``config.model.posture_sigma``), starting
+    from the free plan unless ``keep_initial``. The free plan is ``problem`` without its
+    obstacle hinges, optimised as configured (one extra solve, ~20 ms): where it keeps clear of
+    every obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
+    free = PlanningProblem(problem.robot, problem.num_states,
+                           [f for f in problem.families if f.name != ObstacleFamily.name],
+                           problem.foreign, problem.initial)
+    theta = optimize(free, config).theta
+    T, n = problem.num_states, problem.robot.n
+    posture = PostureFamily(np.arange(T), theta[:, :n], np.full(T, config.model.posture_sigma))
+    return PlanningProblem(problem.robot, T, [*problem.families, posture], problem.foreign,
+                           problem.initial if keep_initial else theta)
 
 
 def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
@@ -254,12 +315,31 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
         # clamp.continuation), judged on the robot's own collision geometry
         def check(theta):
             return check_clearance(robot, scene, theta[:, :robot.n], prior.time)
-        solved = solve_collision_free(
-            problem, config, check,
-            lambda found: _restarts(prior, robot, scene, request, config, init, found),
-            config.optimizer.constraint_rounds, warm_start)
-        out, report, sigma = solved.out, solved.report, solved.sigma
+        def restarts(found):
+            return _restarts(prior, robot, scene, request, config, init, found)
+        reference = skill_reference(prior, robot, request, config, model_prior)
+
+        def with_the_skill(theta):
+            return not skill_checks(prior, reference, robot.fk(theta[:, :robot.n]),
+                                    request.goal is not None, score=False).reasons
+        solved = solve_collision_free(problem, config, check, restarts,
+                                      config.optimizer.constraint_rounds, warm_start,
+                                      with_the_skill)
         attempts = list(solved.attempts)
+        if solved.report.collision and any(f.name == PostureFamily.name
+                                            for f in problem.families):
+            # the free plan's posture leads into the obstacles however loose the tie: plan
+            # without it from the configured initialisation (the arm may then turn further)
+            untied = PlanningProblem(robot, T, [f for f in problem.families
+                                                if f.name != PostureFamily.name],
+                                     problem.foreign, init.theta)
+            alternative = solve_collision_free(untied, config, check, restarts,
+                                               config.optimizer.constraint_rounds)
+            attempts += [replace(a, candidate="untied " + a.candidate)
+                         for a in alternative.attempts]
+            if not alternative.report.collision:
+                problem, solved = untied, alternative
+        out, report, sigma = solved.out, solved.report, solved.sigma
         base = with_obstacle_sigma(problem, sigma, problem.initial)
     else:
         out = optimize(problem, config, warm_start)
@@ -270,6 +350,9 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
         lambda theta: violated_families(problem.families, robot, theta, config),
         check, config.optimizer.constraint_rounds, report, sigma)
     attempts = [asdict(a) for a in attempts + tightened]
+    problem, out, report, own = _free_of_self_collision(problem, out, config, check, report,
+                                                        np.asarray(prior.time, dtype=float),
+                                                        attempts)
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
     floor = 0.0
@@ -278,7 +361,8 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     t_end = time.perf_counter()
     timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
                **out.timings}
-    result = evaluate(prior, robot, scene, problem, request, out, config, timings, report)
+    result = evaluate(prior, robot, scene, problem, request, out, config, timings, report,
+                      model_prior, own)
     result.initial_q = init.q
     result.attempts = attempts
     result.state_covariance, result.ee_covariance = state_cov, ee_cov

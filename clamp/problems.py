@@ -336,6 +336,12 @@ def check_unique_ids(problems: Sequence[Problem]) -> None:
 def iter_json_lines(path: str | Path) -> Iterator[dict[str, Any]]:
     """The JSON objects of a file's complete lines (a last line without its newline, left by a
     crash mid-write, is skipped); ProblemFormatError names a line that is not a JSON object."""
+    return (record for _, _, record in json_lines(path))
+
+
+def json_lines(path: str | Path) -> Iterator[tuple[int, bytes, dict[str, Any]]]:
+    """(line number, raw line, JSON object) of each complete non-blank line, as
+    :func:`iter_json_lines` reads them."""
     path = as_file(path, "path", ProblemFormatError, ArgumentTypeError)
     with open(path, "rb") as handle:
         for k, raw in enumerate(handle, 1):
@@ -346,5 +352,4 @@ def iter_json_lines(path: str | Path) -> Iterator[dict[str, Any]]:
                 if not isinstance(record, dict):
                     raise ProblemFormatError(f"{path}:{k}: expected a JSON object, got "
                                              f"{type(record).__name__}")
-                yield record
-
+                yield k, raw, record

@@ -12,6 +12,7 @@ import numpy as np
 
 from clamp.config import PlannerConfig
 from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
+from clamp.reach import check_prior_reach
 from clamp.validation import as_array, as_count
 from scenes.validation import as_sequence
 
@@ -144,6 +145,7 @@ def has_obstacles(scene: Any) -> bool:
 def make_request(prior: Any, robot: Any, start: Any, goal: Any, via_points: Sequence,
              config: PlannerConfig, q_start: np.ndarray | None = None) -> Request:
     n, T = robot.n, prior.Phi.shape[0] + 1
+    check_prior_reach(prior, robot)
     if start is None:
         raise InvalidParameterError(f"start: expected a joint configuration ({n},) or an "
                                     "end-effector position (3,), got None")

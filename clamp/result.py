@@ -50,11 +50,18 @@ class PlanResult:
     without obstacle factors); start_error, goal_error [m] (rad for joint targets; None without goal),
     via_errors [m or rad] one per via point;
     log_likelihood of the plan's workspace path under the prior (initial-state term left out);
-    plausibility: the probability that a path of the skill's prior (noise floored at 0.5 mm
-    per step), conditioned to start where the plan starts and to meet its goal and via points,
-    lies at least as far from the conditional mean as the plan (:mod:`clamp.plausibility`;
-    uniform on samples of that prior), plausibility_z its standardised distance (ranks plans
-    that all score ~1); within_limits; success and reasons (why it failed);
+    plausibility: the share of sampled executions of the skill (from the plan's start, meeting
+    its goal and via points) that stray from it at least as far as the plan
+    (:func:`clamp.skill.skill_plausibility`: uniform on such samples, >= 0.05 for held-out
+    demonstrations, resolution 1/201; threshold it like a p-value);
+    skill: the skill checks' figures (:class:`clamp.skill.SkillCheck`: max_tube_ratio, the
+    plan's largest distance from where the skill goes in units of the demonstrations' spread
+    there, limit tube_limit; worst_state; end_distance [m] from where the demonstrations end
+    and completion_radius [m], None when a goal was given); self_clearance [m]: least distance
+    between two of the robot's own links that may touch (:mod:`robots.self_collision`: URDF
+    collision geometry, adjacent / rigid / always-touching pairs left out; at and between
+    states; negative: overlap depth), self_contact: where; within_limits; success and reasons
+    (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
     computed); violations: per constraint family (e.g. "orientation") how far beyond its
@@ -79,7 +86,6 @@ class PlanResult:
     goal_error: float | None
     log_likelihood: float
     plausibility: float
-    plausibility_z: float
     within_limits: bool
     success: bool
     reasons: list[str] = field(default_factory=list)
@@ -96,6 +102,9 @@ class PlanResult:
     collision_geometry: str | None = None
     nearest_contact: dict[str, Any] | None = None
     attempts: list[dict[str, Any]] = field(default_factory=list)
+    skill: dict[str, Any] = field(default_factory=dict)
+    self_clearance: float = float("inf")
+    self_contact: dict[str, Any] | None = None
     #: the request (not a dataclass field: left out of to_dict / asdict); set by clamp.plan
     inputs = None
 
@@ -117,14 +126,34 @@ class PlanResult:
                 "start_error": number(self.start_error), "goal_error": number(self.goal_error),
                 "via_errors": [float(e) for e in self.via_errors],
                 "violations": {k: float(v) for k, v in self.violations.items()},
-                "within_limits": bool(self.within_limits)}
+                "within_limits": bool(self.within_limits),
+                "self_clearance_m": number(self.self_clearance),
+                "self_contact": self.self_contact,
+                "skill": {k: number(v) if isinstance(v, float) else v
+                          for k, v in self.skill.items()}}
 
-    def to_joint_trajectory(self, robot: Any) -> Any:
-        """The plan as a ``robots.JointTrajectory`` of ``robot`` (the arm it was planned for):
-        joint names, time from start, positions, velocities, accelerations, and the verdict in
-        its header; ``.to_json(path)`` / ``.to_csv(path)`` write it for a robot driver."""
+    def to_joint_trajectory(self, robot: Any, *, retime: bool = True,
+                            acceleration_limits: Any = None) -> Any:
+        """The plan as an executable ``robots.JointTrajectory`` of ``robot`` (the arm it was
+        planned for): joint names, time from start [s], positions, velocities, accelerations
+        (rad, rad/s, rad/s^2), and the verdict in its header; ``.to_json(path)`` /
+        ``.to_ros2_json(path)`` / ``.to_csv(path)`` write it for a robot driver.
+
+        By default retimed (TOPP-RA, :func:`robots.retime`) within ``robot.velocity_limits``
+        and ``acceleration_limits`` (rad/s^2, a number or one per joint; None =
+        ``robots.retiming.DEFAULT_ACCELERATION_LIMIT``), from rest to rest (zero velocity and
+        acceleration at both ends), sampled every 10 ms; the retiming report is
+        ``verdict["retiming"]``. ``retime=False``: the plan's own T samples and timing (not
+        necessarily within the limits nor at rest). Check ``success`` first: a failed plan's
+        trajectory is no motion to execute (its verdict says so).
+        """
+        from robots.retiming import retime as retime_trajectory
         from robots.trajectory import JointTrajectory
-        return JointTrajectory.from_plan(robot, self.time, self.q, self.qdot, self.verdict())
+        planned = JointTrajectory.from_plan(robot, self.time, self.q, self.qdot, self.verdict())
+        if not retime:
+            return planned
+        retimed, _ = retime_trajectory(planned, robot, acceleration_limits, method="toppra")
+        return retimed
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as nested lists, non-finite floats as None); the joint

@@ -16,12 +16,14 @@ from clamp.clearance import check_clearance, collision_reason, describe_contact
 from clamp.config import PlannerConfig
 from clamp.limit_report import limit_violations
 from clamp.optimizers import Optimized
-from clamp.plausibility import plausibility_details
+from clamp.conditioning import skill_reference
+from clamp.skill import SkillCheck, skill_checks
 from clamp.problem import PlanningProblem
 from clamp.request import Request, as_scene, has_obstacles
 from clamp.result import PlanResult
 from clamp.targets import constraint_violations, inside_obstacle
 from robots.collision_check import CollisionReport
+from robots.self_collision import SelfCollisionReport, self_collision_report
 
 
 def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
@@ -45,7 +47,6 @@ def failed_result(prior: Any, robot: Any, q: np.ndarray, reasons: list[str], t0:
                       family_errors={}, collision_cost=float("nan"),
                       min_clearance=float("nan"), start_error=start_error, goal_error=None,
                       log_likelihood=float("nan"), plausibility=float("nan"),
-                      plausibility_z=float("nan"),
                       within_limits=bool(np.all(robot.within_limits(q))), success=False,
                       reasons=reasons, initialisation=config.optimizer.initialisation,
                       optimizer=config.optimizer.optimizer, stop_reason="not started")
@@ -60,6 +61,9 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     if start.kind == "joint":
         reasons += limit_violations(robot, request.q_start[None], None,
                                     config.checks.limit_tolerance, what="start configuration")
+    own = self_collision_report(robot, request.q_start[None])
+    if own.collision:
+        reasons.append("start configuration is in " + own.reason)
     if has_obstacles(scene):
         inside = inside_obstacle(scene, "start", start)
         if inside:
@@ -73,18 +77,36 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     return reasons
 
 
-def _target_position(robot: Any, target: Any) -> np.ndarray | None:
-    """The end-effector position (3,) [m] a start / goal / via target asks for (None: none)."""
-    if target is None:
+def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
+    """describe(state) -> what pushed ``path`` (T, 3) away from ``reference`` (T, 3) at that
+    state: the obstacle nearest to where the skill goes, when it is within the plan's departure
+    plus the safety distance ``epsilon`` [m] ("box_0 (the skill's path runs 27 mm inside it
+    there)"), else that no obstacle is near; None without obstacles."""
+    if not has_obstacles(scene):
         return None
-    return target.value if target.kind == "position" else robot.fk(target.value)
+
+    def describe(state: int) -> str:
+        point = reference[state][None]
+        gaps = [float(o.distance(point)[0]) for o in scene.obstacles]
+        k = int(np.argmin(gaps))
+        name = f"{scene.obstacles[k].kind}_{k}"
+        if gaps[k] > np.linalg.norm(path[state] - reference[state]) + epsilon:
+            return (f"no obstacle (the nearest, {name}, is {1000 * gaps[k]:.0f} mm from the "
+                    "skill's path there): the plan's other factors")
+        where = (f"the skill's path runs {-1000 * gaps[k]:.0f} mm inside it there" if gaps[k] < 0
+                 else f"{1000 * gaps[k]:.0f} mm from the skill's path there")
+        return f"{name} ({where})"
+    return describe
 
 
 def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
              out: Optimized, config: PlannerConfig, timings: dict[str, float],
-             report: CollisionReport | None = None) -> PlanResult:
+             report: CollisionReport | None = None, model_prior: Any = None,
+             self_report: SelfCollisionReport | None = None) -> PlanResult:
     """Metrics and success checks of an optimised plan; report: the real-geometry check of
-    ``out.theta`` when the caller already has it (else computed here)."""
+    ``out.theta`` when the caller already has it (else computed here); model_prior: the prior
+    the plan was made with (conditioned on its targets; None: ``prior``); self_report: the
+    self-collision check of ``out.theta`` when the caller already has it."""
     n, checks = robot.n, config.checks
     q, qdot = out.theta[:, :n], out.theta[:, n:]
     x, _ = problem.window(out.theta).workspace()
@@ -92,6 +114,8 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     families = problem.family_errors(out.theta)
     if report is None:
         report = check_clearance(robot, scene, q, np.asarray(prior.time, dtype=float))
+    if self_report is None:
+        self_report = self_collision_report(robot, q, np.asarray(prior.time, dtype=float))
     clearance = math.inf if report is None else float(report.min_distance)
     start = request.start
     start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
@@ -104,9 +128,10 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                   for i, t in request.vias]
     limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
-    score = plausibility_details(prior, x, start=request.start_position,
-                                 goal=_target_position(robot, request.goal),
-                                 via=[(i, _target_position(robot, t)) for i, t in request.vias])
+    reference = skill_reference(prior, robot, request, config, model_prior)
+    skill = skill_checks(prior, reference, position, goal_given=request.goal is not None,
+                         describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3], position,
+                                                config.model.epsilon))
 
     reasons = []
     if not np.isfinite(out.final_error):
@@ -122,17 +147,22 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     collision = collision_reason(report)
     if collision:
         reasons.append(collision)
+    if self_report.collision:
+        reasons.append(self_report.reason)
     reasons += limits
     violations, broken = constraint_violations(problem.families, robot, q)
     reasons += broken
+    reasons += skill.reasons
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float), timings=timings,
                       iterations=out.iterations, initial_error=out.initial_error,
                       final_error=out.final_error, family_errors=families,
                       collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
                       start_error=start_error, goal_error=goal_error,
-                      log_likelihood=log_likelihood, plausibility=float(score.score),
-                      plausibility_z=float(score.z),
+                      log_likelihood=log_likelihood, plausibility=skill.plausibility,
+                      skill=skill.to_dict(), self_clearance=float(self_report.min_distance),
+                      self_contact=None if self_report.nearest is None
+                      else self_report.nearest.to_dict(),
                       within_limits=not limits, success=not reasons, reasons=reasons,
                       initialisation=config.optimizer.initialisation, trials=out.trials,
                       optimizer=out.optimizer,

@@ -9,6 +9,7 @@ Cylinder, Capsule and triangle meshes (BVH models read from .dae/.stl/.obj). Len
 from __future__ import annotations
 
 import logging
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -112,6 +113,17 @@ def _one_line(error: Exception) -> str:
     return "; ".join(line.strip() for line in text.splitlines() if line.strip())
 
 
+def _package_hint(message: str, package_dirs: Sequence[str]) -> str:
+    """How to resolve a package:// mesh the loader could not find: the folder that holds the
+    package (``package_dirs``; on the command lines ``--package-dir DIR``)."""
+    match = re.search(r"package://([^/\s]+)/", message)
+    if match is None:
+        return ""
+    return (f"; the URDF's meshes are package:// URIs: pass the folder that holds the package "
+            f"{match.group(1)!r} as package_dirs (command line: --package-dir DIR)"
+            + (", in addition to the folders given" if package_dirs else ""))
+
+
 def load_geometry(model: pin.Model, urdf_path: str | Path, package_dirs: Sequence[str], kind: str = "collision"
                   ) -> pin.GeometryModel:
     """The URDF's collision or visual geometry (``kind``) as a Pinocchio GeometryModel (meshes
@@ -122,7 +134,8 @@ def load_geometry(model: pin.Model, urdf_path: str | Path, package_dirs: Sequenc
             return pin.buildGeomFromUrdf(model, str(urdf_path), GEOMETRY_KINDS[kind], package_dirs=list(package_dirs))
     except Exception as exc:
         raise URDFParseError(f"cannot load {kind} geometry of {str(urdf_path)!r} (package_dirs="
-                             f"{list(package_dirs)}): {_one_line(exc)}") from exc
+                             f"{list(package_dirs)}): {_one_line(exc).rstrip('.')}"
+                             f"{_package_hint(str(exc), package_dirs)}") from exc
 
 
 def moves(geometry: pin.GeometryModel) -> bool:

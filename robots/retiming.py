@@ -8,18 +8,23 @@ acceleration limits, so they are an argument: a scalar or one per joint (rad/s^2
 A trajectory is *within limits* when at every sample (tolerance ``1e-6`` relative)
 - its velocity samples and the difference quotients of its positions are within the velocity
   limits, and
-- its stored accelerations and the finite differences of its velocity samples
-  (:func:`robots.trajectory.finite_difference`, as in the export) are within the
-  acceleration limits.
+- its stored accelerations and the difference quotients of its velocity samples (the mean
+  acceleration over each sample interval; they bound the export's finite differences,
+  :func:`robots.trajectory.finite_difference`) are within the acceleration limits.
 
 Two methods keep the geometric path and change only the timing:
 - ``"uniform"``: one time-scaling factor k (time * k, velocity / k, acceleration / k^2), the
-  smallest that meets both limits (:func:`uniform_scaling`); the samples stay the same.
+  smallest that meets both limits (:func:`uniform_scaling`); the samples stay the same, so it
+  starts and ends at rest only if the input does.
 - ``"toppra"``: time-optimal path parameterisation (TOPP-RA, the ``toppra`` package) of the
   C2 cubic spline through the samples, parameterised by their cumulative joint-space chord
-  length (end tangents along the given end velocities); the resulting constant-path-acceleration
-  profile is sampled every ``sample_period`` s, and if sampling between TOPP-RA's grid points
-  leaves a violation, a final uniform stretch (reported) removes it. Starts and ends at rest.
+  length (end tangents along the given end velocities), from rest to rest: a jerk-limited
+  ramp at each end (path acceleration rising linearly from zero over ``ramp_time`` s, to half
+  of what the limits allow there) and TOPP-RA's constant-path-acceleration profile between
+  the ramps. The profile is sampled every ``sample_period`` s with its exact velocities and
+  accelerations (zero at both ends: no jump when a controller starts or stops it), and if
+  sampling between TOPP-RA's grid points leaves a violation, a final uniform stretch
+  (reported) removes it.
   The chord length keeps |dq/ds| near 1 along the whole path: parameterised by the plan's own
   time, a plan that creeps out of its start (the demonstrations' timing: 1e-7 .. 1e-3 rad/s
   over the first seconds) gives TOPP-RA's solver path speeds and coefficients far outside its
@@ -45,7 +50,7 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
 from .errors import RetimingError
-from .trajectory import JointTrajectory, finite_difference
+from .trajectory import JointTrajectory
 
 logger = logging.getLogger(__name__)
 
@@ -55,6 +60,11 @@ logger = logging.getLogger(__name__)
 DEFAULT_ACCELERATION_LIMIT = 1.0
 #: Default spacing [s] of the retimed samples (100 Hz).
 DEFAULT_SAMPLE_PERIOD = 0.01
+#: Default duration [s] of the jerk-limited ramps at both ends of a TOPP-RA retiming: the path
+#: acceleration rises linearly from zero at the start (falls to zero at the end) over this time.
+DEFAULT_RAMP_TIME = 0.1
+#: The ramps reach this fraction of the largest path acceleration the limits allow at rest.
+RAMP_FRACTION = 0.5
 #: Relative tolerance of limit checks (|value| <= limit * (1 + tolerance)).
 LIMIT_TOLERANCE = 1e-6
 #: Stand-in for an infinite velocity limit inside TOPP-RA [rad/s].
@@ -90,8 +100,8 @@ class LimitCheck:
     """Peaks of a trajectory against its limits, per joint (n,).
 
     peak_velocity: max of |velocity samples| and |position difference quotients| [rad/s];
-    peak_acceleration: max of |stored accelerations| and |finite differences of the velocity
-    samples| [rad/s^2]; ratios = peak / limit (0 for unlimited joints).
+    peak_acceleration: max of |stored accelerations| and |velocity difference quotients|
+    [rad/s^2]; ratios = peak / limit (0 for unlimited joints).
     """
 
     joint_names: tuple[str, ...]
@@ -150,7 +160,7 @@ def _peaks(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray]:
     t = traj.time_from_start
     quotients = np.diff(traj.positions, axis=0) / np.diff(t)[:, None]
     velocity = np.maximum(np.abs(traj.velocities).max(axis=0), np.abs(quotients).max(axis=0))
-    differenced = finite_difference(traj.velocities, t)
+    differenced = np.diff(traj.velocities, axis=0) / np.diff(t)[:, None]
     acceleration = np.maximum(np.abs(traj.accelerations).max(axis=0), np.abs(differenced).max(axis=0))
     return velocity, acceleration
 
@@ -176,14 +186,15 @@ def uniform_scaling(traj: JointTrajectory, velocity_limits: Any, acceleration_li
 
 def scale_time(traj: JointTrajectory, factor: float) -> JointTrajectory:
     """The same samples executed `factor` times slower: time * factor, velocities / factor,
-    accelerations = finite differences of the new velocities (= old / factor^2)."""
+    accelerations / factor^2 (the finite differences of the new velocities when the old ones
+    were the finite differences of the old velocities)."""
     traj = _as_trajectory(traj)
     if not isinstance(factor, (int, float, np.floating, np.integer)) or not math.isfinite(factor) or factor <= 0:
         raise RetimingError(f"factor: expected a positive finite number, got {factor!r}")
     time = traj.time_from_start * float(factor)
     velocities = traj.velocities / float(factor)
     return traj.replace(time_from_start=time, velocities=velocities,
-                        accelerations=finite_difference(velocities, time))
+                        accelerations=traj.accelerations / float(factor) ** 2)
 
 
 def toppra_available() -> bool:
@@ -265,12 +276,84 @@ def _chord_knots(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray]:
     return knots, kept
 
 
-def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, grid_per_interval: int
-                    ) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
-    """TOPP-RA on the spline through the samples, parameterised by chord length s [rad]: (path,
-    gridpoints s (N,), path speeds sd (N,), times at the gridpoints (N,), the map from s to the
-    input's time [s] (piecewise linear between the knots)). Raises RetimingError when TOPP-RA
-    fails."""
+class _SubPath:
+    """The part [start, stop] of a toppra path (TOPP-RA's grid must span its path's interval)."""
+
+    def __init__(self, path: Any, start: float, stop: float):
+        self.path, self.path_interval, self.dof = path, np.array([start, stop]), path.dof
+
+    def __call__(self, positions: Any, order: int = 0) -> np.ndarray:
+        return self.path(positions, order)
+
+
+def _ramp_jerk(path: Any, end: float, direction: float, vlim: np.ndarray, alim: np.ndarray,
+               ramp_time: float, length: float, reach: float) -> float:
+    """Path jerk j [rad/s^3] of the ramp at one end of the path (``direction`` +1: leaving the
+    start, -1: arriving at the end): path acceleration j t over its ``ramp_time`` s, from
+    (or, time-reversed, to) rest, up to RAMP_FRACTION of the largest path acceleration the
+    limits allow at rest near there (the largest tangent over ``reach`` [rad] of path), halved until every joint stays within its limits along the
+    ramp (checked at 32 instants) and the ramp covers at most a quarter of the path."""
+    nearby = end + direction * np.linspace(0.0, min(reach, length / 4.0), 16)
+    tangent = np.abs(path(nearby, 1)).max(axis=0)     # the end tangent is zero when the input rests
+    moving = tangent > 0.0
+    jerk = RAMP_FRACTION * float(np.min(alim[moving] / tangent[moving])) / ramp_time
+    jerk = min(jerk, 1.5 * length / ramp_time**3)       # j tau^3 / 6 <= length / 4
+    t = np.linspace(0.0, ramp_time, 32)
+    for _ in range(20):
+        s = end + direction * jerk * t**3 / 6.0
+        speed, acceleration = jerk * t**2 / 2.0, direction * jerk * t
+        dq, ddq = path(s, 1), path(s, 2)
+        if np.all(np.abs(dq * speed[:, None]) <= vlim) and \
+                np.all(np.abs(dq * acceleration[:, None] + ddq * speed[:, None] ** 2) <= alim):
+            return jerk
+        jerk /= 2.0
+    raise RetimingError("traj: no jerk-limited start or stop within the limits (the path turns too sharply "
+                        "at its ends)")
+
+
+class _RestToRestProfile:
+    """Path position s(t) [rad of chord] from rest to rest: a jerk-limited ramp (path
+    acceleration j0 t) over ``ramp`` s, TOPP-RA's time-optimal profile (constant path
+    acceleration per grid interval s_i .. s_i+1, speeds sd_i) in between, and the mirrored
+    ramp (j1) into the end. Path speed and acceleration are exactly zero at both ends and the
+    acceleration rises from and falls to zero continuously."""
+
+    def __init__(self, start: float, stop: float, jerks: tuple[float, float], ramp: float,
+                 s: np.ndarray, sd: np.ndarray, times: np.ndarray):
+        self.start, self.stop, self.jerks, self.ramp = start, stop, jerks, ramp
+        self.s, self.sd, self.times = s, sd, times
+        self.u = (sd[1:] ** 2 - sd[:-1] ** 2) / (2.0 * np.diff(s))   # path acceleration per interval
+
+    @property
+    def duration(self) -> float:
+        """Length [s] of the profile: both ramps and TOPP-RA's part."""
+        return float(2.0 * self.ramp + self.times[-1])
+
+    def __call__(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Path position, speed [/s] and acceleration [/s^2] at times t (K,) in [0, duration]."""
+        t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
+        s, sd, times, u = self.s, self.sd, self.times, self.u
+        middle = t - self.ramp
+        i = np.clip(np.searchsorted(times, middle, side="right") - 1, 0, len(s) - 2)
+        tau = np.clip(middle - times[i], 0.0, times[i + 1] - times[i])
+        position = np.clip(s[i] + sd[i] * tau + 0.5 * u[i] * tau**2, s[i], s[i + 1])
+        speed, acceleration = np.maximum(sd[i] + u[i] * tau, 0.0), u[i]
+        j0, j1 = self.jerks
+        rising, falling = t < self.ramp, t > self.ramp + times[-1]
+        left = self.duration - t
+        position = np.where(rising, self.start + j0 * t**3 / 6.0,
+                            np.where(falling, self.stop - j1 * left**3 / 6.0, position))
+        speed = np.where(rising, j0 * t**2 / 2.0, np.where(falling, j1 * left**2 / 2.0, speed))
+        acceleration = np.where(rising, j0 * t, np.where(falling, -j1 * left, acceleration))
+        return position, speed, acceleration
+
+
+def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, grid_per_interval: int,
+                    ramp_time: float) -> tuple[Any, _RestToRestProfile, Callable[[np.ndarray], np.ndarray]]:
+    """Rest-to-rest profile on the C2 spline through the samples, parameterised by chord length
+    s [rad]: (path, profile, the map from s to the input's time [s] (piecewise linear between
+    the knots)). Jerk-limited ramps at both ends, TOPP-RA between them starting and ending at
+    the ramps' path speeds. Raises RetimingError when TOPP-RA fails."""
     import toppra
     import toppra.algorithm
     import toppra.constraint
@@ -283,19 +366,29 @@ def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, g
     bc = ((1, traj.velocities[0] * (t_knots[1] - t_knots[0]) / s_knots[1]),
           (1, traj.velocities[-1] * (t_knots[-1] - t_knots[-2]) / (s_knots[-1] - s_knots[-2])))
     path = toppra.SplineInterpolator(s_knots, traj.positions[kept], bc_type=bc)
+    length = float(s_knots[-1])
+    jerks = [_ramp_jerk(path, 0.0, 1.0, vlim, alim, ramp_time, length, float(s_knots[1])),
+             _ramp_jerk(path, length, -1.0, vlim, alim, ramp_time, length, float(length - s_knots[-2]))]
     fractions = np.arange(grid_per_interval) / grid_per_interval
     grid = (s_knots[:-1, None] + np.diff(s_knots)[:, None] * fractions).ravel()
-    grid = np.append(grid, s_knots[-1])
     v = np.where(np.isfinite(vlim), vlim, _UNBOUNDED_VELOCITY)
     a = np.where(np.isfinite(alim), alim, _UNBOUNDED_VELOCITY)
     constraints = [toppra.constraint.JointVelocityConstraint(np.column_stack((-v, v))),
                    toppra.constraint.JointAccelerationConstraint(
                        np.column_stack((-a, a)),
                        discretization_scheme=toppra.constraint.DiscretizationType.Interpolation)]
-    instance = toppra.algorithm.TOPPRA(constraints, path, gridpoints=grid, solver_wrapper="seidel")
-    instance.compute_parameterization(0.0, 0.0)
-    data = instance.problem_data
-    if data.return_code != toppra.algorithm.ParameterizationReturnCode.Ok or data.sd_vec is None:
+    for _ in range(6):  # a ramp too fast to continue from: slower ramps
+        start, stop = jerks[0] * ramp_time**3 / 6.0, length - jerks[1] * ramp_time**3 / 6.0
+        inner = grid[(grid > start) & (grid < stop)]
+        instance = toppra.algorithm.TOPPRA(constraints, _SubPath(path, start, stop),
+                                           gridpoints=np.concatenate(([start], inner, [stop])),
+                                           solver_wrapper="seidel")
+        instance.compute_parameterization(jerks[0] * ramp_time**2 / 2.0, jerks[1] * ramp_time**2 / 2.0)
+        data = instance.problem_data
+        if data.return_code == toppra.algorithm.ParameterizationReturnCode.Ok and data.sd_vec is not None:
+            break
+        jerks = [j / 2.0 for j in jerks]
+    else:
         raise RetimingError(f"traj: TOPP-RA could not parameterise the path ({data.return_code})")
     s = np.asarray(data.gridpoints, dtype=float)
     sd = np.maximum(np.asarray(data.sd_vec, dtype=float), 0.0)
@@ -303,31 +396,23 @@ def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, g
     if np.any(speed_sum <= 0.0) or not np.all(np.isfinite(sd)):
         raise RetimingError("traj: TOPP-RA returned a path speed of zero inside the path")
     times = np.concatenate(([0.0], np.cumsum(2.0 * np.diff(s) / speed_sum)))
-    return path, s, sd, times, (lambda position: np.interp(position, s_knots, t_knots))
+    profile = _RestToRestProfile(0.0, length, (jerks[0], jerks[1]), ramp_time, s, sd, times)
+    return path, profile, (lambda position: np.interp(position, s_knots, t_knots))
 
 
-def _profile_at(s: np.ndarray, sd: np.ndarray, times: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Path position and speed at times t under constant path acceleration per grid interval."""
-    i = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(s) - 2)
-    u = (sd[i + 1] ** 2 - sd[i] ** 2) / (2.0 * (s[i + 1] - s[i]))
-    tau = np.clip(t - times[i], 0.0, times[i + 1] - times[i])
-    position = np.clip(s[i] + sd[i] * tau + 0.5 * u * tau**2, s[i], s[i + 1])
-    speed = np.maximum(sd[i] + u * tau, 0.0)
-    return position, speed
-
-
-def _sampled_profile(traj: JointTrajectory, path: Any, s: np.ndarray, sd: np.ndarray, times: np.ndarray,
-                     count: int) -> JointTrajectory:
-    """The TOPP-RA profile sampled at `count` equally spaced times, at rest at both ends on the
-    input's end positions (accelerations: finite differences of the velocities)."""
-    t = np.linspace(0.0, times[-1], count)
-    position, speed = _profile_at(s, sd, times, t)
-    position[0], position[-1] = s[0], s[-1]
+def _sampled_profile(traj: JointTrajectory, path: Any, profile: _RestToRestProfile, count: int) -> JointTrajectory:
+    """The smoothed profile sampled at `count` equally spaced times, from the input's first
+    position to its last, at rest at both ends; velocities and accelerations are the exact
+    derivatives of the spline path under the profile (path' sd, path'' sd^2 + path' sdd)."""
+    t = np.linspace(0.0, profile.duration, count)
+    position, speed, acceleration = profile(t)
+    position[0], position[-1] = profile.start, profile.stop
+    tangent = path(position, 1)
     q = path(position)
-    qdot = path(position, 1) * speed[:, None]
+    qdot = tangent * speed[:, None]
+    qddot = path(position, 2) * speed[:, None] ** 2 + tangent * acceleration[:, None]
     q[0], q[-1] = traj.positions[0], traj.positions[-1]
-    qdot[0], qdot[-1] = 0.0, 0.0
-    return traj.replace(time_from_start=t, positions=q, velocities=qdot, accelerations=finite_difference(qdot, t))
+    return traj.replace(time_from_start=t, positions=q, velocities=qdot, accelerations=qddot)
 
 
 def _distance_to_polyline(points: np.ndarray, vertices: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -379,7 +464,7 @@ def _deviation(robot, original: JointTrajectory, retimed: JointTrajectory,
 
 def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method: str = "auto", *,
            velocity_limits: Any = None, sample_period: float = DEFAULT_SAMPLE_PERIOD,
-           allow_faster: bool = True, grid_per_interval: int = 4,
+           allow_faster: bool = True, ramp_time: float = DEFAULT_RAMP_TIME, grid_per_interval: int = 4,
            substeps: int = 4) -> tuple[JointTrajectory, RetimingReport]:
     """Retime `traj` for `robot` so that it respects velocity and acceleration limits.
 
@@ -387,7 +472,8 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
     (None = DEFAULT_ACCELERATION_LIMIT); velocity_limits: (n,) rad/s (None = robot.velocity_limits);
     method: "auto" | "uniform" | "toppra" (see the module docstring); sample_period: max spacing
     [s] of the toppra output samples; allow_faster: if False the result never takes less time
-    than the input (stretched uniformly when it would); grid_per_interval: TOPP-RA grid points
+    than the input (stretched uniformly when it would); ramp_time: duration [s] of the toppra
+    profile's jerk-limited ramps at both ends; grid_per_interval: TOPP-RA grid points
     per input interval; substeps: interpolation points per output interval for the deviation.
     Returns (retimed trajectory starting at 0 s, RetimingReport); the retimed verdict is the
     input's plus "retiming": report.to_dict().
@@ -401,6 +487,9 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
     if not isinstance(sample_period, (int, float)) or isinstance(sample_period, bool) or \
             not math.isfinite(sample_period) or sample_period <= 0:
         raise RetimingError(f"sample_period: expected a positive number of seconds, got {sample_period!r}")
+    if not isinstance(ramp_time, (int, float)) or isinstance(ramp_time, bool) or \
+            not math.isfinite(ramp_time) or ramp_time <= 0:
+        raise RetimingError(f"ramp_time: expected a positive number of seconds, got {ramp_time!r}")
     for name, value in (("grid_per_interval", grid_per_interval), ("substeps", substeps)):
         if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
             raise RetimingError(f"{name}: expected a positive int, got {value!r}")
@@ -427,28 +516,29 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
         path_position = (lambda t, k=stretch: t / k)
     else:
         try:
-            path, s, sd, times, input_time = _toppra_profile(zeroed, vlim, alim, int(grid_per_interval))
+            path, profile, input_time = _toppra_profile(zeroed, vlim, alim, int(grid_per_interval),
+                                                        float(ramp_time))
         except RetimingError as exc:
             if not automatic:
                 raise
             logger.warning("retime: %s; falling back to uniform time scaling", exc)
             return retime(traj, robot, acceleration_limits, "uniform", velocity_limits=velocity_limits,
-                          sample_period=sample_period, allow_faster=allow_faster,
+                          sample_period=sample_period, allow_faster=allow_faster, ramp_time=ramp_time,
                           grid_per_interval=grid_per_interval, substeps=substeps)
         # sample the profile; a final uniform stretch removes violations left between TOPP-RA's
         # grid points; resample densely enough that the stretched spacing stays <= sample_period
         for _ in range(4):
-            count = max(int(math.ceil(times[-1] * stretch / sample_period)), 1) + 1
-            candidate = _sampled_profile(zeroed, path, s, sd, times, count)
+            count = max(int(math.ceil(profile.duration * stretch / sample_period)), 1) + 1
+            candidate = _sampled_profile(zeroed, path, profile, count)
             stretch = max(uniform_scaling(candidate, vlim, alim), 1.0)
             if not allow_faster and candidate.duration * stretch < zeroed.duration:
                 stretch = zeroed.duration / candidate.duration
-            if times[-1] / (count - 1) * stretch <= sample_period * (1.0 + 1e-12):
+            if profile.duration / (count - 1) * stretch <= sample_period * (1.0 + 1e-12):
                 break
         retimed = scale_time(candidate, stretch) if stretch != 1.0 else candidate
         if stretch != 1.0:
             logger.info("retime: stretched the TOPP-RA result uniformly by %.6g", stretch)
-        path_position = (lambda tt, k=stretch: input_time(_profile_at(s, sd, times, tt / k)[0]))
+        path_position = (lambda tt, k=stretch: input_time(profile(tt / k)[0]))
     joint_dev, ee_dev = _deviation(robot, zeroed, retimed, path_position, int(substeps))
     report = RetimingReport(method=method, duration_before=zeroed.duration, duration_after=retimed.duration,
                             before=before, after=check_limits(retimed, vlim, alim), scaling_factor=float(stretch),

@@ -38,6 +38,16 @@ def _as_sphere_model(spheres) -> SphereModel | None:
     raise RobotError(f"spheres: expected a SphereModel, a sphere file path or None, got {type(spheres).__name__}")
 
 
+def _is_xacro(path: Path) -> bool:
+    """Whether a robot description file is an unexpanded xacro file (.xacro, or xacro: elements)."""
+    if path.suffix == ".xacro":
+        return True
+    try:
+        return "<xacro:" in path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return False
+
+
 class Robot:
     """A serial arm for planning: joint angles in, end-effector and sphere kinematics out.
 
@@ -93,6 +103,9 @@ class Robot:
         """Load an arm from a URDF file; `package_dirs` resolve package:// mesh URIs (only needed
         for the collision geometry). Raises URDFParseError when the file is missing or invalid."""
         path = as_file(path, "path", URDFParseError)
+        if _is_xacro(path):
+            raise URDFParseError(f"path: {str(path)!r} is a xacro file (URDF macros), not a URDF; expand it "
+                                 f"first: xacro {path.name} > robot.urdf (the ROS xacro tool)")
         try:
             with native_stderr_logged():  # urdfdom prints parse errors on fd 2
                 model = pin.buildModelFromUrdf(str(path))

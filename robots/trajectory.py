@@ -6,7 +6,9 @@ with a ``time_from_start``. Units: s, rad, rad/s, rad/s^2 (m, m/s, m/s^2 for pri
 the ``units`` header says which). A free-form ``verdict`` header carries what the planner
 concluded (success, reasons, ...).
 
-Accelerations are finite differences of the velocity samples over time,
+A plan's accelerations (:meth:`JointTrajectory.from_plan`; a retimed trajectory,
+:func:`robots.retime`, carries its profile's exact ones) are finite differences of the velocity
+samples over time,
 :func:`finite_difference` (``numpy.gradient`` with ``edge_order=1``): second-order central
 differences inside (also on uneven time steps), one-sided first-order differences at both
 ends. Every value is a convex combination of the neighbouring difference quotients
@@ -15,8 +17,11 @@ smooth motion through the samples: a trajectory within acceleration limits stays
 after this differencing.
 
 Files: JSON (:meth:`JointTrajectory.to_json`, validated by the schema shipped in
-``robots/schemas/joint_trajectory.schema.json``) and CSV (:meth:`JointTrajectory.to_csv`,
-one ``#``-line of JSON header, then one row per point). Floats are written with ``repr``
+``robots/schemas/joint_trajectory.schema.json``), CSV (:meth:`JointTrajectory.to_csv`,
+one ``#``-line of JSON header, then one row per point) and the ROS 2
+``trajectory_msgs/msg/JointTrajectory`` message as JSON (:meth:`JointTrajectory.to_ros2_json`,
+schema ``robots/schemas/ros2_joint_trajectory.schema.json``: the message's fields only, times
+as {sec, nanosec}). Floats are written with ``repr``
 precision, so :meth:`JointTrajectory.load` gives back the same float64 values bit for bit.
 Writes are atomic (a temporary file in the target folder, then ``os.replace`` / ``os.link``)
 and refuse to overwrite an existing file unless ``overwrite=True``.
@@ -44,6 +49,9 @@ from .errors import ArgumentTypeError, TrajectoryError, TrajectoryExistsError, T
 FORMAT = "skillplan.joint_trajectory"
 VERSION = 1
 SCHEMA_PATH = Path(__file__).resolve().parent / "schemas" / "joint_trajectory.schema.json"
+#: JSON schema of the ROS 2 ``trajectory_msgs/msg/JointTrajectory`` message as JSON (to_ros2_dict)
+ROS2_SCHEMA_PATH = SCHEMA_PATH.with_name("ros2_joint_trajectory.schema.json")
+_NANOSECONDS = 1_000_000_000
 #: Units of revolute / continuous joints (prismatic joints: m, m/s, m/s^2).
 DEFAULT_UNITS: dict[str, str] = {"time_from_start": "s", "positions": "rad", "velocities": "rad/s",
                                  "accelerations": "rad/s^2"}
@@ -118,9 +126,25 @@ def atomic_write_text(path: str | Path, text: str, overwrite: bool = False,
     return _atomic_write_text(path, text, overwrite, exists_error or TrajectoryExistsError, TrajectoryFileError)
 
 
-def load_schema() -> dict[str, Any]:
-    """The JSON schema (draft 2020-12) that trajectory JSON files validate against."""
-    return json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
+def load_schema(ros2: bool = False) -> dict[str, Any]:
+    """The JSON schema (draft 2020-12) that trajectory JSON files validate against (``ros2``:
+    the one of the ROS 2 message shape, :meth:`JointTrajectory.to_ros2_dict`)."""
+    return json.loads((ROS2_SCHEMA_PATH if ros2 else SCHEMA_PATH).read_text(encoding="utf-8"))
+
+
+def ros2_duration(seconds: float) -> dict[str, int]:
+    """``builtin_interfaces/Duration`` of a time >= 0 s: {"sec", "nanosec"}, rounded to 1 ns."""
+    total = int(round(float(seconds) * _NANOSECONDS))
+    return {"sec": total // _NANOSECONDS, "nanosec": total % _NANOSECONDS}
+
+
+def _ros2_seconds(value: Any, where: str) -> float:
+    """Seconds of a {"sec", "nanosec"} object (TrajectoryFileError naming ``where`` otherwise)."""
+    ok = isinstance(value, dict) and set(value) == {"sec", "nanosec"} and all(
+        isinstance(value[k], int) and not isinstance(value[k], bool) for k in ("sec", "nanosec"))
+    if not ok or not 0 <= value["nanosec"] < _NANOSECONDS:
+        raise TrajectoryFileError(f"{where}: expected {{\"sec\": int, \"nanosec\": 0..999999999}}, got {value!r}")
+    return value["sec"] + value["nanosec"] / _NANOSECONDS
 
 
 # --------------------------------------------------------------------------- the trajectory
@@ -273,6 +297,58 @@ class JointTrajectory:
         text = json.dumps(self.to_dict(), indent=indent, allow_nan=False) + "\n"
         return atomic_write_text(path, text, overwrite)
 
+    # ----------------------------------------------------------------- ROS 2 message
+    def to_ros2_dict(self, frame_id: str = "") -> dict[str, Any]:
+        """The trajectory as a ROS 2 ``trajectory_msgs/msg/JointTrajectory`` message in JSON form
+        (the fields of the message, nothing else; schema ``ROS2_SCHEMA_PATH``): header (stamp
+        0 = start on receipt, frame_id), joint_names, points with positions, velocities,
+        accelerations, effort (empty: not commanded) and time_from_start {sec, nanosec}
+        (rounded to 1 ns). Robot, URDF, units and verdict stay in the skillplan format."""
+        if not isinstance(frame_id, str):
+            raise ArgumentTypeError(f"frame_id: expected a str, got {type(frame_id).__name__}")
+        points = [{"positions": p, "velocities": v, "accelerations": a, "effort": [],
+                   "time_from_start": ros2_duration(t)}
+                  for p, v, a, t in zip(self.positions.tolist(), self.velocities.tolist(),
+                                        self.accelerations.tolist(), self.time_from_start.tolist())]
+        return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": frame_id},
+                "joint_names": list(self.joint_names), "points": points}
+
+    def to_ros2_json(self, path: str | Path, overwrite: bool = False, frame_id: str = "") -> Path:
+        """Write :meth:`to_ros2_dict` as JSON (atomic; TrajectoryExistsError if it exists and not
+        overwrite); ``ros2 topic pub`` / a rclpy node fill the message from it field by field."""
+        text = json.dumps(self.to_ros2_dict(frame_id), allow_nan=False) + "\n"
+        return atomic_write_text(path, text, overwrite)
+
+    @classmethod
+    def from_ros2_dict(cls, data: Any, source: str = "data") -> "JointTrajectory":
+        """A trajectory from a ROS 2 JointTrajectory message in JSON form (inverse of
+        to_ros2_dict, times to 1 ns; every point needs positions, velocities and accelerations;
+        robot and URDF unknown, units rad / rad/s / rad/s^2)."""
+        if not isinstance(data, dict) or not isinstance(data.get("header"), dict) \
+                or not isinstance(data.get("joint_names"), list) or not isinstance(data.get("points"), list):
+            raise TrajectoryFileError(f"{source}: expected a ROS 2 JointTrajectory object with 'header', "
+                                      "'joint_names' and 'points'")
+        names, points = data["joint_names"], data["points"]
+        columns: dict[str, list[Any]] = {key: [] for key in ("time_from_start",) + _FIELDS}
+        for i, point in enumerate(points):
+            if not isinstance(point, dict):
+                raise TrajectoryFileError(f"{source}: points[{i}]: expected an object, got {type(point).__name__}")
+            columns["time_from_start"].append(_ros2_seconds(point.get("time_from_start"),
+                                                            f"{source}: points[{i}].time_from_start"))
+            for key in _FIELDS:
+                value = point.get(key)
+                if not isinstance(value, list) or len(value) != len(names):
+                    raise TrajectoryFileError(f"{source}: points[{i}].{key}: expected {len(names)} values "
+                                              f"(one per joint name), got {value!r:.60}")
+                columns[key].append(value)
+        try:
+            return cls(joint_names=tuple(names),
+                       **{key: _float_array(value, f"{source}: {key}") for key, value in columns.items()})
+        except TrajectoryFileError:
+            raise
+        except TrajectoryError as exc:
+            raise TrajectoryFileError(f"{source}: {exc}") from None
+
     # ------------------------------------------------------------------------- CSV
     def csv_columns(self) -> list[str]:
         """CSV column names: time_from_start, then position:/velocity:/acceleration:<joint>."""
@@ -335,7 +411,7 @@ class JointTrajectory:
     # ------------------------------------------------------------------------ load
     @classmethod
     def load(cls, path: str | Path) -> "JointTrajectory":
-        """Read a trajectory written by to_json or to_csv (format from the content)."""
+        """Read a trajectory written by to_json, to_csv or to_ros2_json (format from the content)."""
         path = Path(path)
         try:
             text = path.read_text(encoding="utf-8")
@@ -351,6 +427,9 @@ class JointTrajectory:
         except json.JSONDecodeError as exc:
             raise TrajectoryFileError(f"{source}: neither a trajectory CSV (first line {_CSV_MAGIC.strip()!r}) "
                                       f"nor valid JSON: {exc}") from None
+        if isinstance(data, dict) and "format" not in data and isinstance(data.get("header"), dict) \
+                and "stamp" in data["header"]:
+            return cls.from_ros2_dict(data, source)
         return cls.from_dict(data, source)
 
     def __repr__(self) -> str:

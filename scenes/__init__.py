@@ -5,13 +5,15 @@ from .demonstrations import NOMINAL_DURATION, Demonstrations
 from .errors import (DemonstrationFileError, InvalidArgumentError, InvalidDemonstrationsError,
                      InvalidObstacleError, SceneFileError, ScenesError, UnknownSkillError)
 from .io import load_demonstrations, save_csv
+from .mesh import TriangleMesh
 from .obstacles import Box, Capsule, Cylinder, Obstacle, Sphere
+from .point_cloud import PointCloud
 from .scene import DEFAULT_WORKSPACE, Scene, available_scenes, builtin_scene
 from .sdf import SignedDistanceField
 from .synthetic import SKILLS, make_cluttered_demonstrations, make_demonstrations
 
 __all__ = [
-    "Box", "Capsule", "Cylinder", "Obstacle", "Sphere", "Scene", "SignedDistanceField", "DEFAULT_WORKSPACE",
+    "Box", "Capsule", "Cylinder", "Obstacle", "Sphere", "TriangleMesh", "PointCloud", "Scene", "SignedDistanceField", "DEFAULT_WORKSPACE",
     "available_scenes", "builtin_scene",
     "Demonstrations", "NOMINAL_DURATION", "load_demonstrations", "save_csv", "shared_dataset",
     "make_demonstrations", "make_cluttered_demonstrations", "SKILLS",

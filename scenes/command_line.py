@@ -8,8 +8,10 @@
   unreadable files), 1 for an unexpected failure; ``--debug`` shows the traceback instead.
   Exit codes: :data:`EXIT_OK` 0, :data:`EXIT_FAILED` 1 (e.g. a plan computed but failed),
   :data:`EXIT_USAGE` 2.
-- :func:`output_directory`: outputs go to a new or empty folder, or replace files only with
-  ``--force``.
+- :func:`output_directory`, :func:`output_file`, :func:`writable_file`: outputs go to a new or
+  empty folder, or replace files only with ``--force``; a folder or file that cannot be
+  written (read-only, a device, a FIFO, a symbolic link to nothing) is refused before any work.
+  An output that fails part-way (:class:`~scenes.errors.OutputWriteError`: disk full) exits 1.
 - :func:`atomic_write` / :func:`atomic_write_text`: a temporary file in the target folder,
   flushed, then renamed into place, so an interrupted run leaves the old file or the new one.
 
@@ -24,13 +26,14 @@ import importlib.metadata
 import logging
 import os
 import secrets
+import stat
 import sys
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import IO, Any, NoReturn
 
-from .errors import ArgumentTypeError, InvalidArgumentError, OutputPathError
+from .errors import ArgumentTypeError, InvalidArgumentError, OutputPathError, OutputWriteError
 from .progress import set_progress
 from .validation import as_instance, as_path
 
@@ -60,7 +63,8 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[IO[bytes]], Any]
     temporary file is removed whatever happens. Returns the path.
 
     Raises ``exists_error(message)`` when the target exists and not ``overwrite``,
-    ``folder_error(message)`` when its folder does not exist.
+    ``folder_error(message)`` when its folder does not exist, OutputWriteError naming ``path``
+    when writing fails (read-only folder, disk full; the old file, if any, is untouched).
     """
     path = as_path(path, "path", ArgumentTypeError)
     if not callable(write):
@@ -74,11 +78,16 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[IO[bytes]], Any]
         raise folder_error(f"path: folder {str(folder)!r} does not exist")
     tmp = folder / f".{path.name}.{secrets.token_hex(6)}.tmp"
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        with os.fdopen(fd, "wb") as handle:
-            write(handle)
-            handle.flush()
-            os.fsync(handle.fileno())
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+            with os.fdopen(fd, "wb") as handle:
+                write(handle)
+                handle.flush()
+                os.fsync(handle.fileno())
+        except OSError as exc:  # read-only folder, disk full: name the user's file, not tmp
+            raise OutputWriteError(f"{str(path)!r}: cannot write ({exc.strerror or exc}); "
+                                   f"{'the old file is untouched' if path.exists() else 'nothing written'}") \
+                from None
         if overwrite:
             os.replace(tmp, path)
         else:
@@ -138,10 +147,35 @@ def native_stderr_logged(logger: logging.Logger = log) -> Iterator[None]:
 
 
 # --------------------------------------------------------------------------- output folders
+_SPECIAL_FILES = ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                  (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))
+
+
+def writable_folder(folder: Path, option: str,
+                    error: Callable[[str], Exception] = OutputPathError) -> None:
+    """Raises ``error`` naming ``option`` unless a file can be created in ``folder`` (checked by
+    creating and removing an empty hidden file: permissions, read-only mounts, ACLs)."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".write-check-", dir=folder)
+    except OSError as exc:
+        raise error(f"{option}: cannot write in folder {str(folder)!r} "
+                    f"({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def _no_dangling_link(path: Path, option: str, error: Callable[[str], Exception]) -> None:
+    if path.is_symlink() and not path.exists():
+        raise error(f"{option}: {str(path)!r} is a symbolic link to {os.readlink(path)!r}, "
+                    f"which does not exist; expected a new path or an existing one")
+
+
 def output_directory(path: str | os.PathLike[str], force: bool = False, option: str = "--out") -> Path:
     """The output folder, created if needed: it must be new or empty, or ``force`` (files in it
-    are then replaced). Raises OutputPathError naming ``option`` otherwise."""
+    are then replaced), and writable. Raises OutputPathError naming ``option`` otherwise; all
+    is checked before any work starts."""
     folder = as_path(path, option, ArgumentTypeError)
+    _no_dangling_link(folder, option, OutputPathError)
     if folder.exists() and not folder.is_dir():
         raise OutputPathError(f"{option}: expected a folder, got the existing file {str(folder)!r}")
     if folder.is_dir() and not force and any(folder.iterdir()):
@@ -151,18 +185,40 @@ def output_directory(path: str | os.PathLike[str], force: bool = False, option: 
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputPathError(f"{option}: cannot create folder {str(folder)!r}: {exc.strerror}") from None
+    writable_folder(folder, option, OutputPathError)
     return folder
 
 
-def output_file(path: str | os.PathLike[str], force: bool = False, option: str = "--out") -> Path:
-    """An output file path: its folder must exist; an existing file only with ``force``."""
+def writable_file(path: str | os.PathLike[str], option: str = "--out",
+                  error: Callable[[str], Exception] = OutputPathError) -> Path:
+    """An output file path that can be created, replaced or appended to: new or an existing
+    regular file, in an existing folder where files can be created. Raises ``error`` naming
+    ``option`` and the path for a folder, a device (``/dev/full``), a FIFO or socket, a
+    symbolic link to nothing, a missing or read-only folder, a read-only file."""
     target = as_path(path, option, ArgumentTypeError)
+    shown = repr(str(target))
+    _no_dangling_link(target, option, error)
     if target.is_dir():
-        raise OutputPathError(f"{option}: expected a file, got the folder {str(target)!r}")
+        raise error(f"{option}: expected a file, got the folder {shown}")
+    if target.exists():
+        mode = target.stat().st_mode
+        for test, kind in _SPECIAL_FILES:
+            if test(mode):
+                raise error(f"{option}: {shown} is {kind}, not a regular file; expected a new "
+                            f"path or a regular file")
+    if not target.parent.is_dir():
+        raise error(f"{option}: folder {str(target.parent)!r} does not exist")
+    writable_folder(target.parent, option, error)
+    if target.exists() and not os.access(target, os.W_OK):
+        raise error(f"{option}: {shown} is read-only")
+    return target
+
+
+def output_file(path: str | os.PathLike[str], force: bool = False, option: str = "--out") -> Path:
+    """An output file path (see :func:`writable_file`); an existing file only with ``force``."""
+    target = writable_file(path, option)
     if target.exists() and not force:
         raise OutputPathError(f"{option}: {str(target)!r} already exists; pass --force to replace it")
-    if not target.parent.is_dir():
-        raise OutputPathError(f"{option}: folder {str(target.parent)!r} does not exist")
     return target
 
 
@@ -269,6 +325,11 @@ def run(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> i
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return 130
+    except OutputWriteError as exc:  # an output failed part-way: not bad input
+        if debug:
+            raise
+        print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_FAILED
     except (InvalidArgumentError, OSError, UnicodeDecodeError) as exc:  # a user file not in UTF-8
         if debug:
             raise

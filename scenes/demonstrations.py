@@ -1,4 +1,5 @@
-"""A set of M demonstrations sharing one time axis: positions and velocities (M,T,3), time (T,)."""
+"""A set of M demonstrations sharing one time axis: positions and velocities (M,T,3), time (T,);
+optionally the joint trajectories (M,T,n) they were recorded as (kinesthetic teaching)."""
 from __future__ import annotations
 
 import json
@@ -49,16 +50,37 @@ def _check_obstacles(obstacles: Any, count: int) -> list[list[Obstacle]] | None:
     return out
 
 
+def _check_joints(joint_positions: Any, joint_names: Any,
+                  shape: tuple[int, int]) -> tuple[np.ndarray | None, tuple[str, ...] | None]:
+    if joint_positions is None:
+        if joint_names is not None:
+            raise _E("joint_names: given without joint_positions")
+        return None, None
+    q = as_array(joint_positions, "joint_positions", _E, MAX_COORDINATE)
+    if q.ndim != 3 or q.shape[:2] != shape or q.shape[2] < 1:
+        raise _E(f"joint_positions: expected shape ({shape[0]}, {shape[1]}, n) like the "
+                 f"positions (M, T) with n >= 1 joints, got {q.shape}")
+    names = as_sequence(joint_names, "joint_names", f"{q.shape[2]} joint names (str)", _E)
+    if len(names) != q.shape[2] or not all(isinstance(n, str) for n in names):
+        raise _E(f"joint_names: expected {q.shape[2]} joint names (str), one per column of "
+                 f"joint_positions, got {list(names)!r:.200}")
+    return q, tuple(str(n) for n in names)
+
+
 class Demonstrations:
     """M demonstrations on a common time axis.
 
     positions (M,T,3) m, velocities (M,T,3) m/s, time (T,) s strictly increasing,
-    obstacles: per demonstration a list of the obstacles present (or None), name: label.
+    obstacles: per demonstration a list of the obstacles present (or None), name: label;
+    joint_positions (M,T,n) rad and joint_names (n,): the joint trajectories the
+    demonstrations were recorded as (None for end-effector recordings; see
+    scenes.joint_demonstrations), kept for the planner's initialisation.
     Requires M >= 2 and T >= 2; raises InvalidDemonstrationsError naming what is wrong.
     """
 
     def __init__(self, positions: Any, velocities: Any, time: Any,
-                 obstacles: Sequence[Sequence[Obstacle]] | None = None, name: str = ""):
+                 obstacles: Sequence[Sequence[Obstacle]] | None = None, name: str = "", *,
+                 joint_positions: Any = None, joint_names: Sequence[str] | None = None):
         p = as_array(positions, "positions", _E, MAX_COORDINATE)
         if p.ndim != 3:
             raise _E(f"positions: expected rank 3 (M demonstrations, T steps, 3), got shape {p.shape}")
@@ -76,6 +98,8 @@ class Demonstrations:
         self.time = _check_time(time, "time", p.shape[1])
         self.obstacles = _check_obstacles(obstacles, p.shape[0])
         self.name = str(name)
+        self.joint_positions, self.joint_names = _check_joints(joint_positions, joint_names,
+                                                               p.shape[:2])
 
     # -- basic properties -------------------------------------------------------------
     @property
@@ -115,26 +139,32 @@ class Demonstrations:
         return f"Demonstrations(name={self.name!r}, M={self.M}, T={self.T}, dt={self.dt:.4g})"
 
     def _replace(self, positions: np.ndarray, velocities: np.ndarray, time: np.ndarray,
-                 obstacles: Any = _SAME) -> "Demonstrations":
+                 obstacles: Any = _SAME, joint_positions: Any = _SAME) -> "Demonstrations":
+        joints = self.joint_positions if joint_positions is _SAME else joint_positions
         return Demonstrations(positions, velocities, time,
-                              self.obstacles if obstacles is _SAME else obstacles, self.name)
+                              self.obstacles if obstacles is _SAME else obstacles, self.name,
+                              joint_positions=joints,
+                              joint_names=None if joints is None else self.joint_names)
 
     # -- transformations ---------------------------------------------------------------
     def resample(self, T: int) -> "Demonstrations":
-        """T uniformly spaced steps over the same time span; positions and velocities are
-        each interpolated by a cubic spline in time."""
+        """T uniformly spaced steps over the same time span; positions, velocities (and joint
+        trajectories) are each interpolated by a cubic spline in time."""
         T = as_count(T, "T", 2, _E)
         new_time = np.linspace(self.time[0], self.time[-1], T)
         pos = CubicSpline(self.time, self.positions, axis=1)(new_time)
         vel = CubicSpline(self.time, self.velocities, axis=1)(new_time)
-        return self._replace(pos, vel, new_time)
+        joints = (None if self.joint_positions is None
+                  else CubicSpline(self.time, self.joint_positions, axis=1)(new_time))
+        return self._replace(pos, vel, new_time, joint_positions=joints)
 
     def align_dtw(self, reference: int = 0) -> "Demonstrations":
         """Warp every demonstration onto demonstration ``reference``'s time axis by DTW.
 
         Each demonstration is re-sampled (cubic spline over its sample index) at the fractional
         indices matched to the reference's steps (see alignment.dtw_warp); velocities are the
-        time derivative of a cubic spline through the warped positions. The reference is unchanged.
+        time derivative of a cubic spline through the warped positions; joint trajectories are
+        warped alike. The reference is unchanged.
         """
         if isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) \
                 or not -self.M <= reference < self.M:
@@ -143,27 +173,33 @@ class Demonstrations:
         index = np.arange(self.T)
         pos = self.positions.copy()
         vel = self.velocities.copy()
+        joints = None if self.joint_positions is None else self.joint_positions.copy()
         for m in range(self.M):
             if m == reference % self.M:
                 continue
             warp = dtw_warp(ref, self.positions[m])
             pos[m] = CubicSpline(index, self.positions[m], axis=0)(warp)
             vel[m] = CubicSpline(self.time, pos[m], axis=0)(self.time, 1)
-        return self._replace(pos, vel, self.time)
+            if joints is not None:
+                joints[m] = CubicSpline(index, self.joint_positions[m], axis=0)(warp)
+        return self._replace(pos, vel, self.time, joint_positions=joints)
 
     def translated(self, offset: Any) -> "Demonstrations":
-        """Every position and recorded obstacle moved by offset (3,) metres."""
+        """Every position and recorded obstacle moved by offset (3,) metres; joint trajectories
+        are dropped (the arm did not make the moved paths)."""
         offset = as_vector(offset, "offset", 3, _E)
         obstacles = None if self.obstacles is None else [[ob.translated(offset) for ob in group]
                                                          for group in self.obstacles]
-        return self._replace(self.positions + offset, self.velocities, self.time, obstacles)
+        return self._replace(self.positions + offset, self.velocities, self.time, obstacles,
+                             joint_positions=None)
 
     # -- construction ------------------------------------------------------------------
     @classmethod
     def from_trajectories(cls, trajectories: Sequence[Any], times: Sequence[Any] | None = None,
                           num_points: int | None = None, *, velocities: Sequence[Any] | None = None,
                           obstacles: Sequence[Sequence[Obstacle]] | None = None, name: str = "",
-                          duration: float | None = None) -> "Demonstrations":
+                          duration: float | None = None, joint_positions: Sequence[Any] | None = None,
+                          joint_names: Sequence[str] | None = None) -> "Demonstrations":
         """Demonstrations from M position arrays (T_m,3) of possibly unequal length.
 
         Each demonstration's time is normalised to its own duration (phase s in [0,1]) and
@@ -172,6 +208,8 @@ class Demonstrations:
         without them every demonstration lasts ``duration`` (default NOMINAL_DURATION s).
         Velocities: given ones (T_m,3) are spline-resampled and scaled by D_m / D_mean so they
         stay the derivative of the re-timed positions; otherwise the spline's time derivative.
+        joint_positions: (T_m, n) per trajectory [rad], resampled like the positions, with
+        joint_names (n,).
         """
         trajectories = as_sequence(trajectories, "trajectories", "a list of (T_m, 3) position "
                                    "arrays", ArgumentTypeError)
@@ -204,8 +242,16 @@ class Demonstrations:
         durations = np.array([t[-1] - t[0] for t in stamps])
         mean_duration = float(durations.mean())
         phase = np.linspace(0.0, 1.0, T)
+        if joint_positions is not None:
+            joint_positions = as_sequence(joint_positions, "joint_positions",
+                                          "one (T_m, n) array per trajectory", _E)
+            if len(joint_positions) != len(paths) or any(
+                    np.shape(q)[:1] != (len(p),) for q, p in zip(joint_positions, paths)):
+                raise _E(f"joint_positions: expected {len(paths)} arrays of (T_m, n), one per "
+                         "trajectory and as long as it")
         pos = np.empty((len(paths), T, 3))
         vel = np.empty_like(pos)
+        joints = []
         for m, (p, t) in enumerate(zip(paths, stamps)):
             s = as_time((t - t[0]) / durations[m], f"times[{m}] / duration", len(t), _E)
             spline = CubicSpline(s, p, axis=0)
@@ -214,15 +260,22 @@ class Demonstrations:
                 vel[m] = spline(phase, 1) / mean_duration
             else:
                 vel[m] = CubicSpline(s, velocities[m], axis=0)(phase) * durations[m] / mean_duration
-        return cls(pos, vel, phase * mean_duration, obstacles, name)
+            if joint_positions is not None:
+                joints.append(CubicSpline(s, np.asarray(joint_positions[m], float), axis=0)(phase))
+        return cls(pos, vel, phase * mean_duration, obstacles, name,
+                   joint_positions=None if joint_positions is None else np.stack(joints),
+                   joint_names=joint_names)
 
     # -- storage -----------------------------------------------------------------------
     def save_npz(self, path: str | Path) -> None:
-        """Write positions, velocities, time, name and obstacles (JSON text) to an .npz file."""
+        """Write positions, velocities, time, name, obstacles (JSON text) and the joint
+        trajectories (joint_positions, joint_names; when recorded) to an .npz file."""
         obstacles = "null" if self.obstacles is None else json.dumps(
             [[ob.to_dict() for ob in group] for group in self.obstacles])
+        joints = {} if self.joint_positions is None else {
+            "joint_positions": self.joint_positions, "joint_names": np.array(self.joint_names)}
         np.savez_compressed(as_path(path, "path", ArgumentTypeError), positions=self.positions, velocities=self.velocities, time=self.time,
-                            name=np.array(self.name), obstacles=np.array(obstacles))
+                            name=np.array(self.name), obstacles=np.array(obstacles), **joints)
 
     @classmethod
     def load_npz(cls, path: str | Path) -> "Demonstrations":
@@ -259,4 +312,8 @@ class Demonstrations:
                                  for m, group in enumerate(raw)]
                 except InvalidObstacleError as exc:
                     raise _E(f"{path}: {exc}") from None
-            return cls(data["positions"], data["velocities"], data["time"], obstacles, name)
+            joints = data["joint_positions"] if "joint_positions" in data.files else None
+            names = ([str(n) for n in np.atleast_1d(data["joint_names"])]
+                     if "joint_names" in data.files else None)
+            return cls(data["positions"], data["velocities"], data["time"], obstacles, name,
+                       joint_positions=joints, joint_names=names)

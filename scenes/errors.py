@@ -47,3 +47,9 @@ class UnknownSkillError(ScenesError):
 class OutputPathError(ScenesError, FileExistsError):
     """An output file or folder cannot be used: it exists (pass overwrite=True / --force), is
     not empty, is a file where a folder is expected, or its folder is missing."""
+
+
+class OutputWriteError(OSError):
+    """Writing an output failed part-way (disk full, file too large, an I/O error): not bad
+    input, so not an :class:`InvalidArgumentError`; the message names the user's file and
+    what was kept. Command lines exit 1 on it."""

@@ -4,57 +4,78 @@ Formats (chosen by suffix, then by content):
 
 * ``.mat`` CLAMP reference: struct array ``dataset`` with fields ``pos`` (T,3), ``vel`` (T,3),
   ``time`` (T,) and optional ``obs`` (K,6) boxes [cx,cy,cz,sx,sy,sz]; scalar ``dt``.
-  Missing ``time`` becomes ``arange(T) * dt``; missing ``vel`` the cubic-spline derivative.
+  Missing ``time`` becomes ``arange(T) * dt``; missing ``vel`` is estimated (below).
 * ``.mat`` TLGC reference: cell array ``smoothData`` of (N,3) positions without time; time is
-  ``linspace(0, NOMINAL_DURATION, N)`` (10 s), velocities the cubic-spline derivative.
-* ``.npz``: written by :meth:`Demonstrations.save_npz`.
+  ``linspace(0, NOMINAL_DURATION, N)`` (10 s), velocities estimated.
+* ``.npz``: written by :meth:`Demonstrations.save_npz`; or joint space: ``joint_positions``
+  (M,T,n) [rad], ``time`` (T,) [s], ``joint_names`` (n,) (needs ``robot=``).
 * ``.csv``: header ``demo,t,x,y,z`` or ``demo,t,x,y,z,vx,vy,vz``, one row per sample; ``demo`` is
   an integer label (order of first appearance), ``t`` in seconds, positions in metres,
-  velocities in m/s. Without velocity columns they are the cubic-spline derivative.
+  velocities in m/s. Without velocity columns they are estimated. Joint space (kinesthetic
+  teaching): ``demo,t`` then one column per joint named as in the robot's URDF
+  (``robot.joint_names``, any order) [rad], read with ``robot=``. UTF-8 with or without a
+  byte-order mark (a spreadsheet's "CSV UTF-8"); quoted fields ("x") are read as their text.
   The obstacles of each demonstration come from scene JSON files (one per demonstration,
   ``scenes=`` of :func:`load_demonstrations`; :func:`save_csv` writes them as
   ``<stem>.scene<m>.json`` next to the CSV).
+
+Velocities missing from a file (and joint velocities) are estimated per demonstration as
+``smoothing=`` chooses (:mod:`scenes.smoothing`: "auto" smooths noisy recordings with a
+Savitzky-Golay filter and interpolates clean ones, "savgol" / "spline" always smooth, "none"
+interpolates and warns when noise dominates); velocities given in the file are kept.
+Joint recordings become end-effector demonstrations by the robot's forward kinematics
+(:mod:`scenes.joint_demonstrations`) and keep their joint trajectories.
 
 Demonstrations sharing the same time stamps are taken as they are; otherwise they are
 resampled with :meth:`Demonstrations.from_trajectories`.
 """
 from __future__ import annotations
 
+import csv
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import scipy.io
-from scipy.interpolate import CubicSpline
 
 from .demonstrations import NOMINAL_DURATION, Demonstrations
 from .errors import (ArgumentTypeError, DemonstrationFileError, InvalidDemonstrationsError,
                      InvalidObstacleError)
+from .joint_demonstrations import check_robot, column_order, from_joint_trajectories
 from .obstacles import Box
 from .scene import Scene
+from .smoothing import as_smoothing, smooth_trajectory
 from .validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_sequence, as_time
 
 CSV_COLUMNS = ("demo", "t", "x", "y", "z")
 CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
 
 
-def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None) -> Demonstrations:
+def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None, *,
+                        robot: Any = None, smoothing: str = "auto") -> Demonstrations:
     """Read demonstrations from a .mat (CLAMP or TLGC), .npz or .csv file.
 
     scenes: per demonstration the scene it was recorded in (a scene JSON path or a
     scenes.Scene), whose obstacles become that demonstration's ``obstacles`` (replacing any
-    the file records). Raises DemonstrationFileError (missing/unreadable file, unknown suffix
-    or content, malformed fields, a scene count that is not the demonstration count) naming
-    the file and what was expected; SceneFileError for a bad scene file.
+    the file records). robot: a robots.Robot, needed for joint-space files (their end-effector
+    paths are its forward kinematics). smoothing: "auto", "savgol", "spline" or "none", how velocities
+    missing from the file are estimated (module docstring). Raises DemonstrationFileError
+    (missing/unreadable file, unknown suffix or content, malformed fields, joint columns
+    without a robot, a scene count that is not the demonstration count) naming the file and
+    what was expected; SceneFileError for a bad scene file.
     """
     path = as_file(path, "path", DemonstrationFileError, ArgumentTypeError)
+    smoothing = as_smoothing(smoothing)
+    if robot is not None:
+        check_robot(robot)
     suffix = path.suffix.lower()
     readers = {".mat": _load_mat, ".npz": _load_npz, ".csv": _load_csv}
     if suffix not in readers:
         raise DemonstrationFileError(f"{path}: unknown suffix {suffix!r}; expected one of {sorted(readers)}")
     try:
-        demos = readers[suffix](path)
+        demos = readers[suffix](path, robot, smoothing)
     except (InvalidDemonstrationsError, InvalidObstacleError) as exc:
         raise DemonstrationFileError(f"{path}: {exc}") from None
     if scenes is None:
@@ -66,18 +87,19 @@ def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None) -
                                      f"({demos.M}), got {len(scenes)}")
     loaded = [s if isinstance(s, Scene) else Scene.load(s) for s in scenes]
     return Demonstrations(demos.positions, demos.velocities, demos.time,
-                          [list(s.obstacles) for s in loaded], demos.name)
+                          [list(s.obstacles) for s in loaded], demos.name,
+                          joint_positions=demos.joint_positions, joint_names=demos.joint_names)
 
 
-def _load_mat(path: Path) -> Demonstrations:
+def _load_mat(path: Path, robot: Any, smoothing: str) -> Demonstrations:
     try:
         data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
     except Exception as exc:  # scipy raises several types for corrupt files
         raise DemonstrationFileError(f"{path}: not a readable MATLAB file ({exc})") from None
     if "dataset" in data:
-        return _from_clamp(path, data)
+        return _from_clamp(path, data, smoothing)
     if "smoothData" in data:
-        return _from_tlgc(path, data)
+        return _from_tlgc(path, data, smoothing)
     keys = sorted(k for k in data if not k.startswith("__"))
     raise DemonstrationFileError(f"{path}: expected variable 'dataset' (CLAMP) or 'smoothData' (TLGC), "
                                  f"found {keys}")
@@ -110,7 +132,7 @@ def _trajectory(path: Path, value: Any, name: str, length: int | None = None,
     return arr
 
 
-def _from_clamp(path: Path, data: dict[str, Any]) -> Demonstrations:
+def _from_clamp(path: Path, data: dict[str, Any], smoothing: str) -> Demonstrations:
     entries = np.atleast_1d(data["dataset"])
     if entries.dtype != object or not all(hasattr(e, "_fieldnames") for e in entries):
         raise DemonstrationFileError(f"{path}: 'dataset' must be a struct array with fields pos, vel, time")
@@ -148,10 +170,11 @@ def _from_clamp(path: Path, data: dict[str, Any]) -> Demonstrations:
         times.append(time)
         obstacles.append(boxes)
     has_obstacles = any(obstacles)
-    return _assemble(positions, velocities, times, obstacles if has_obstacles else None, path.stem)
+    return _assemble(positions, velocities, times, obstacles if has_obstacles else None, path.stem,
+                     smoothing)
 
 
-def _from_tlgc(path: Path, data: dict[str, Any]) -> Demonstrations:
+def _from_tlgc(path: Path, data: dict[str, Any], smoothing: str) -> Demonstrations:
     cells = np.atleast_1d(data["smoothData"])
     if cells.dtype != object:
         if cells.dtype.kind not in "fiu" or cells.ndim not in (2, 3):
@@ -160,12 +183,11 @@ def _from_tlgc(path: Path, data: dict[str, Any]) -> Demonstrations:
         cells = cells[None] if cells.ndim == 2 else cells
     positions = [_trajectory(path, cell, f"smoothData{{{m + 1}}}", rows="N") for m, cell in enumerate(cells)]
     times = [np.linspace(0.0, NOMINAL_DURATION, len(p)) for p in positions]
-    return _assemble(positions, [None] * len(positions), times, None, path.stem)
+    return _assemble(positions, [None] * len(positions), times, None, path.stem, smoothing)
 
 
-def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], times: list[np.ndarray],
-              obstacles: list | None, name: str) -> Demonstrations:
-    """Demonstrations as they are when all share one time axis, else resampled."""
+def _check_recordings(positions: list[np.ndarray], times: list[np.ndarray]) -> None:
+    """At least 2 recordings, each of >= 2 samples at strictly increasing times."""
     if len(positions) < 2:
         raise InvalidDemonstrationsError(f"expected at least 2 demonstrations, got {len(positions)}")
     for m, (p, t) in enumerate(zip(positions, times)):
@@ -173,38 +195,95 @@ def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], 
             raise InvalidDemonstrationsError(f"demonstrations[{m}]: has {len(p)} sample(s), "
                                              "expected at least 2 (a trajectory needs two time stamps)")
         as_time(t, f"demonstrations[{m}].time", len(p), InvalidDemonstrationsError)
+
+
+def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], times: list[np.ndarray],
+              obstacles: list | None, name: str, smoothing: str) -> Demonstrations:
+    """Demonstrations as they are when all share one time axis, else resampled; missing
+    velocities estimated as ``smoothing`` says (positions smoothed alike)."""
+    _check_recordings(positions, times)
+    positions, velocities = list(positions), list(velocities)
+    for m, (p, v, t) in enumerate(zip(positions, velocities, times)):
+        if v is None:
+            positions[m], velocities[m] = smooth_trajectory(t, p, smoothing, f"{name}[{m}]")
     same_time = all(len(t) == len(times[0]) and np.array_equal(t, times[0]) for t in times)
     if same_time and all(len(p) == len(times[0]) for p in positions):
-        pos = np.stack(positions)
-        vel = np.stack([v if v is not None else CubicSpline(times[0], p, axis=0)(times[0], 1)
-                        for p, v in zip(positions, velocities)])
-        return Demonstrations(pos, vel, times[0], obstacles, name)
-    given = velocities if all(v is not None for v in velocities) else None
-    return Demonstrations.from_trajectories(positions, times, velocities=given, obstacles=obstacles, name=name)
+        return Demonstrations(np.stack(positions), np.stack(velocities), times[0], obstacles, name)
+    return Demonstrations.from_trajectories(positions, times, velocities=velocities,
+                                            obstacles=obstacles, name=name)
 
 
-def _load_npz(path: Path) -> Demonstrations:
-    return Demonstrations.load_npz(path)
+def _needs_robot(path: Path, robot: Any, what: str) -> Any:
+    if robot is None:
+        raise DemonstrationFileError(f"{path}: {what} hold joint-space demonstrations; pass "
+                                     "robot= (a robots.Robot, e.g. robots.load_robot('jaco')) "
+                                     "whose forward kinematics gives the end-effector paths")
+    return robot
 
 
-def _load_csv(path: Path) -> Demonstrations:
+def _load_npz(path: Path, robot: Any, smoothing: str) -> Demonstrations:
     try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
+        with np.load(path, allow_pickle=False) as data:
+            joint = "joint_positions" in data.files and "positions" not in data.files
+            arrays = {k: data[k] for k in ("joint_positions", "time", "joint_names")
+                      if joint and k in data.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise DemonstrationFileError(f"{path}: not a readable demonstrations .npz ({exc})") from None
+    if not joint:
+        return Demonstrations.load_npz(path)
+    robot = _needs_robot(path, robot, "its arrays joint_positions, time, joint_names")
+    missing = {"time", "joint_names"} - set(arrays)
+    if missing:
+        raise DemonstrationFileError(f"{path}: joint_positions without {sorted(missing)}; a "
+                                     "joint-space .npz holds joint_positions (M, T, n) [rad], "
+                                     "time (T,) [s] and joint_names (n,)")
+    q = as_array(arrays["joint_positions"], f"{path}: joint_positions", DemonstrationFileError,
+                 MAX_COORDINATE)
+    names = [str(n) for n in np.atleast_1d(arrays["joint_names"])]
+    if q.ndim != 3 or q.shape[2] != len(names):
+        raise DemonstrationFileError(f"{path}: joint_positions: expected shape (M, T, "
+                                     f"{len(names)}) (one column per joint name), got {q.shape}")
+    order = column_order(names, robot, "joint_names")
+    time = as_array(arrays["time"], f"{path}: time", DemonstrationFileError).reshape(-1)
+    _check_recordings(list(q), [time] * len(q))
+    return from_joint_trajectories(robot, list(q[:, :, order]), [time] * len(q), smoothing,
+                                   path.stem)
+
+
+def _read_csv(path: Path) -> tuple[tuple[str, ...], np.ndarray]:
+    """Header (names, quotes and spaces stripped) and the numbers (rows, columns) of a CSV
+    file in UTF-8 with or without a byte-order mark."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            rows = [row for row in csv.reader(handle) if any(cell.strip() for cell in row)]
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise DemonstrationFileError(f"{path}: not a readable text CSV file ({exc})") from None
-    header = tuple(c.strip() for c in lines[0].split(",")) if lines else ()
-    if header not in (CSV_COLUMNS, CSV_COLUMNS + CSV_VELOCITY_COLUMNS):
-        raise DemonstrationFileError(f"{path}: expected header {','.join(CSV_COLUMNS)}"
-                                     f"[,{','.join(CSV_VELOCITY_COLUMNS)}], got {','.join(header)!r}")
-    rows = [line for line in lines[1:] if line.strip()]
     if not rows:
+        raise DemonstrationFileError(f"{path}: empty; expected header {','.join(CSV_COLUMNS)}"
+                                     f"[,{','.join(CSV_VELOCITY_COLUMNS)}] and data rows")
+    header = tuple(cell.strip() for cell in rows[0])
+    if len(rows) == 1:
         raise DemonstrationFileError(f"{path}: no data rows after the header")
+    for k, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise DemonstrationFileError(f"{path}: line {k}: expected {len(header)} columns "
+                                         f"like the header, got {len(row)}")
     try:
-        table = np.loadtxt(rows, delimiter=",", ndmin=2)
+        table = np.array([[float(cell) for cell in row] for row in rows[1:]])
     except ValueError as exc:
         raise DemonstrationFileError(f"{path}: malformed CSV row ({exc})") from None
-    if table.shape[1] != len(header):
-        raise DemonstrationFileError(f"{path}: expected {len(header)} columns, got {table.shape[1]}")
+    return header, table
+
+
+def _load_csv(path: Path, robot: Any, smoothing: str) -> Demonstrations:
+    header, table = _read_csv(path)
+    workspace = header in (CSV_COLUMNS, CSV_COLUMNS + CSV_VELOCITY_COLUMNS)
+    if header[:2] != CSV_COLUMNS[:2] or (not workspace and robot is None):
+        if header[:2] == CSV_COLUMNS[:2] and len(header) > 2 and "x" not in header:
+            _needs_robot(path, robot, f"the columns {','.join(header[2:])!r}")
+        raise DemonstrationFileError(f"{path}: expected header {','.join(CSV_COLUMNS)}"
+                                     f"[,{','.join(CSV_VELOCITY_COLUMNS)}] (or demo,t and one "
+                                     f"column per joint with robot=), got {','.join(header)!r}")
     if not np.all(np.isfinite(table)):
         raise DemonstrationFileError(f"{path}: contains NaN/inf values")
     if np.any(table[:, 0] != np.round(table[:, 0])):
@@ -212,10 +291,15 @@ def _load_csv(path: Path) -> Demonstrations:
     labels, first = np.unique(table[:, 0], return_index=True)
     order = labels[np.argsort(first)]
     groups = [table[table[:, 0] == label] for label in order]
+    times = [g[:, 1] for g in groups]
+    if not workspace:
+        columns = 2 + column_order(header[2:], robot, "header")
+        _check_recordings(groups, times)
+        return from_joint_trajectories(robot, [g[:, columns] for g in groups], times,
+                                       smoothing, path.stem)
     positions = [g[:, 2:5] for g in groups]
     velocities = [g[:, 5:8] if len(header) == 8 else None for g in groups]
-    times = [g[:, 1] for g in groups]
-    return _assemble(positions, velocities, times, None, path.stem)
+    return _assemble(positions, velocities, times, None, path.stem, smoothing)
 
 
 def save_csv(demos: Demonstrations, path: str | Path) -> list[Path]:

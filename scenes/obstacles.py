@@ -31,6 +31,7 @@ project's machines a fresh 7500 x 3 temporary costs more (memory mapping) than i
 """
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import Any, ClassVar
@@ -87,8 +88,9 @@ class Obstacle(ABC):
     """An obstacle: a solid whose exact signed distance and its gradient can be evaluated."""
 
     kind: ClassVar[str] = ""
-    #: True when :meth:`query` is exact and cheap (a closed form), so a scene made only of such
-    #: obstacles needs no grid; False for shapes (meshes, voxels) that should go through a grid.
+    #: True when :meth:`query` is exact and cheap (a closed form, or an indexed search: meshes,
+    #: point clouds), so a scene made only of such obstacles needs no grid; False for shapes
+    #: that should go through a grid.
     primitive: ClassVar[bool] = False
 
     @abstractmethod
@@ -113,6 +115,14 @@ class Obstacle(ABC):
         shape) has no inner ball (-inf) and the ball around the bounding box."""
         box = self.aabb()
         return 0.5 * (box[0] + box[1]), -np.inf, 0.5 * float(np.linalg.norm(box[1] - box[0]))
+
+    def _evaluate_within(self, coords: np.ndarray, gradient: bool, max_distance: float
+                         ) -> tuple[np.ndarray, np.ndarray | None]:
+        """:meth:`_evaluate`, exact where the distance is at most ``max_distance`` [m]; above
+        it any value > max_distance may be returned (with any gradient). Shapes with their own
+        index (meshes, point clouds) skip the far part of their geometry; this default (a
+        primitive) evaluates everything."""
+        return self._evaluate(coords, gradient)
 
     def query(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
         """Exact signed distance (...,) [m] and its unit gradient (...,3) at points (...,3).
@@ -143,6 +153,23 @@ class Obstacle(ABC):
     def __repr__(self) -> str:
         fields = ", ".join(f"{k}={v}" for k, v in self.to_dict().items() if k != "type")
         return f"{type(self).__name__}({fields})"
+
+
+class IndexedObstacle(Obstacle):
+    """An obstacle of many parts (a mesh's triangles, a cloud's points) searched through its own
+    spatial index: :meth:`_evaluate_within` measures only the parts within reach, and
+    :meth:`_evaluate` is it without a bound. Exact, so a scene of them needs no grid."""
+
+    primitive = True
+
+    def _evaluate(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        return self._evaluate_within(coords, gradient, math.inf)
+
+    @abstractmethod
+    def _evaluate_within(self, coords: np.ndarray, gradient: bool, max_distance: float
+                         ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Exact distance (P,) (and gradient (P,3)) where it is at most max_distance [m]; any
+        value above it elsewhere (+inf where no part is within reach)."""
 
 
 class _FramedObstacle(Obstacle):
@@ -432,90 +459,6 @@ class Capsule(_FramedObstacle):
         return {"type": self.kind, "center": self.center.tolist(), "radius": self.radius,
                 "height": self.height, "axis": self.axis.tolist()}
 
-
-class Nearest:
-    """Package kernel: min signed distance over obstacles and the nearest one's gradient.
-
-    ``nearest(coords (3,P), gradient) -> (distance (P,), gradient (P,3) or None)`` on validated
-    points [m]: the first obstacle listed wins ties; +inf and zero gradient with no obstacles.
-    With :data:`CULL_FROM` or more obstacles and the gradient asked for, each point only
-    evaluates the obstacles that can be its nearest: obstacle k lies between the balls
-    (c_k, inner_k) and (c_k, outer_k) (:meth:`Obstacle._balls`), so |p - c_k| - outer_k <= d_k(p) <= |p - c_k| - inner_k, and k is
-    skipped where its lower bound exceeds the smallest upper bound (plus a margin covering the
-    broad phase's float32 rounding). The result is the same as evaluating every obstacle.
-    """
-
-    def __init__(self, obstacles: Sequence[Obstacle]):
-        self.obstacles = tuple(obstacles)
-        self._cull = len(self.obstacles) >= CULL_FROM
-        if self._cull:
-            balls = [ob._balls() for ob in self.obstacles]
-            centres = np.array([b[0] for b in balls])                      # (K,3)
-            self._origin = centres.mean(axis=0)[:, None]                    # (3,1)
-            centres = centres - self._origin.T
-            self._centres_m2 = (-2.0 * centres).astype(np.float32)          # (K,3)
-            centres_sq = np.einsum("ij,ij->i", centres, centres)
-            self._centres_sq = centres_sq.astype(np.float32)[:, None]         # (K,1)
-            self._centres_sq_max = float(centres_sq.max())
-            self._inner = np.array([b[1] for b in balls], dtype=np.float32)[:, None]   # (K,1)
-            self._outer = np.array([b[2] for b in balls], dtype=np.float32)[:, None]
-
-    def _candidates(self, coords: np.ndarray) -> np.ndarray:
-        """Boolean (K,P): obstacle k may be the nearest to point p (see the class docstring).
-
-        Broad phase in float32 (a (K,P) float64 pass costs several times more here): |p - c|^2
-        by the expansion |p|^2 - 2 p.c + |c|^2 about the centres' mean, whose rounding error is
-        below 40 eps32 (|p|^2 + |c|^2); the bound is widened by the square root of that.
-        """
-        rel = coords.astype(np.float32)
-        rel -= self._origin
-        rel_sq = np.einsum("ij,ij->j", rel, rel)
-        margin = 2e-3 * np.sqrt(float(rel_sq.max(initial=0.0)) + self._centres_sq_max) + 1e-6
-        if not margin < 1e15:                      # float32 overflow (absurdly far points)
-            return np.ones((len(self.obstacles), coords.shape[1]), dtype=bool)
-        dist = self._centres_m2 @ rel
-        dist += rel_sq
-        dist += self._centres_sq
-        np.maximum(dist, 0.0, out=dist)
-        np.sqrt(dist, out=dist)                                             # |p - c_k|, (K,P)
-        bound = (dist - self._inner).min(axis=0)                            # >= nearest distance
-        bound += np.float32(margin)
-        dist -= self._outer                                                 # <= each distance
-        return dist <= bound
-
-    def __call__(self, coords: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        count = coords.shape[1]
-        if not self.obstacles:
-            return np.full(count, np.inf), (np.zeros((count, 3)) if gradient else None)
-        if not (self._cull and gradient):         # distances alone are cheaper than the culling
-            d, g = self.obstacles[0]._evaluate(coords, gradient)
-            rows = None if g is None else g.T      # (3,P): the kernels return a fresh array's .T
-            for ob in self.obstacles[1:]:
-                dk, gk = ob._evaluate(coords, gradient)
-                if gradient:                       # row-wise index copies: a masked copyto is slow
-                    closer = np.flatnonzero(dk < d)
-                    rows[:, closer] = gk.T[:, closer]
-                np.minimum(d, dk, out=d)
-            return d, (None if rows is None else rows.T)
-        d, rows = np.full(count, np.inf), np.zeros((3, count))
-        for ob, mask in zip(self.obstacles, self._candidates(coords)):
-            idx = np.flatnonzero(mask)
-            if idx.size == count:
-                dk, gk = ob._evaluate(coords, True)
-                closer = np.flatnonzero(dk < d)
-                rows[:, closer] = gk.T[:, closer]
-                np.minimum(d, dk, out=d)
-            elif idx.size:
-                dk, gk = ob._evaluate(coords[:, idx], True)
-                closer = np.flatnonzero(dk < d[idx])
-                d[idx[closer]] = dk[closer]
-                rows[:, idx[closer]] = gk.T[:, closer]
-        return d, rows.T
-
-
-#: Obstacle count from which :class:`Nearest` culls by bounding balls when the gradient is asked
-#: for (below, and for distances alone, the bookkeeping costs more than it saves).
-CULL_FROM = 3
 
 OBSTACLE_TYPES: dict[str, type[Obstacle]] = {"box": Box, "sphere": Sphere, "cylinder": Cylinder,
                                              "capsule": Capsule}

@@ -7,10 +7,16 @@ Scene files are JSON::
                    {"type": "box", "reference": [cx, cy, cz, sx, sy, sz]},
                    {"type": "sphere", "center": [..], "radius": r},
                    {"type": "cylinder", "center": [..], "radius": r, "height": h, "axis": [..]},
-                   {"type": "capsule", "center": [..], "radius": r, "height": h, "axis": [..]}]}
+                   {"type": "capsule", "center": [..], "radius": r, "height": h, "axis": [..]},
+                   {"type": "mesh", "vertices": [[x, y, z], ..], "faces": [[i, j, k], ..]},
+                   {"type": "point_cloud", "points": [[x, y, z], ..], "radius": r or [r, ..]},
+                   {"type": "mesh", "file": "table.npz"}]}
 
 ``rotation`` and ``axis`` are optional (default: axis aligned, +z); a capsule's ``height`` is the
-length of its segment (overall length height + 2 radius).
+length of its segment (overall length height + 2 radius). A mesh or point cloud gives its arrays
+inline or in an ``.npz`` file beside the scene file (``"file"``, holding exactly the array
+fields: ``vertices`` and ``faces``, or ``points`` and ``radius``); inline arrays are converted in
+one vectorised step, an .npz is read as is (the fastest for clouds of millions of points).
 
 A Scene is immutable: ``obstacles`` is a tuple of immutable obstacles and ``bounds`` a read-only
 array, both read-only properties. That is what lets a scene cache the grid fields it builds
@@ -18,18 +24,25 @@ array, both read-only properties. That is what lets a scene cache the grid field
 """
 from __future__ import annotations
 
+import functools
 import json
+import math
+import zipfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .command_line import atomic_write_text
-from .errors import ArgumentTypeError, InvalidArgumentError, InvalidObstacleError, SceneFileError
-from .obstacles import Nearest, Obstacle, as_coords, obstacle_from_dict
+from .command_line import atomic_write, atomic_write_text
+from .errors import (ArgumentTypeError, InvalidArgumentError, InvalidObstacleError, OutputPathError,
+                     SceneFileError)
+from .mesh import TriangleMesh
+from .nearest import Nearest
+from .obstacles import OBSTACLE_TYPES, Obstacle, as_coords, obstacle_from_dict
+from .point_cloud import PointCloud
 from .sdf import DEFAULT_CELL_SIZE, SignedDistanceField, check_cell_size
-from .validation import MAX_COORDINATE, as_bounds, as_instance, as_path, as_sequence
+from .validation import MAX_COORDINATE, as_bounds, as_instance, as_path, as_scalar, as_sequence
 
 #: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3))
 DistanceQuery = Callable[[Any], tuple[np.ndarray, np.ndarray]]
@@ -97,17 +110,21 @@ class Scene:
         coords, lead = as_coords(points)
         return self._nearest(coords, False)[0].reshape(lead)
 
-    def query(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+    def query(self, points: Any, max_distance: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
         """Exact signed distance (...,) [m] and its gradient (...,3) at points (...,3) [m].
 
         The distance is the min over obstacles (negative inside); the gradient is the unit
         gradient of the nearest obstacle (the first one listed on ties; see
         :mod:`scenes.obstacles` for the subgradient at non-differentiable points). Without
-        obstacles: +inf with zero gradient. Points are validated once (InvalidArgumentError
-        naming ``points``).
+        obstacles: +inf with zero gradient. ``max_distance`` [m] clips: the result is
+        ``min(d, max_distance)`` with a zero gradient where d > max_distance, and only the
+        obstacles within max_distance of a point are evaluated there (a spatial index,
+        :mod:`scenes.nearest`): a planner whose hinge reaches max_distance pays only for the
+        obstacles near the arm. Points are validated once (InvalidArgumentError naming
+        ``points`` or ``max_distance``).
         """
         coords, lead = as_coords(points)
-        d, g = self._nearest(coords, True)
+        d, g = self._nearest(coords, True, _max_distance(max_distance))
         return d.reshape(lead), g.reshape(*lead, 3)
 
     def sdf(self, cell_size: float = DEFAULT_CELL_SIZE, exact: bool = False) -> SignedDistanceField:
@@ -127,27 +144,34 @@ class Scene:
         return grid
 
     def distance_query(self, cell_size: float | None = None, *, grid: bool = False,
-                       exact: bool = False) -> DistanceQuery:
+                       exact: bool = False, max_distance: float = math.inf) -> DistanceQuery:
         """The signed-distance query a planner should use: points (...,3) [m] ->
         (distance (...,) [m], gradient (...,3)).
 
         :meth:`query` (exact, no grid) when every obstacle is a primitive (:attr:`analytic`)
-        and ``grid`` is False; otherwise the ``query`` of the cached grid :meth:`sdf` with
-        ``cell_size`` (default 0.01 m) and ``exact``. ``cell_size`` is validated even when no
-        grid is needed.
+        and ``grid`` is False, clipped at ``max_distance`` [m] (see :meth:`query`: a planner
+        passes the reach of its hinge, so only the obstacles near the arm cost anything);
+        otherwise the ``query`` of the cached grid :meth:`sdf` with ``cell_size`` (default
+        0.01 m) and ``exact`` (a grid query costs the same for any scene; it is not clipped).
+        ``cell_size`` and ``max_distance`` are validated even when not used.
         """
         cell_size = DEFAULT_CELL_SIZE if cell_size is None else check_cell_size(cell_size)
+        max_distance = _max_distance(max_distance)
         if self.analytic and not grid:
-            return self.query
+            if max_distance == math.inf:
+                return self.query
+            return functools.partial(self.query, max_distance=max_distance)
         return self.sdf(cell_size, exact).query
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready description."""
+        """JSON-ready description (every array inline)."""
         return {"bounds": self._bounds.tolist(), "obstacles": [ob.to_dict() for ob in self._obstacles]}
 
     @classmethod
-    def from_dict(cls, data: Any, source: str = "scene") -> "Scene":
-        """Scene from a dict as in a scene file; SceneFileError names the bad field."""
+    def from_dict(cls, data: Any, source: str = "scene", folder: str | Path | None = None) -> "Scene":
+        """Scene from a dict as in a scene file; SceneFileError names the bad field. ``folder``:
+        where the ``.npz`` files that array obstacles name are read (default: the working
+        directory)."""
         if not isinstance(data, dict):
             raise SceneFileError(f"{source}: expected a JSON object with 'obstacles', got {type(data).__name__}")
         extra = data.keys() - {"bounds", "obstacles", "name", "description"}
@@ -157,10 +181,19 @@ class Scene:
         raw = data.get("obstacles", [])
         if not isinstance(raw, list):
             raise SceneFileError(f"{source}: field 'obstacles' must be a list, got {type(raw).__name__}")
+        folder = Path(".") if folder is None else as_path(folder, "folder", ArgumentTypeError)
         obstacles = []
         for i, item in enumerate(raw):
+            where = f"obstacles[{i}]"
             try:
-                obstacles.append(obstacle_from_dict(item, where=f"obstacles[{i}]"))
+                kind = item.get("type") if isinstance(item, dict) else None
+                if isinstance(kind, str) and kind in ARRAY_OBSTACLES:
+                    obstacles.append(_array_obstacle(item, where, folder))
+                elif isinstance(kind, str) and kind not in OBSTACLE_TYPES:
+                    raise InvalidObstacleError(f"{where}.type: expected one of "
+                                               f"{sorted([*OBSTACLE_TYPES, *ARRAY_OBSTACLES])}, got {kind!r}")
+                else:
+                    obstacles.append(obstacle_from_dict(item, where=where))
             except InvalidObstacleError as exc:
                 raise SceneFileError(f"{source}: {exc}") from None
         bounds = data.get("bounds")
@@ -171,7 +204,8 @@ class Scene:
 
     @classmethod
     def load(cls, path: str | Path) -> "Scene":
-        """Read a JSON scene file; SceneFileError on unreadable or malformed content."""
+        """Read a JSON scene file (and the .npz files it names, beside it); SceneFileError on
+        unreadable or malformed content."""
         path = as_path(path, "path", ArgumentTypeError)
         if path.is_dir():
             raise SceneFileError(f"{path}: is a directory, expected a scene JSON file")
@@ -183,15 +217,104 @@ class Scene:
             raise SceneFileError(f"{path}: not UTF-8 text, expected a JSON scene file ({exc})") from None
         except (json.JSONDecodeError, RecursionError) as exc:
             raise SceneFileError(f"{path}: not valid JSON ({exc})") from None
-        return cls.from_dict(data, source=str(path))
+        return cls.from_dict(data, source=str(path), folder=path.parent)
 
-    def save(self, path: str | Path, overwrite: bool = True) -> None:
-        """Write this scene as JSON, atomically (OutputPathError if the file exists and not
-        ``overwrite``)."""
-        atomic_write_text(as_path(path, "path", ArgumentTypeError), json.dumps(self.to_dict(), indent=2) + "\n", overwrite=overwrite)
+    def save(self, path: str | Path, overwrite: bool = True, arrays: str = "inline") -> None:
+        """Write this scene as JSON, atomically (OutputPathError if a file exists and not
+        ``overwrite``). ``arrays``: "inline" (every array in the JSON) or "npz": each mesh /
+        point cloud's arrays go to ``<stem>.obstacle<i>.npz`` beside the JSON, which names it
+        (``{"type": "mesh", "file": ...}``; written first, so the JSON never names a missing
+        file). A scene with inline arrays is written unindented (a cloud's points would take
+        a line per number)."""
+        path = as_path(path, "path", ArgumentTypeError)
+        if arrays not in ("inline", "npz"):
+            raise InvalidArgumentError(f"arrays: expected 'inline' or 'npz', got {arrays!r}")
+        sidecars = {i: path.with_name(f"{path.stem}.obstacle{i}.npz") for i, ob in enumerate(self._obstacles)
+                    if arrays == "npz" and ob.kind in ARRAY_OBSTACLES}
+        for target in [path, *sidecars.values()]:   # refuse before writing anything
+            if not overwrite and target.exists():
+                raise OutputPathError(f"path: {str(target)!r} already exists; pass overwrite=True to replace it")
+        entries = []
+        for i, ob in enumerate(self._obstacles):
+            if i in sidecars:
+                sidecar = sidecars[i]
+                atomic_write(sidecar, functools.partial(_write_npz, ob.arrays()), overwrite=overwrite)
+                entries.append({"type": ob.kind, "file": sidecar.name})
+            else:
+                entries.append(ob.to_dict())
+        text = json.dumps({"bounds": self._bounds.tolist(), "obstacles": entries},
+                          indent=None if arrays == "inline" and _large(self) else 2)
+        atomic_write_text(path, text + "\n", overwrite=overwrite)
 
     def __repr__(self) -> str:
         return f"Scene(obstacles={list(self._obstacles)!r}, bounds={self._bounds.tolist()})"
+
+
+#: Obstacles made of arrays: kind -> (class, the array fields; in a scene file inline or in an
+#: .npz file named by ``"file"``).
+ARRAY_OBSTACLES: dict[str, tuple[type[Obstacle], tuple[str, ...]]] = {
+    "mesh": (TriangleMesh, ("vertices", "faces")),
+    "point_cloud": (PointCloud, ("points", "radius")),
+}
+
+
+def _as_numbers(value: Any, name: str) -> Any:
+    """A JSON array as a numpy array (one vectorised conversion: a large cloud's nested lists
+    would take seconds element by element); anything else as is (the constructor names it)."""
+    if isinstance(value, list):
+        try:
+            arr = np.array(value)
+        except ValueError:                        # ragged
+            raise InvalidObstacleError(f"{name}: expected a regular (rectangular) array of numbers") from None
+        if arr.dtype.kind not in "iuf":
+            raise InvalidObstacleError(f"{name}: expected an array of numbers, got {arr.dtype.kind!r} "
+                                       f"values ({str(arr.reshape(-1)[:3].tolist())[:60]})")
+        return arr
+    return value
+
+
+def _array_obstacle(item: dict, where: str, folder: Path) -> Obstacle:
+    """A mesh / point cloud from its scene-file entry: the array fields inline, or ``"file"``:
+    an .npz (relative to ``folder``) holding exactly them."""
+    kind = item["type"]
+    cls, names = ARRAY_OBSTACLES[kind]
+    fields = {k: v for k, v in item.items() if k != "type"}
+    if "file" in fields:
+        if len(fields) != 1:
+            raise InvalidObstacleError(f"{where}: a {kind} with 'file' takes no other fields, got {sorted(fields)}")
+        name = fields["file"]
+        if not isinstance(name, str) or not name:
+            raise InvalidObstacleError(f"{where}.file: expected the name of an .npz file, got {name!r:.60}")
+        npz = folder / name
+        try:
+            with np.load(npz, allow_pickle=False) as data:
+                fields = {k: data[k] for k in data.files}
+        except (OSError, ValueError, zipfile.BadZipFile) as exc:
+            raise InvalidObstacleError(f"{where}.file: cannot read {str(npz)!r} as an .npz file ({exc})") from None
+        where = f"{where} ({npz.name})"
+    if fields.keys() != set(names):
+        raise InvalidObstacleError(f"{where}: a {kind} expects the fields {list(names)} (or 'file'), "
+                                   f"got {sorted(fields)}")
+    try:
+        return cls(**{k: _as_numbers(fields[k], f"{cls.__name__} {k}") for k in names})
+    except InvalidObstacleError as exc:
+        raise InvalidObstacleError(f"{where}: {exc}") from None
+
+
+def _write_npz(arrays: dict[str, np.ndarray], handle: Any) -> None:
+    np.savez(handle, **arrays)
+
+
+def _large(scene: Scene) -> bool:
+    """Whether the scene holds array obstacles (then its inline JSON is written unindented)."""
+    return any(ob.kind in ARRAY_OBSTACLES for ob in scene.obstacles)
+
+
+def _max_distance(value: Any) -> float:
+    """max_distance [m]: a positive number or +inf (InvalidArgumentError naming it)."""
+    if isinstance(value, float) and value == math.inf:
+        return value
+    return as_scalar(value, "max_distance", strictly_positive=True)
 
 
 def available_scenes() -> tuple[str, ...]:

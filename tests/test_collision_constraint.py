@@ -172,7 +172,9 @@ def test_third_party_arm_avoids_a_box_in_the_skill_path(prior):
     share = example_robot_data_share()
     urdf = share / "example-robot-data" / "robots" / "panda_description" / "urdf" / "panda.urdf"
     robot = Robot.from_urdf(urdf, end_effector="panda_hand", package_dirs=[share])
-    scene = box_in_the_path(prior, robot)
+    # a 3 cm cube: around a 5 cm one the Panda's wide hand leaves the skill by 4.4 of the
+    # demonstrations' spreads there (the skill check of issue 19 fails it)
+    scene = box_in_the_path(prior, robot, side=0.03)
     result = plan(prior, robot, scene, start=prior.mean[0, :3], covariance=False)
     assert result.success, result.reasons
     assert result.collision_geometry == "urdf"
@@ -190,8 +192,9 @@ def test_a_velocity_excess_is_tightened_away(jaco):
     problem = scene_benchmark(118, "jaco")[117]
     assert problem.expected == "feasible"
     kwargs = resolve(problem, Path("."))
-    # the configured weight solved directly (no soft start, which happens to avoid the excess)
-    kwargs["config"] = kwargs["config"].with_(soft_start=1.0)
+    # the configured weight solved directly (no soft start and no posture tie, either of which
+    # happens to avoid the excess, at the safety distance of the time, 5 cm)
+    kwargs["config"] = kwargs["config"].with_(soft_start=1.0, posture_sigma=0.0, epsilon=0.05)
     weighted = plan(**{**kwargs, "config": kwargs["config"].with_(constraint_rounds=0)},
                     covariance=False)
     assert not weighted.success

@@ -173,3 +173,46 @@ def test_dtw_reduces_timing_spread_of_warped_demonstrations():
     assert np.array_equal(aligned.positions[2], demos.positions[2])
     # start and end stay where they were (the warp is monotone and covers the whole demo)
     assert np.allclose(aligned.positions[:, [0, -1]], demos.positions[:, [0, -1]], atol=1e-3)
+
+
+# ------------------------------------------------------------- recorded joint trajectories
+def joint_demos(M=3, T=40):
+    """Demonstrations carrying joint trajectories q (M, T, 2) of a planar 2-link arm (links 0.3 m),
+    positions its forward kinematics (z = 0)."""
+    s = np.linspace(0.0, 1.0, T)
+    q = np.stack([np.stack([0.3 + 0.5 * s + 0.05 * m, 0.8 - 0.4 * s ** 2], axis=1) for m in range(M)])
+    elbow = 0.3 * np.stack([np.cos(q[..., 0]), np.sin(q[..., 0])], axis=-1)
+    tip = elbow + 0.3 * np.stack([np.cos(q.sum(-1)), np.sin(q.sum(-1))], axis=-1)
+    p = np.concatenate([tip, np.zeros(q.shape[:2] + (1,))], axis=-1)
+    time = np.linspace(0.0, 4.0, T)
+    v = np.gradient(p, time, axis=1)
+    return Demonstrations(p, v, time, joint_positions=q, joint_names=["shoulder", "elbow"]), q
+
+
+def test_joint_trajectories_follow_resampling_and_alignment():
+    demos, q = joint_demos()
+    fine = demos.resample(79)                              # every other sample is an old one
+    np.testing.assert_allclose(fine.joint_positions[:, ::2], q, atol=1e-12)
+    assert fine.joint_names == ("shoulder", "elbow")
+    aligned = demos.align_dtw()
+    assert aligned.joint_positions.shape == q.shape
+    np.testing.assert_array_equal(aligned.joint_positions[0], q[0])   # the reference is kept
+    assert demos.translated([0.1, 0.0, 0.0]).joint_positions is None
+    paths = [demos.positions[m, : 30 + 5 * m] for m in range(3)]
+    joints = [q[m, : 30 + 5 * m] for m in range(3)]
+    resampled = Demonstrations.from_trajectories(paths, num_points=30, joint_positions=joints,
+                                                 joint_names=demos.joint_names)
+    np.testing.assert_allclose(resampled.joint_positions[:, [0, -1]],
+                               np.stack([[j[0], j[-1]] for j in joints]), atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(joint_positions=np.zeros((3, 20, 2))), "joint_names: expected 2 joint names"),
+    (dict(joint_positions=np.zeros((3, 19, 2)), joint_names=["a", "b"]),
+     r"joint_positions: expected shape \(3, 20, n\)"),
+    (dict(joint_names=["a", "b"]), "joint_names: given without joint_positions"),
+    (dict(joint_positions=np.zeros((3, 20, 2)), joint_names=["a", 2]), "joint_names"),
+])
+def test_joint_trajectories_are_checked(kwargs, message):
+    with pytest.raises(InvalidDemonstrationsError, match=message):
+        Demonstrations(*valid(), **kwargs)

@@ -102,7 +102,7 @@ def test_readme_file_formats_load(tmp_path):
     from robots import JointTrajectory
     from robots.trajectory import load_schema
     from scenes import Scene, load_demonstrations
-    scene_text, plan_text, trajectory_text = _blocks("json")
+    scene_text, plan_text, trajectory_text, ros2_text = _blocks("json")
     (tmp_path / "scene.json").write_text(scene_text)
     scene = Scene.load(tmp_path / "scene.json")
     assert [o.kind for o in scene.obstacles] == ["box", "box", "sphere", "cylinder"]
@@ -118,3 +118,8 @@ def test_readme_file_formats_load(tmp_path):
     jsonschema.validate(data, load_schema())
     trajectory = JointTrajectory.from_dict(data)
     np.testing.assert_allclose(trajectory.positions, plan["q"])
+    message = json.loads(ros2_text)
+    jsonschema.validate(message, load_schema(ros2=True))
+    ros2 = JointTrajectory.from_ros2_dict(message)
+    assert ros2.joint_names == trajectory.joint_names and ros2.duration == pytest.approx(3.700537168)
+    assert not np.any(ros2.velocities[[0, -1]]) and not np.any(ros2.accelerations[[0, -1]])

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
-                           ObstacleFamily, OrientationFamily, StateWindow, WorkspaceGPFamily,
+                           ObstacleFamily, OrientationFamily, PostureFamily,
+                           SelfCollisionFamily, StateWindow, WorkspaceGPFamily,
                            WorkspaceStartFamily)
 from clamp.errors import InvalidParameterError
 from clamp.keys import state_key
@@ -61,6 +62,7 @@ def make_families(robot, theta: np.ndarray, rng) -> list:
         WorkspaceStartFamily(rng.normal(size=6), Q[0]),
         JointGPFamily(T, n, 0.16, 1.0),
         JointTargetFamily([0, T - 2], q[[0, T - 2]] + 0.1, [1e-3, 2e-3]),
+        PostureFamily(np.arange(T), q + 0.05 * rng.normal(size=q.shape), np.full(T, 0.1)),
         EEPositionFamily([1, T - 1], path[[1, T - 1]] + 0.05, [1e-3, 1e-2]),
         ObstacleFamily(np.arange(T), robot.spheres.radii,
                        sphere_query(path[T // 2] + [0.05, 0.0, 0.0], 0.05), 0.1, 0.05),
@@ -69,6 +71,7 @@ def make_families(robot, theta: np.ndarray, rng) -> list:
         BoundaryFamily(cylinder, T, margin=0.03, sigma=0.01),
         OrientationFamily(np.arange(1, T), axis=[0, 0, 1], direction=[0.3, -0.2, -1.0],
                           tolerance=0.05, sigma=0.01),
+        SelfCollisionFamily.for_robot(robot, np.arange(T - 1), epsilon=0.1, sigma=0.02, between=2),
     ]
 
 

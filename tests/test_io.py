@@ -167,3 +167,43 @@ def test_demonstrations_constructed_directly_round_trip_through_npz(tmp_path):
     demos = Demonstrations(rng.normal(size=(2, 5, 3)), rng.normal(size=(2, 5, 3)), np.arange(5.0), name="x")
     demos.save_npz(tmp_path / "x.npz")
     assert load_demonstrations(tmp_path / "x.npz").obstacles is None
+
+
+@pytest.mark.parametrize("encoding, quoted", [("utf-8-sig", False), ("utf-8", True),
+                                              ("utf-8-sig", True)])
+def test_spreadsheet_csv_with_byte_order_mark_or_quoted_header_loads(tmp_path, encoding, quoted):
+    """A spreadsheet's "CSV UTF-8" starts with a byte-order mark; many quote every field."""
+    demos = make_demonstrations("two_target_press", num_demos=3, num_points=30)
+    plain = tmp_path / "plain.csv"
+    save_csv(demos, plain)
+    lines = plain.read_text().splitlines()
+    if quoted:
+        lines = [",".join(f'"{cell}"' for cell in line.split(",")) for line in lines]
+    path = tmp_path / "spreadsheet.csv"
+    path.write_bytes("\r\n".join(lines).encode(encoding) + b"\r\n")
+    assert path.read_bytes().startswith(b"\xef\xbb\xbf") == (encoding == "utf-8-sig")
+    loaded, reference = load_demonstrations(path), load_demonstrations(plain)
+    np.testing.assert_array_equal(loaded.positions, reference.positions)
+    np.testing.assert_array_equal(loaded.velocities, reference.velocities)
+    np.testing.assert_array_equal(loaded.time, reference.time)
+
+
+@pytest.mark.parametrize("content, message", [
+    ('"demo","t","x","y"\n0,0,1,2\n', "expected header demo,t,x,y,z"),
+    ("demo,t,x,y,z\n0,0,1,2\n", "line 2: expected 5 columns"),
+    ("demo,t,j1,j2\n0,0,1,2\n0,1,1,2\n1,0,1,2\n1,1,1,3\n", "pass robot="),
+])
+def test_csv_header_and_row_errors_name_the_problem(tmp_path, content, message):
+    path = tmp_path / "bad.csv"
+    path.write_text(content)
+    with pytest.raises(DemonstrationFileError, match=message):
+        load_demonstrations(path)
+
+
+def test_smoothing_choice_is_checked(tmp_path):
+    from scenes.errors import InvalidArgumentError
+    path = tmp_path / "d.csv"
+    save_csv(make_demonstrations("two_target_press", num_demos=3, num_points=30), path)
+    with pytest.raises(InvalidArgumentError, match=r"smoothing: expected one of \['auto', "
+                                                   r"'savgol', 'spline', 'none'\], got 'gcv'"):
+        load_demonstrations(path, smoothing="gcv")

@@ -278,3 +278,75 @@ def test_error_catalogue(synthetic):
         learn_joint_prior(positions, velocities[..., :2], time)
     with pytest.warns(errors.ClampWarning, match="underdetermined"):
         learn_prior(**dict(kw, coupled=True, positions=positions[:6], velocities=velocities[:6]))
+
+
+# ------------------------------------------------- demonstrations that agree at some steps
+def common_goal_at_rest(K: int = 40, blend: int = 60):
+    """Synthetic box_closing whose six demonstrations glide (quintic smoothstep over ``blend``
+    steps) into their mean end point and rest there for the last K steps: the demonstrations
+    agree exactly (zero spread) at those steps. Returns (Demonstrations, goal (3,))."""
+    from scipy.interpolate import CubicSpline
+
+    from scenes import Demonstrations, make_demonstrations
+    demos = make_demonstrations("box_closing", num_demos=6, seed=0)
+    T = demos.T
+    goal = demos.positions[:, -1].mean(axis=0)
+    s = np.clip((np.arange(T) - (T - K - blend)) / blend, 0.0, 1.0)
+    w = s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s)
+    positions = demos.positions + w[None, :, None] * (goal - demos.positions)
+    velocities = CubicSpline(demos.time, positions, axis=1)(demos.time, 1)
+    positions[:, -K:], velocities[:, -K:] = goal, 0.0
+    return Demonstrations(positions, velocities, demos.time), goal
+
+
+@pytest.mark.parametrize("method", ["batch", "incremental"])
+def test_common_goal_at_rest_is_learned_and_planned(jaco, method):
+    from clamp import plan
+    from clamp.learning import SPREAD_FLOOR
+    demos, goal = common_goal_at_rest()
+    assert np.all(demos.states[:, -40:].std(axis=0) == 0.0)
+    prior = learn_prior(demos, method=method)
+    # the agreeing steps are learned with the floor on Q's diagonal, the others as before
+    variance = np.einsum("tii->ti", prior.Q)[-39:]
+    np.testing.assert_allclose(variance, SPREAD_FLOOR ** 2, rtol=1e-6)
+    np.testing.assert_allclose(prior.mean[-1, :3], goal, atol=1e-9)
+    start = [0.25, -0.45, 0.30]                    # away from every demonstration's start
+    assert np.linalg.norm(demos.positions[:, 0] - start, axis=1).min() > 0.02
+    result = plan(prior, jaco, None, start)
+    assert result.success, result.reasons
+    assert np.linalg.norm(jaco.fk(result.q[-1]) - goal) < 2e-3
+    assert np.linalg.norm(jaco.fk(result.q[0]) - start) < 2e-3
+
+
+def test_common_start_floors_only_the_initial_covariance():
+    from clamp.learning import SPREAD_FLOOR
+    positions, velocities, time = synthetic_states(num_demos=6)
+    positions = positions - positions[:, :1] + positions[0, 0]     # one common start position
+    velocities[:, 0] = velocities[0, 0]                             # ... and start velocity
+    prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=0.0,
+                        jitter=1e-15)
+    np.testing.assert_allclose(np.diag(prior.cov0), SPREAD_FLOOR ** 2,
+                               rtol=1e-4)
+    np.testing.assert_allclose(prior.mean0, np.concatenate([positions[0, 0], velocities[0, 0]]))
+    # the steps where the demonstrations vary keep the least-squares residual covariance
+    states = np.concatenate([positions, velocities], axis=2)
+    for step in (5, 40):
+        for d in range(3):
+            idx = [d, d + 3]
+            design = np.column_stack([np.ones(len(states)), states[:, step, idx]])
+            coef, *_ = np.linalg.lstsq(design, states[:, step + 1, idx], rcond=None)
+            residual = states[:, step + 1, idx] - design @ coef
+            np.testing.assert_allclose(prior.Q[step][np.ix_(idx, idx)],
+                                       residual.T @ residual / len(states) + 1e-15 * np.eye(2),
+                                       rtol=1e-7, atol=1e-14)
+
+
+def test_only_demonstrations_identical_everywhere_are_refused():
+    positions, velocities, time = synthetic_states(num_demos=4)
+    same = np.broadcast_to(positions[:1], positions.shape)
+    same_v = np.broadcast_to(velocities[:1], velocities.shape)
+    with pytest.raises(errors.DegenerateDemonstrationsError, match="identical at all 60 steps"):
+        learn_prior(positions=same, velocities=same_v, time=time)
+    one_step = same.copy()
+    one_step[1, 30, 0] += 1e-3                                      # differ at one step only
+    assert learn_prior(positions=one_step, velocities=same_v, time=time).T == 60

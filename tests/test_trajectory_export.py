@@ -211,3 +211,59 @@ def test_bad_files_raise_trajectory_file_error(tmp_path, trajectory):
     (tmp_path / "renamed.csv").write_text("\n".join(text))
     with pytest.raises(TrajectoryFileError, match="expected columns"):
         JointTrajectory.load(tmp_path / "renamed.csv")
+
+
+# ----------------------------------------------------------------------------- ROS 2 message shape
+def test_ros2_message_validates_against_its_schema_and_round_trips(tmp_path, trajectory, awkward):
+    """The ROS 2 file holds exactly the message's fields, validates against its schema (not the
+    skillplan one), and loads back: joint names, positions, velocities, accelerations bit for
+    bit, times to 1 ns; writing it again gives the same file."""
+    jsonschema = pytest.importorskip("jsonschema", reason="schema validation needs jsonschema (test extra)")
+    from robots.trajectory import ROS2_SCHEMA_PATH
+    schema = load_schema(ros2=True)
+    assert ROS2_SCHEMA_PATH.is_file()
+    validator = jsonschema.Draft202012Validator
+    validator.check_schema(schema)
+    for i, traj in enumerate((trajectory, awkward)):
+        path = traj.to_ros2_json(tmp_path / f"ros{i}.json", frame_id="base")
+        data = json.loads(path.read_text())
+        validator(schema).validate(data)
+        assert not validator(load_schema()).is_valid(data)  # not the skillplan format
+        assert data["header"] == {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "base"}
+        assert set(data["points"][0]) == {"positions", "velocities", "accelerations", "effort", "time_from_start"}
+        stamp = data["points"][-1]["time_from_start"]
+        assert stamp["sec"] + stamp["nanosec"] * 1e-9 == pytest.approx(traj.duration, abs=1e-9)
+        back = JointTrajectory.load(path)
+        assert back.joint_names == traj.joint_names
+        for name in ("positions", "velocities", "accelerations"):
+            assert getattr(back, name).tobytes() == getattr(traj, name).tobytes(), name
+        np.testing.assert_allclose(back.time_from_start, traj.time_from_start, rtol=0, atol=0.51e-9)
+        again = back.to_ros2_json(tmp_path / f"again{i}.json", frame_id="base")
+        assert again.read_text() == path.read_text()
+    broken = json.loads((tmp_path / "ros0.json").read_text())
+    broken["points"][1]["time_from_start"] = 0.5  # a float, as in the skillplan format
+    assert not validator(schema).is_valid(broken)
+    broken["points"][1]["time_from_start"] = {"sec": 0, "nanosec": 1_000_000_000}
+    assert not validator(schema).is_valid(broken)
+
+
+def test_ros2_duration_carries_nanoseconds_into_seconds():
+    from robots.trajectory import ros2_duration
+    assert ros2_duration(1.9999999999) == {"sec": 2, "nanosec": 0}
+    assert ros2_duration(0.25) == {"sec": 0, "nanosec": 250_000_000}
+    assert ros2_duration(3.000000001) == {"sec": 3, "nanosec": 1}
+
+
+def test_bad_ros2_files_name_the_field(tmp_path, trajectory):
+    data = trajectory.to_ros2_dict()
+    data["points"][2]["time_from_start"] = {"sec": 1, "nanosec": -5}
+    (tmp_path / "a.json").write_text(json.dumps(data))
+    with pytest.raises(TrajectoryFileError, match=r"points\[2\]\.time_from_start"):
+        JointTrajectory.load(tmp_path / "a.json")
+    data = trajectory.to_ros2_dict()
+    data["points"][4]["velocities"] = []  # allowed by ROS, but not executable here
+    (tmp_path / "b.json").write_text(json.dumps(data))
+    with pytest.raises(TrajectoryFileError, match=r"points\[4\]\.velocities: expected 6 values"):
+        JointTrajectory.load(tmp_path / "b.json")
+    with pytest.raises(RobotError, match="frame_id"):
+        trajectory.to_ros2_dict(frame_id=3)

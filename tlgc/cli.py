@@ -23,6 +23,8 @@ import numpy as np
 
 from scenes.command_line import (EXIT_OK, CommandLineParser, atomic_write, integer_at_least,
                                  number, output_directory, quiet, run)
+from scenes.errors import DemonstrationFileError
+from scenes.validation import as_file
 
 from .cross_sections import CROSS_SECTION_TYPES
 from .cylinder import fit_cylinder
@@ -41,6 +43,8 @@ def _load(args: argparse.Namespace):
 
 def fit_reproduce(args: argparse.Namespace) -> int:
     """Run the fit-reproduce command; returns the exit status."""
+    if args.demos is not None:      # named as the user typed it, before the output folder is made
+        as_file(args.demos, "--demos", DemonstrationFileError)
     out = output_directory(args.out, args.force)
     demos = _load(args)
     t0 = time.perf_counter()

@@ -11,6 +11,8 @@ from .joint_limits import JointLimitFamily
 from .joint_target import JointTargetFamily
 from .obstacle import DistanceQuery, ObstacleFamily
 from .orientation import OrientationFamily
+from .posture import PostureFamily
+from .self_collision import SelfCollisionFamily
 from .states import StateWindow
 from .workspace_gp import WorkspaceGPFamily
 from .workspace_start import WorkspaceStartFamily, shifted_start_mean
@@ -20,5 +22,5 @@ __all__ = [
     "WorkspaceGPFamily", "WorkspaceStartFamily", "shifted_start_mean",
     "JointGPFamily", "joint_gp_transition", "joint_gp_covariance",
     "JointTargetFamily", "EEPositionFamily", "ObstacleFamily", "DistanceQuery",
-    "JointLimitFamily", "OrientationFamily",
+    "JointLimitFamily", "OrientationFamily", "PostureFamily", "SelfCollisionFamily",
 ]

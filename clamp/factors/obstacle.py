@@ -1,7 +1,9 @@
 """Obstacle family: one factor per support state, all collision spheres in one residual.
 
 e_s = max(0, eps + r_s - d(c_s)) for sphere s (centre c_s, radius r_s), d the scene's signed
-distance; d e_s / d q = -grad d(c_s)^T d c_s / d q where the hinge is active, 0 otherwise, 0
+distance (the planner's query clips it at eps + the largest radius, beyond which every hinge is
+inactive anyway, so only the obstacles within that reach of the spheres are measured:
+``scenes.Scene.query(points, max_distance)``); d e_s / d q = -grad d(c_s)^T d c_s / d q where the hinge is active, 0 otherwise, 0
 for qdot. The sphere centres of every state are computed (without Jacobians) to find the active
 hinges; centre Jacobians only for the states that have one (usually a few percent): the other
 factors are exactly zero and left out.
@@ -44,7 +46,8 @@ class ObstacleFamily(Family):
 
     def penetration(self, window: StateWindow) -> float:
         """Deepest penetration [m] of a sphere into an obstacle over the family's states
-        (r_s - d(c_s); negative: every sphere is clear by that much)."""
+        (r_s - d(c_s); negative: every sphere is clear by that much, or by at least the
+        query's clip)."""
         distance, _ = self.query(window.sphere_centres()[window.local(self.first)])
         return float(np.max(self.radii - distance))
 

@@ -7,14 +7,21 @@ REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
 SAWYER_SHIFT = np.array([0.3, 0.0, 0.2])
 
-#: the defaults when the fixtures were made (sigma_obs has since become 0.005; goals became
+#: the defaults when the fixtures were made (sigma_obs has since become 0.005, epsilon 0.02; goals became
 #: exact by conditioning the prior on them, and the goal tolerance 2 mm instead of 2 cm), and the
-#: weighted solve alone at the configured weight (the collision constraint loop and the soft
-#: start came later: sawyer_box's pinned plan collides, which the loop now repairs)
+#: weighted solve alone at the configured weight (the collision constraint loop, the soft start
+#: and the posture tie came later: sawyer_box's pinned plan collides, which the loop now
+#: repairs). The verdict has changed twice (issue 19), so two success flags are now False:
+#: jaco_boundary's pinned plan (kept inside the TLGC cylinder, then a jump to its goal 5 cm
+#: outside over the last states) fails the skill check (7.7 spreads from where the skill goes
+#: at state 37); jaco_box's pinned plan collides with itself (links 3 and 6 overlap by 4.2 mm
+#: at state 48.9, 16 states; links 4 / 6 first touch at state 43.4 by the fidelity benchmark's
+#: independent coal check), which nothing checked before
 def _config():
     from clamp import PlannerConfig
     return PlannerConfig().with_(sigma_obs=0.05, condition_on_targets=False, goal_tolerance=0.02,
-                                 constraint_rounds=0, soft_start=1.0)
+                                 constraint_rounds=0, soft_start=1.0, posture_sigma=0.0,
+                                 epsilon=0.05)
 
 
 CASES = ("jaco_empty", "jaco_box", "jaco_goal", "sawyer_empty", "sawyer_box", "sawyer_goal",

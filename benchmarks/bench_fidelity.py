@@ -1,0 +1,499 @@
+"""Skill-fidelity benchmark (issue 19): does a plan around obstacles still perform the skill?
+
+Per arm, ``--problems`` seeded problems of :func:`clamp.problem_sets.scene_benchmark` (all
+feasible: 1-3 boxes / spheres / cylinders near the skill's path; start up to
+``--start-offset`` m per axis off the demonstrations' start; goal = the prior's last mean
+position), each planned by whatever ``clamp.plan`` is importable, at its defaults, with its
+obstacles and in an empty scene (the free plan), from the problem's start with no goal (the
+skill decides where it ends). Every plan is judged by the independent
+checks of ``fidelity_checks`` (obstacles and self-collision on the URDF geometry with
+Pinocchio + coal, 10 configurations per segment; joint position limits; completion: last
+end-effector point within 2x the demonstrations' end spread of their mean end; staying with
+the skill: within 4 of the demonstrations' spreads of where the skill goes at every state).
+Prints per arm:
+
+- completable: problems for which some plan passes the checks: the default plan, else the
+  oracle, a search of its own (up to ``ORACLE_RESTARTS`` seeded plans with a long optimizer
+  budget from other initialisations: detours over / around / under the obstacles, straight
+  joint-space lines, randomly perturbed prior-mean paths, other start IK solutions); the
+  oracle's outcome is cached per problem (by its parameters) in
+  ``benchmarks/.cache/fidelity_oracle.json``;
+- completed: completable problems whose default plan says success and passes the checks;
+- false successes: success but a check fails, by kind (obstacle, self, limits, completion,
+  skill);
+- over the problems whose obstacle plan (and free plan) says success: median / p90 of the joint
+  path ratio (sum of |joint steps|, obstacle / free), the added hand rotation (largest rotation
+  of the end effector from its start orientation, obstacle minus free, deg), the TOPP-RA
+  duration ratio (``robots.retime``, 1.5 rad/s^2), the planning time ratio (and its p95), the
+  last end-effector point's distance from the prior's last mean point;
+- whether each target of issue 19 holds.
+
+Free plans (their measures and checks) are cached in ``benchmarks/.cache/fidelity_free.json``
+keyed by the problem and a fingerprint of the ``clamp`` sources on the path, so a changed
+planner plans them again (a cached free plan keeps the planning time measured when it was
+planned; ``--no-cache`` times both plans of a problem in the same run).
+
+    python benchmarks/bench_fidelity.py [--problems 200] [--arms jaco sawyer] [--skills ...]
+                                        [--quick] [--workers N] [--seed 0] [--no-cache]
+                                        [--start-offset 0.08] [--records FILE [--force]]
+
+Full run (200 problems per arm): about 25 min of CPU for the plans and checks with cold
+caches, plus the oracle on the problems the default plan does not complete (up to ~1 min
+each); ``--workers 2`` halves the wall time. ``--quick``: 20 problems per arm.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import logging
+import sys
+import time
+from collections import Counter
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from functools import lru_cache
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import fidelity_checks as checks
+from harness import print_environment
+
+log = logging.getLogger("benchmarks.fidelity")
+
+CACHE = Path(__file__).resolve().parent / ".cache"
+ORACLE_RESTARTS = 20
+ORACLE_CONFIG = {"max_iterations": 2000, "constraint_rounds": 6}   # the long budget
+ACCELERATION_LIMIT = 1.5          # [rad/s^2] TOPP-RA
+MEASURES_VERSION = 3              # bump when a measure or check changes (invalidates caches)
+TARGETS = {"completed": 0.95, "joint_path_median": 1.5, "joint_path_p90": 2.5,
+           "added_rotation_median": 15.0, "toppra_median": 1.5, "plan_time_median": 3.0,
+           "plan_time_p95": 10.0}
+
+
+# ------------------------------------------------------------------ per-process loading
+@lru_cache(maxsize=None)
+def _robot(name: str) -> Any:
+    from robots import load_robot
+    return load_robot(name)
+
+
+@lru_cache(maxsize=None)
+def _skill(skill: str, seed: int, num_demos: int, num_points: int) -> tuple[Any, np.ndarray]:
+    """The prior a problem names and its demonstrations' positions (M, T, 3)."""
+    from clamp import learn_prior
+    from scenes import make_demonstrations
+    demos = make_demonstrations(skill, num_demos=num_demos, num_points=num_points, seed=seed)
+    return learn_prior(demos), np.asarray(demos.positions)
+
+
+@lru_cache(maxsize=8)
+def _geometry_check(robot_name: str, scene_json: str) -> checks.GeometryCheck:
+    from scenes import Scene
+    scene = Scene.from_dict(json.loads(scene_json)) if scene_json != "null" else None
+    return checks.GeometryCheck(_robot(robot_name), scene.obstacles if scene else ())
+
+
+def clamp_fingerprint() -> str:
+    """sha256 (16 hex) of the sources of the ``clamp`` package on the path: the planner measured."""
+    import clamp
+    digest = hashlib.sha256()
+    for path in sorted(Path(clamp.__file__).parent.rglob("*.py")):
+        digest.update(path.name.encode() + path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def problem_key(data: dict[str, Any], *extra: Any) -> str:
+    """Cache key of a problem (its parameters, not its id) and ``extra`` values."""
+    fields = {k: v for k, v in data.items() if k not in ("id", "meta", "expected")}
+    text = json.dumps([fields, MEASURES_VERSION, *extra], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+# ------------------------------------------------------------------ judging one plan
+def judge(data: dict[str, Any], q: np.ndarray, with_obstacles: bool) -> dict:
+    """The independent checks of one plan q (T, n) of problem ``data``: failed kinds
+    ("obstacle", "self", "limits", "completion", "skill") with details, and the skill
+    deviation. The
+    end-effector path is the robot's forward kinematics of q, not the planner's."""
+    spec = data["prior"]
+    prior, demos = _skill(spec["skill"], spec["seed"], spec["num_demos"], spec["num_points"])
+    robot = _robot(data["robot"]["name"])
+    ee_path = robot.fk(np.asarray(q))
+    scene = json.dumps(data["scene"] if with_obstacles else None, sort_keys=True)
+    failed = {kind: str(c) for kind, c in _geometry_check(data["robot"]["name"], scene)
+              .first_contacts(q).items()}
+    if not np.all(robot.within_limits(q, tolerance=1e-4)):
+        failed["limits"] = "outside the joint position limits"
+    error, tolerance = checks.end_error(ee_path, demos[:, -1])
+    if error > tolerance:
+        failed["completion"] = f"end {1e3 * error:.1f} mm from the demonstrations' (tolerance {1e3 * tolerance:.1f})"
+    deviation = checks.skill_deviation(prior, demos, ee_path, ee_path[0])
+    worst = int(np.argmax(deviation))
+    if deviation[worst] > checks.TIGHT_SIGMA:
+        failed["skill"] = (f"{deviation[worst]:.1f} demonstration spreads from the skill at "
+                           f"state {worst}")
+    return {"failed": failed, "end_error_m": error,
+            "mean_end_error_m": float(np.linalg.norm(ee_path[-1] - np.asarray(prior.mean)[-1, :3])),
+            "tight_deviation": float(deviation[worst]),
+            "leaves_skill": bool(deviation[worst] > checks.TIGHT_SIGMA)}
+
+
+def measure(robot: Any, result: Any) -> dict:
+    """Joint path length [rad], largest hand rotation from the start [deg], TOPP-RA duration
+    [s] and planning time [s] of a plan."""
+    from robots import retime
+    try:
+        _, report = retime(result.to_joint_trajectory(robot), robot,
+                           acceleration_limits=ACCELERATION_LIMIT, method="toppra")
+        duration = float(report.duration_after)
+    except ValueError as exc:          # the project's errors derive from ValueError
+        log.warning("retiming failed: %s", exc)
+        duration = float("nan")
+    return {"joint_path": checks.joint_path_length(result.q),
+            "rotation_deg": float(np.degrees(checks.rotation_from_start(robot, result.q).max())),
+            "toppra_s": duration, "plan_s": float(result.timings["total"])}
+
+
+def _plan(data: dict[str, Any], with_obstacles: bool, start: Any = None, **options: Any) -> Any:
+    """plan() on problem ``data`` (its start, or ``start``) with or without its obstacles;
+    ``options``: plan()'s other arguments (none: its defaults, posterior covariance included)."""
+    from clamp import plan
+    from scenes import Scene
+    spec = data["prior"]
+    prior, _ = _skill(spec["skill"], spec["seed"], spec["num_demos"], spec["num_points"])
+    scene = Scene.from_dict(data["scene"]) if with_obstacles else None
+    return plan(prior, _robot(data["robot"]["name"]), scene,
+                data["start"] if start is None else start, **options)
+
+
+def plan_and_judge(data: dict[str, Any], with_obstacles: bool) -> dict:
+    """The default plan of problem ``data`` (its start, no goal: the skill's own end) with or
+    without its obstacles: its success, its measures and its checks. A plan() that raises is
+    recorded as a failed plan whose check "error" failed."""
+    try:
+        result = _plan(data, with_obstacles)
+    except ValueError as exc:          # the project's errors derive from ValueError
+        message = f"{type(exc).__name__}: {exc}"[:200]
+        nan = float("nan")
+        return {"success": False, "reasons": [message], "joint_path": nan, "rotation_deg": nan,
+                "toppra_s": nan, "plan_s": nan, "failed": {"error": message}, "end_error_m": nan,
+                "mean_end_error_m": nan, "tight_deviation": nan, "leaves_skill": False}
+    robot = _robot(data["robot"]["name"])
+    return {"success": bool(result.success), "reasons": [str(r)[:120] for r in result.reasons],
+            **measure(robot, result), **judge(data, result.q, with_obstacles)}
+
+
+# ------------------------------------------------------------------ the oracle
+def _detour_paths(path: np.ndarray, scene: Any) -> list[tuple[str, np.ndarray]]:
+    """The path (T, 3) bent over / around / under the obstacles: a smooth bump (sin^2) over
+    the states within 15 cm of an obstacle (widened by 20 states), 10 or 20 cm high."""
+    T = len(path)
+    near = np.flatnonzero(scene.distance(path) < 0.15)
+    if near.size == 0:
+        return []
+    first, last = max(near[0] - 20, 1), min(near[-1] + 20, T - 2)
+    s = np.clip((np.arange(T) - first) / max(last - first, 1), 0.0, 1.0)
+    bump = np.sin(np.pi * s) ** 2
+    tangent = np.gradient(path, axis=0)
+    side = np.cross(tangent, [0.0, 0.0, 1.0])
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-9)
+    directions = {"over": np.array([0.0, 0.0, 1.0]), "left": side, "right": -side,
+                  "under": np.array([0.0, 0.0, -1.0])}
+    return [(f"{name}-{height:.1f}", path + height * bump[:, None] * directions[name])
+            for height in (0.1, 0.2) for name in ("over", "left", "right", "under")]
+
+
+def _perturbed_path(path: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The path (T, 3) plus three random smooth bumps (8 cm std per axis), zero at the ends."""
+    T = len(path)
+    s = np.linspace(0.0, 1.0, T)
+    offset = np.zeros((T, 3))
+    for _ in range(3):
+        centre, width = rng.uniform(0.2, 0.8), rng.uniform(0.05, 0.2)
+        offset += np.exp(-0.5 * ((s - centre) / width) ** 2)[:, None] * rng.normal(0.0, 0.08, 3)
+    return path + offset * np.sin(np.pi * s)[:, None]
+
+
+def oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str, Any]]:
+    """Up to ORACLE_RESTARTS (label, make) pairs; make() -> (q_start (n,), initial (T, 2n) or
+    None, config changes). Built lazily: each IK runs only when its restart is tried."""
+    from clamp.initialisation import (prior_mean_initialisation, shifted_mean_path,
+                                      straight_line_initialisation)
+    from scenes import Scene
+    spec = data["prior"]
+    prior, _ = _skill(spec["skill"], spec["seed"], spec["num_demos"], spec["num_points"])
+    robot = _robot(data["robot"]["name"])
+    start, goal = np.asarray(data["start"], float), np.asarray(data["goal"], float)
+    dt = float(prior.dt)
+    rng = np.random.default_rng(seed)
+    q_start = np.asarray(robot.ik(start).q)
+    path = shifted_mean_path(np.asarray(prior.mean)[:, :3], start, goal)
+
+    def along(target_path: np.ndarray, q0: np.ndarray = q_start) -> Any:
+        return lambda: (q0, prior_mean_initialisation(robot, target_path, dt, q0, goal).theta, {})
+
+    def line(ik_seed: int) -> Any:
+        def make():
+            q_goal = np.asarray(robot.ik(goal, seed=q_start, rng=ik_seed).q)
+            return q_start, straight_line_initialisation(robot, q_start, q_goal, prior.T, dt).theta, {}
+        return make
+
+    def other_start(ik_seed: int, target_path: np.ndarray) -> Any:
+        def make():
+            q0 = np.asarray(robot.ik(start, seed=robot.random_configuration(
+                np.random.default_rng(ik_seed)), rng=ik_seed).q)
+            return along(target_path, q0)()
+        return make
+
+    out: list[tuple[str, Any]] = [("default", lambda: (q_start, None, {}))]
+    out += [(label, along(p)) for label, p in _detour_paths(path, Scene.from_dict(data["scene"]))]
+    out += [(f"line-{k}", line(k)) for k in range(3)]
+    out += [(f"epsilon-0.08", lambda: (q_start, None, {"epsilon": 0.08}))]
+    k = 0
+    while len(out) < ORACLE_RESTARTS:
+        perturbed = _perturbed_path(path, rng)
+        out.append((f"perturbed-{k}", along(perturbed) if k % 2 == 0 else other_start(k, perturbed)))
+        k += 1
+    return out[:ORACLE_RESTARTS]
+
+
+def oracle(data: dict[str, Any], seed: int = 0) -> dict:
+    """Search for a plan of problem ``data`` that passes the checks (module docstring)."""
+    from clamp import PlannerConfig
+    t0 = time.perf_counter()
+    for attempt, (label, make) in enumerate(oracle_candidates(data, seed), start=1):
+        try:
+            q_start, initial, changes = make()
+            config = PlannerConfig().with_(**ORACLE_CONFIG, **changes)
+            result = _plan(data, True, start=q_start, goal=data["goal"], initial=initial,
+                           config=config, covariance=False)
+        except ValueError as exc:     # IK or planning refused this restart: try the next
+            log.info("oracle %s: %s", label, exc)
+            continue
+        if not judge(data, result.q, True)["failed"]:
+            return {"completable": True, "witness": label, "attempts": attempt,
+                    "seconds": time.perf_counter() - t0}
+    return {"completable": False, "witness": None, "attempts": ORACLE_RESTARTS,
+            "seconds": time.perf_counter() - t0}
+
+
+# ------------------------------------------------------------------ one problem
+def run_problem(data: dict[str, Any], free: dict | None, known: dict | None) -> dict:
+    """Obstacle plan, free plan (``free`` if cached) and completability (``known`` oracle
+    outcome if cached; the oracle runs only when the default plan fails the checks)."""
+    logging.getLogger("clamp").setLevel(logging.ERROR)
+    from scenes.threads import single_blas_thread
+    with single_blas_thread():
+        obstacle = plan_and_judge(data, True)
+        free = free if free is not None else plan_and_judge(data, False)
+        if obstacle["failed"] or not obstacle["success"]:
+            found = known if known is not None else oracle(data, seed=data["meta"]["index"])
+        else:
+            found = None
+    return {"id": data["id"], "obstacle": obstacle, "free": free, "oracle": found}
+
+
+# ------------------------------------------------------------------ statistics
+def _quantiles(values: list[float]) -> tuple[float, float, float]:
+    v = np.asarray([x for x in values if np.isfinite(x)])
+    if v.size == 0:
+        return (float("nan"),) * 3
+    return float(np.median(v)), float(np.percentile(v, 90)), float(np.percentile(v, 95))
+
+
+def summarize(records: list[dict]) -> dict:
+    """The benchmark's figures for one arm's records."""
+    n = len(records)
+    default_ok = [r["obstacle"]["success"] and not r["obstacle"]["failed"] for r in records]
+    completable = [ok or bool((r["oracle"] or {}).get("completable")) for ok, r in zip(default_ok, records)]
+    false = [r for r in records if r["obstacle"]["success"] and r["obstacle"]["failed"]]
+    kinds = Counter(kind for r in false for kind in r["obstacle"]["failed"])
+    scored = [r for r in records if r["obstacle"]["success"] and r["free"]["success"]]
+    o = [r["obstacle"] for r in scored]
+    f = [r["free"] for r in scored]
+    ratio = lambda key: [a[key] / b[key] if b[key] > 0 else float("nan") for a, b in zip(o, f)]  # noqa: E731
+    return {
+        "problems": n, "completable": sum(completable), "completed": sum(default_ok),
+        "success": sum(r["obstacle"]["success"] for r in records),
+        "false": len(false), "false_kinds": dict(kinds),
+        "false_examples": [f"{r['id']}: " + "; ".join(r["obstacle"]["failed"].values()) for r in false[:4]],
+        "oracle_found": sum(bool((r["oracle"] or {}).get("completable")) for r in records),
+        "oracle_runs": sum(r["oracle"] is not None for r in records),
+        "leaves_skill": sum(r["obstacle"]["leaves_skill"] for r in scored),
+        "free_leaves_skill": sum(r["free"]["leaves_skill"] for r in scored),
+        "free_failed": sum(bool(r["free"]["failed"]) or not r["free"]["success"] for r in records),
+        "scored": len(scored),
+        "joint_path": _quantiles(ratio("joint_path")),
+        "rotation_obstacle": _quantiles([a["rotation_deg"] for a in o]),
+        "rotation_free": _quantiles([b["rotation_deg"] for b in f]),
+        "added_rotation": _quantiles([a["rotation_deg"] - b["rotation_deg"] for a, b in zip(o, f)]),
+        "toppra": _quantiles(ratio("toppra_s")),
+        "plan_time": _quantiles(ratio("plan_s")),
+        "end_obstacle_mm": _quantiles([1e3 * a["mean_end_error_m"] for a in o]),
+        "end_free_mm": _quantiles([1e3 * b["mean_end_error_m"] for b in f]),
+    }
+
+
+def targets(s: dict) -> list[tuple[str, bool]]:
+    """Issue 19's targets: (description with the measured figure, holds)."""
+    share = s["completed"] / s["completable"] if s["completable"] else float("nan")
+    t = TARGETS
+    return [
+        (f">= {100 * t['completed']:.0f} % of completable completed ({100 * share:.1f} %) with 0 "
+         f"false successes ({s['false']})", share >= t["completed"] and s["false"] == 0),
+        (f"joint path median <= {t['joint_path_median']}x ({s['joint_path'][0]:.2f}x), p90 <= "
+         f"{t['joint_path_p90']}x ({s['joint_path'][1]:.2f}x)",
+         s["joint_path"][0] <= t["joint_path_median"] and s["joint_path"][1] <= t["joint_path_p90"]),
+        (f"added rotation median <= {t['added_rotation_median']:.0f} deg "
+         f"({s['added_rotation'][0]:.1f} deg)", s["added_rotation"][0] <= t["added_rotation_median"]),
+        (f"TOPP-RA duration median <= {t['toppra_median']}x ({s['toppra'][0]:.2f}x)",
+         s["toppra"][0] <= t["toppra_median"]),
+        (f"planning time median <= {t['plan_time_median']:.0f}x ({s['plan_time'][0]:.2f}x), p95 <= "
+         f"{t['plan_time_p95']:.0f}x ({s['plan_time'][2]:.2f}x)",
+         s["plan_time"][0] <= t["plan_time_median"] and s["plan_time"][2] <= t["plan_time_p95"]),
+    ]
+
+
+def report(arm: str, s: dict) -> None:
+    """Print one arm's table."""
+    pct = lambda a, b: f"{a} / {b} ({100 * a / b:.1f} %)" if b else f"{a} / 0"  # noqa: E731
+    q = lambda v, unit="x": f"median {v[0]:.2f}{unit}, p90 {v[1]:.2f}{unit}"  # noqa: E731
+    print(f"\n=== {arm}: {s['problems']} problems")
+    print(f"completable (a plan passes the checks)   {pct(s['completable'], s['problems'])}; "
+          f"oracle run on {s['oracle_runs']}, found {s['oracle_found']}")
+    print(f"completed by plan() (success + checks)   {pct(s['completed'], s['completable'])}")
+    print(f"plan() success                           {pct(s['success'], s['problems'])}")
+    kinds = ", ".join(f"{k} {v}" for k, v in sorted(s["false_kinds"].items())) or "-"
+    print(f"false successes                          {s['false']} ({kinds})")
+    for line in s["false_examples"]:
+        print(f"  {line}")
+    print(f"free plans failing (planner or checks)   {s['free_failed']}")
+    print(f"scored (obstacle and free plan success)  {s['scored']}")
+    print(f"joint path ratio obstacle / free         {q(s['joint_path'])}")
+    print(f"hand rotation from start, obstacle [deg] {q(s['rotation_obstacle'], '')}; free "
+          f"{q(s['rotation_free'], '')}")
+    print(f"added hand rotation [deg]                {q(s['added_rotation'], '')}")
+    print(f"TOPP-RA duration ratio (1.5 rad/s^2)     {q(s['toppra'])}")
+    print(f"planning time ratio                      {q(s['plan_time'])}, p95 {s['plan_time'][2]:.2f}x")
+    print(f"last EE point from prior mean end [mm]   obstacle {q(s['end_obstacle_mm'], '')}; free "
+          f"{q(s['end_free_mm'], '')}")
+    print(f"leaves the skill (>{checks.TIGHT_SIGMA:.0f} spreads)         obstacle "
+          f"{s['leaves_skill']} / {s['scored']}, free {s['free_leaves_skill']} / {s['scored']}")
+    for text, holds in targets(s):
+        print(f"  target {'HOLDS ' if holds else 'MISSED'} {text}")
+
+
+# ------------------------------------------------------------------ caches and main
+def load_cache(name: str, enabled: bool) -> dict:
+    path = CACHE / name
+    if not enabled or not path.is_file():
+        return {}
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        log.warning("ignoring the unreadable cache %s: %s", path, exc)
+        return {}
+
+
+def save_cache(name: str, data: dict, enabled: bool) -> None:
+    from scenes.command_line import atomic_write_text
+    if enabled:
+        CACHE.mkdir(exist_ok=True)
+        atomic_write_text(CACHE / name, json.dumps(data), overwrite=True)
+
+
+def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
+    from clamp.problem_sets import scene_benchmark
+    problems = scene_benchmark(args.problems, arm, args.seed, skills=args.skills,
+                               impossible_share=0.0, start_offset=args.start_offset)
+    datas = [p.to_dict() for p in problems]
+    free_cache = load_cache("fidelity_free.json", args.cache)
+    oracle_cache = load_cache("fidelity_oracle.json", args.cache)
+    fingerprint = clamp_fingerprint()
+    free_keys = [problem_key(d, "free", fingerprint) for d in datas]
+    oracle_keys = [problem_key(d, "oracle", ORACLE_RESTARTS, ORACLE_CONFIG) for d in datas]
+    jobs = [(d, free_cache.get(fk), oracle_cache.get(ok)) for d, fk, ok in zip(datas, free_keys, oracle_keys)]
+    t0 = time.perf_counter()
+    if executor is None:
+        outcomes = map(lambda job: run_problem(*job), jobs)
+    else:
+        futures = [executor.submit(run_problem, *job) for job in jobs]
+        outcomes = (f.result() for f in as_completed(futures))
+    by_id = {}
+    from scenes.progress import progress
+    for record in progress(outcomes, description=arm, total=len(jobs), unit="problem"):
+        by_id[record["id"]] = record
+    records = [by_id[d["id"]] for d in datas]
+    for record, fk, ok in zip(records, free_keys, oracle_keys):
+        free_cache[fk] = record["free"]
+        if record["oracle"] is not None:
+            oracle_cache[ok] = record["oracle"]
+    save_cache("fidelity_free.json", free_cache, args.cache)
+    save_cache("fidelity_oracle.json", oracle_cache, args.cache)
+    if args.records is not None:
+        from scenes.command_line import atomic_write_text
+        path = args.records.with_name(f"{args.records.stem}_{arm}{args.records.suffix}")
+        atomic_write_text(path, "".join(json.dumps(r) + "\n" for r in records), overwrite=args.force)
+    summary = summarize(records)
+    print(f"\n# {arm}: {len(records)} problems in {time.perf_counter() - t0:.0f} s wall")
+    report(arm, summary)
+    return summary
+
+
+def benchmark(args: argparse.Namespace) -> int:
+    """Run the benchmark for the parsed options; exit code 0."""
+    from scenes.command_line import output_file
+    if args.records is not None:
+        for arm in args.arms:
+            output_file(args.records.with_name(f"{args.records.stem}_{arm}{args.records.suffix}"),
+                        args.force, "--records")
+    print_environment()
+    print(f"# clamp sources {clamp_fingerprint()}; seed {args.seed}; start offset <= "
+          f"{args.start_offset} m per axis; skills {', '.join(args.skills)}")
+    executor = (ProcessPoolExecutor(args.workers, mp_context=get_context("spawn"))
+                if args.workers else None)
+    try:
+        for arm in args.arms:
+            run_arm(arm, args, executor)
+    finally:
+        if executor is not None:
+            executor.shutdown()
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    from clamp.problem_sets import BENCHMARK_SKILLS
+    from scenes.command_line import CommandLineParser, integer_at_least, number
+    from scenes.synthetic import SKILLS
+    out = CommandLineParser(prog="bench_fidelity.py", description=__doc__.splitlines()[0])
+    out.add_argument("--problems", type=integer_at_least(1), default=200,
+                     help="problems per arm (default 200)")
+    out.add_argument("--quick", dest="problems", action="store_const", const=20,
+                     help="20 problems per arm")
+    out.add_argument("--arms", nargs="+", default=["jaco", "sawyer"], choices=["jaco", "sawyer"])
+    out.add_argument("--skills", nargs="+", default=list(BENCHMARK_SKILLS), choices=list(SKILLS))
+    out.add_argument("--start-offset", type=number, default=0.08,
+                     help="largest start offset per axis [m] (default 0.08: up to ~14 cm)")
+    out.add_argument("--seed", type=integer_at_least(0), default=0)
+    out.add_argument("--workers", type=integer_at_least(1), default=None,
+                     help="worker processes (default: plan in this process)")
+    out.add_argument("--no-cache", dest="cache", action="store_false",
+                     help="neither read nor write benchmarks/.cache")
+    out.add_argument("--records", type=Path, default=None,
+                     help="write every problem's record (plans' checks and measures, oracle) to "
+                          "JSON Lines files <stem>_<arm><suffix>")
+    out.add_argument("--force", action="store_true", help="replace existing --records files")
+    out.set_defaults(run=benchmark)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    from scenes.command_line import run
+    return run(parser(), argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

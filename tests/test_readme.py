@@ -1,0 +1,28 @@
+"""The README's Python blocks run: every ```python block of README.md, in order, in one
+namespace (later blocks use what earlier ones made), in a scratch folder (they write files)."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def python_blocks() -> list[str]:
+    return re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(encoding="utf-8"), re.S)
+
+
+def test_readme_python_blocks_run_in_order(tmp_path, monkeypatch):
+    blocks = python_blocks()
+    assert len(blocks) >= 7
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {"__name__": "readme"}
+    for number, block in enumerate(blocks, 1):
+        exec(compile(block, f"README.md python block {number}", "exec"), namespace)  # noqa: S102
+    # what the blocks say they make
+    trajectory = namespace["trajectory"]
+    assert np.abs(trajectory.velocities[[0, -1]]).max() == 0.0 and trajectory.verdict["retiming"]["within_limits"]
+    assert (tmp_path / "plan_ros2.json").is_file() and (tmp_path / "problems.jsonl").is_file()
+    assert namespace["result"].success
