@@ -211,9 +211,10 @@ def _transform(rotation: np.ndarray, translation: np.ndarray, points: np.ndarray
 class _RobotGeometry:
     """The link geometries of a robot (arrays over G). Each is fixed to a chain joint; its own
     (geometry) frame maps to that joint's axis-aligned frame (robots.kinematics, z = joint axis)
-    by (rotation, translation). shapes: the collision geometry coal measures (a mesh of more
-    than PIECE_TRIANGLES triangles as its :class:`_Pieces`); bounds: a convex coal shape
-    containing it (the hull of a mesh; the shape itself where exact)."""
+    by (rotation, translation). shapes: the collision geometry; pieces: what coal measures of it
+    (a mesh of more than PIECE_TRIANGLES triangles as its :class:`_Pieces`, else the shape);
+    bounds: a convex coal shape containing it (the hull of a mesh; the shape itself where
+    exact)."""
 
     source: str
     names: tuple[str, ...]
@@ -221,7 +222,8 @@ class _RobotGeometry:
     joints: np.ndarray              # (G,) chain joint (0 = fixed to the root)
     rotation: np.ndarray            # (G, 3, 3) geometry frame -> aligned joint frame
     translation: np.ndarray         # (G, 3)
-    shapes: list                    # coal geometry or _Pieces per g (the exact distance)
+    shapes: list                    # coal geometry per g (the collision object's own)
+    pieces: list                    # what the checker measures per g: shapes[g], or its _Pieces
     bounds: list                    # coal convex shape per g containing shapes[g]
     exact: np.ndarray               # (G,) bool: bounds[g] is shapes[g] (its distance is exact)
     sphere_centre: np.ndarray       # (G, 3) bounding sphere, geometry frame
@@ -416,8 +418,9 @@ def _urdf_items(robot: Robot, include_fixed: bool) -> list[dict]:
         U = aligned[joint]
         key = ("urdf object", obj.name)
         if key not in shapes:       # hull, bounds and pieces: once per robot and collision object
-            shapes[key] = dict(_shape_item(obj.geometry, obj.name), shape=_Pieces.of(obj.geometry))
-        items.append(dict(shapes[key], name=obj.name, link=model.frames[obj.parentFrame].name, joint=joint,
+            shapes[key] = dict(_shape_item(obj.geometry, obj.name), pieces=_Pieces.of(obj.geometry))
+        items.append(dict(shapes[key], shape=obj.geometry, name=obj.name, link=model.frames[obj.parentFrame].name,
+                          joint=joint,
                           rotation=U.T @ np.asarray(obj.placement.rotation),
                           translation=U.T @ np.asarray(obj.placement.translation),
                           pin_object=pin.GeometryObject(obj)))
@@ -472,7 +475,8 @@ def _robot_geometry(robot: Robot, source: str, include_fixed: bool) -> _RobotGeo
         source=source, names=tuple(it["name"] for it in items), links=tuple(it["link"] for it in items),
         joints=joints, rotation=np.array([it["rotation"] for it in items]),
         translation=np.array([it["translation"] for it in items]),
-        shapes=[it["shape"] for it in items], bounds=[it["bound"] for it in items],
+        shapes=[it["shape"] for it in items], pieces=[it.get("pieces", it["shape"]) for it in items],
+        bounds=[it["bound"] for it in items],
         exact=np.array([it["exact"] for it in items], dtype=bool),
         sphere_centre=np.array([it["centre"] for it in items]), sphere_radius=np.array([it["radius"] for it in items]),
         motion_radius=_motion_radii(robot, joints, motion, np.array([it["motion"][1] for it in items])),
@@ -754,7 +758,7 @@ class _Search:
         g, o = self.col_g[c], self.col_o[c]
         start = _clock.perf_counter()
         cutoff = np.where(self.support[k], max(self.best, self.margin), self.best)
-        values = self.checker._query(self.checker._geo.shapes, self.poses, k + self.offset, g, o, cutoff)
+        values = self.checker._query(self.checker._geo.pieces, self.poses, k + self.offset, g, o, cutoff)
         self.seconds["exact"] += _clock.perf_counter() - start
         self.exact[k, c] = values
         self.measured[k, c] = True
@@ -985,7 +989,7 @@ class CollisionChecker:
         q (K, n): coal.distance on the collision geometry itself (a large mesh: the least of its
         pieces', class _Pieces), every pair evaluated; negative when overlapping. Slow
         (milliseconds per mesh pair): for cross-checks; the check's distances are these."""
-        return self._every_pair(q, self._geo.shapes)
+        return self._every_pair(q, self._geo.pieces)
 
     def hull_distances(self, q: Any) -> np.ndarray:
         """Distance (K, G, O) [m] of every collision object's convex bound (the convex hull of
@@ -1106,7 +1110,7 @@ class CollisionChecker:
         g = fixed[g]
         rotation = R @ geo.rotation[g]
         translation = np.einsum("ij,gj->gi", R, geo.translation[g]) + o0
-        values = np.array([self._distance(geo.shapes[gg], coal.Transform3s(rotation[m], translation[m]), gg, oo)
+        values = np.array([self._distance(geo.pieces[gg], coal.Transform3s(rotation[m], translation[m]), gg, oo)
                            for m, (gg, oo) in enumerate(zip(g.tolist(), o.tolist()))])
         return g, o, values
 
@@ -1347,7 +1351,7 @@ class CollisionChecker:
                 if not len(g):
                     break
             qm, im = 0.5 * (qa + qb), 0.5 * (ia + ib)
-            values = self._query(self._geo.shapes, _Poses(self, qm), np.arange(len(g)), g, o)
+            values = self._query(self._geo.pieces, _Poses(self, qm), np.arange(len(g)), g, o)
             count["configurations"] += len(values)
             m = int(np.argmin(values))
             if values[m] < margin:
