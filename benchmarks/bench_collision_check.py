@@ -1,17 +1,30 @@
 """Verdict geometry: cost of checking a plan on the Jaco's URDF collision meshes
 (robots.collision_check) against the cost of making the plan.
 
-Run: python benchmarks/bench_collision_check.py  (medians over repeats; never asserts on time).
+Run: python benchmarks/bench_collision_check.py [--problems 12]  (medians over repeats; never
+asserts on time).
 The plan: box_closing demonstrations (../shared/datasets/box_closing.mat), Jaco, start
 [0.2054, -0.4722, 0.2625], the box [0.32, -0.32, 0.13, 0.09, 0.06, 0.28] (T = 250).
 Also: the same trajectory against five more obstacles (seeded), and what coal's own mesh
 distance (pin.computeDistances on every link-obstacle pair) costs per support state. Every
-distance the checker uses is a coal query: num_hull on the meshes' convex hulls (GJK, a few
-microseconds), num_exact on the meshes themselves (0.1-2 ms each).
+distance the checker uses is a coal query: num_hull on convex hulls (of whole meshes and of
+their pieces; GJK, a few microseconds), num_exact on the geometry itself (primitives, mesh
+leaves of at most PIECE_TRIANGLES triangles).
+
+Then the verdict inside plan() on scene-benchmark problems (clamp.problem_sets.scene_benchmark,
+200 problems, seed 21, 1-4 obstacles; the two named problems 11 and 155 of the Jaco, which took
+24 s and 5.8 s with 20.9 s and 5.7 s in the check before pieces, and --problems more per arm,
+evenly spread), twice (first pass: mesh pieces built as they are first needed; again: built):
+every check's time, the largest, and the check's share of plan time (median, p99; all
+problems and the feasible ones: an impossible one fails after checking its start alone). And the
+broad phase: the same trajectory against 10,000 obstacles, a few near the arm and the rest far,
+against the near ones alone (the anchor).
 """
 from __future__ import annotations
 
+import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -38,7 +51,84 @@ def extra_obstacles(path: np.ndarray, seed: int = 0) -> list:
             Capsule(c[3], 0.02, 0.08, rng.normal(size=3))]
 
 
+def verdict_share(count: int) -> None:
+    """Check time per plan() on scene-benchmark problems (see the module docstring)."""
+    from clamp import problem_sets
+    from clamp.batch import resolve
+    from robots import collision_check
+    checks: list[float] = []
+    record = collision_check.CollisionChecker.check
+
+    def timed(self, *args, **kwargs):
+        report = record(self, *args, **kwargs)
+        checks.append(report.timings["total"])
+        return report
+
+    collision_check.CollisionChecker.check = timed
+    try:
+        for arm in ("jaco", "sawyer"):
+            problems = problem_sets.scene_benchmark(200, arm, seed=21, obstacles=(1, 4))
+            chosen = sorted(set(np.linspace(0, len(problems) - 1, count).astype(int).tolist())
+                            | ({11, 155} if arm == "jaco" else set()))
+            robot = resolve(problems[0], Path("."))["robot"]
+            start = time.perf_counter()
+            collision_check.CollisionChecker(robot, coal_obstacles([BOX])).fixed_overlaps
+            setup = time.perf_counter() - start
+            # first pass: the mesh pieces a problem needs are built on first use (once per
+            # robot and process); second pass: the same problems again, pieces built
+            for label in ("first pass", "again"):
+                shares, feasible, largest, named = [], [], 0.0, []
+                for k in chosen:
+                    kwargs = resolve(problems[k], Path("."))
+                    checks.clear()
+                    start = time.perf_counter()
+                    result = plan(**kwargs, covariance=False)
+                    wall = time.perf_counter() - start
+                    shares.append(sum(checks) / wall)
+                    if problems[k].expected == "feasible":
+                        feasible.append(shares[-1])
+                    largest = max([largest] + checks)
+                    if arm == "jaco" and k in (11, 155):
+                        named.append(f"[{k}] plan {wall:.2f} s, checks {sum(checks):.2f} s (largest "
+                                     f"{max(checks, default=0.0):.2f} s), success {result.success}")
+                print(f"verdict inside plan(), {arm}, {len(chosen)} scene-benchmark problems, {label}: check "
+                      f"share of plan time median {100 * np.median(shares):.1f} %, p99 "
+                      f"{100 * np.percentile(shares, 99):.1f} % (feasible ones: median "
+                      f"{100 * np.median(feasible):.1f} %, p99 {100 * np.percentile(feasible, 99):.1f} %; target "
+                      f"<= 20 %); largest single check {largest:.2f} s (target <= 1 s)")
+                for line in named:
+                    print("  " + line)
+            print(f"  robot set-up (geometry, whole-mesh hulls; once per robot and process) {setup:.2f} s")
+    finally:
+        collision_check.CollisionChecker.check = record
+
+
+def broad_phase(robot, q: np.ndarray, t: np.ndarray) -> None:
+    """10,000 obstacles, 12 near the path, against the 12 alone (the anchor)."""
+    rng = np.random.default_rng(1)
+    path = robot.frame_positions(q)[:, 2:].reshape(-1, 3)
+    near = [Sphere(path[rng.integers(len(path))] + rng.normal(0.0, 0.1, 3), rng.uniform(0.01, 0.03))
+            for _ in range(12)]
+    centres = rng.uniform(-10.0, 10.0, (10_000 - len(near), 3))
+    centres[:, 2] = np.abs(centres[:, 2]) + 2.0
+    far = [Box(c, [0.05, 0.05, 0.05]) for c in centres]
+    start = time.perf_counter()
+    many = CollisionChecker(robot, coal_obstacles(near + far))
+    build_s = time.perf_counter() - start
+    few = CollisionChecker(robot, coal_obstacles(near))
+    reports = []
+    many_ms = median_ms(lambda: reports.append(many.check(q, t)), 5, warmup=1)
+    few_ms = median_ms(lambda: few.check(q, t), 5, warmup=1)
+    print(f"broad phase: 10,000 obstacles (12 near the path) {many_ms:.1f} ms per check, the 12 near ones "
+          f"alone {few_ms:.1f} ms (ratio {many_ms / few_ms:.2f}); broad phase "
+          f"{1e3 * reports[-1].timings['broad_phase']:.1f} ms; "
+          f"building the checker (coal shapes of 10,000 obstacles) {build_s:.2f} s")
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--problems", type=int, default=12, help="scene-benchmark problems per arm")
+    args = parser.parse_args()
     print_environment()
     demos = shared_demonstrations("box_closing")
     if demos is None:
@@ -106,6 +196,8 @@ def main() -> None:
     coal_ms = median_ms(lambda: checker.reference_distances(q[states]), 3, warmup=0) / len(states)
     print(f"coal's own mesh distance (pin.computeDistances, {len(checker.geometry_names)} link pairs): "
           f"{coal_ms:.1f} ms per state, ~{coal_ms * len(q):.0f} ms for the {len(q)} support states alone")
+    broad_phase(robot, q, t)
+    verdict_share(args.problems)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,10 @@ The optimiser plans with collision spheres; the verdict never trusts them. :func
 measures a joint trajectory on the robot's URDF collision geometry (coal, through
 :class:`robots.collision_check.CollisionChecker`) against the scene's exact obstacles, at every
 support state and in between (segments subdivided so that no link point moves more than
-:data:`MAX_MOTION` between checks). A robot without collision geometry falls back to its
+:data:`MAX_MOTION` between checks, and the motion between checks certified to the checker's
+RESOLUTION, 0.2 mm: a clear verdict means no link comes more than 0.1 mm into an obstacle
+anywhere along the motion). A check that cannot be made (coal fails on a geometry) gives a
+report with a fault, which the verdict states as its reason. A robot without collision geometry falls back to its
 collision spheres (``report.geometry == "spheres"``, which the result repeats).
 
 One checker is built per (robot, scene) and kept while both live (a scene is immutable), so a
@@ -12,14 +15,18 @@ planner that checks several candidate plans in one scene pays for the set-up onc
 """
 from __future__ import annotations
 
+import logging
 import weakref
 from typing import Any
 
 import numpy as np
 
 from clamp.request import has_obstacles
-from robots.collision_check import CollisionChecker, CollisionReport, Contact
+from robots.collision_check import RESOLUTION, CollisionChecker, CollisionReport, Contact
+from robots.errors import CollisionCheckError
 from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
+
+log = logging.getLogger(__name__)
 
 #: [m] largest motion of any link point between two checked configurations of a segment
 MAX_MOTION = 0.005
@@ -43,7 +50,12 @@ def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | No
     scene; time (T,) [s] only dates the nearest contact. None when the scene has no obstacles."""
     if not has_obstacles(scene):
         return None
-    return checker(robot, scene).check(q, time, margin=0.0, max_motion=MAX_MOTION)
+    try:
+        found = checker(robot, scene)
+    except CollisionCheckError as error:          # a collision mesh coal cannot use
+        log.warning("collision check failed: %s", error)
+        return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q), str(error))
+    return found.check(q, time, margin=0.0, max_motion=MAX_MOTION, resolution=RESOLUTION)
 
 
 def state_clearance(robot: Any, scene: Any, q: np.ndarray, cap: float
@@ -55,7 +67,7 @@ def state_clearance(robot: Any, scene: Any, q: np.ndarray, cap: float
         return np.full(len(q), cap), "urdf"
     # margin = cap: every state closer than the cap gets its exact distance; a motion bound
     # larger than any step checks the support states only
-    report = checker(robot, scene).check(q, margin=cap, max_motion=1e3)
+    report = checker(robot, scene).check(q, margin=cap, max_motion=1e3, resolution=None)
     return np.minimum(report.state_distance, cap), report.geometry
 
 
@@ -81,4 +93,6 @@ def collision_reason(report: CollisionReport | None) -> str | None:
     """The verdict's reason when ``report`` found a collision, else None."""
     if report is None or not report.collision:
         return None
+    if report.fault is not None:
+        return f"collision check failed: {report.fault}"
     return f"collision: {describe_contact(report.nearest, report.geometry)}"

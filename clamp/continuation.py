@@ -173,7 +173,7 @@ def solve_collision_free(problem: PlanningProblem, config: PlannerConfig, check:
                                      convergence_patience=1))
         theta0, warm_start = soft.theta, WarmStart()
     out, report, ok = attempt("configured", sigma0, theta0, warm_start, soft)
-    if not ok and rounds > 0:
+    if not ok and report.fault is None and rounds > 0:     # a failed check: nothing to repair
         # the optimum continued first; the restarts run only while fewer than WANTED
         # candidates are feasible, and once one is, only at the weight that made it feasible
         # stiffer hinges only help a collision; a plan refused by ``accept`` alone needs

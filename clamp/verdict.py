@@ -69,7 +69,9 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
         if inside:
             reasons.append(inside)
         report = check_clearance(robot, scene, request.q_start[None])
-        if report.collision:
+        if report.fault is not None:
+            reasons.append(collision_reason(report))
+        elif report.collision:
             reasons.append("start configuration is in collision: "
                            + describe_contact(report.nearest, report.geometry))
     return reasons
@@ -169,4 +171,5 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       else out.stop_reason,
                       via_errors=via_errors, violations=violations,
                       collision_geometry=None if report is None else report.geometry,
-                      nearest_contact=None if report is None else report.nearest.to_dict())
+                      nearest_contact=None if report is None or report.nearest is None
+                      else report.nearest.to_dict())

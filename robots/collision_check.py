@@ -8,8 +8,10 @@ per (robot, obstacles) and checks any number of trajectories::
     from robots.collision_check import CollisionChecker
     from scenes.coal_shapes import coal_obstacles            # scene obstacles -> coal shapes
     checker = CollisionChecker(robot, coal_obstacles(scene))
-    report = checker.check(q (T, n), time (T,) | None, margin=0.0, max_motion=0.005)
+    report = checker.check(q (T, n), time (T,) | None, margin=0.0, max_motion=0.005,
+                           resolution=RESOLUTION)
     report.min_distance, report.nearest, report.collision, report.state_distance (T,)
+    report.lower_bound, report.fixed_overlaps, report.fault
 
 Obstacles are ``(name, coal.CollisionGeometry, placement)`` triples; the placement (pin.SE3,
 coal.Transform3s or a 4x4 homogeneous matrix) is given in the robot's base frame (the frame of
@@ -20,7 +22,11 @@ Geometry. ``geometry="urdf"``: every collision object of ``robot.collision_model
 with a joint (geometry fixed to the world, i.e. the base, only with ``include_fixed=True``; it
 is the same at every state and a plan cannot change it). A robot without collision geometry
 (not loaded from a URDF, or a URDF without ``<collision>`` elements) falls back to its
-collision spheres (``geometry="spheres"``, also forced by ``geometry="spheres"``).
+collision spheres (``geometry="spheres"``, also forced by ``geometry="spheres"``; a URDF
+without ``<collision>`` gets its spheres fitted to its ``<visual>`` geometry). Geometry fixed
+to the world is measured once per checker against every obstacle all the same: each overlap is
+logged as a warning and listed in ``report.fixed_overlaps`` (link, obstacle, depth), e.g. a
+table slab through the base or a box around it.
 
 Distances come from coal, and only from coal. The distance of a link geometry g to an obstacle
 O, ``d(g, O)``, is ``coal.distance`` on g's own collision geometry (the URDF mesh as Pinocchio
@@ -36,9 +42,17 @@ from three bounds:
   ``coal.distance(hull, O) <= d(g, O)`` (apart: a distance to a superset; overlapping: a
   superset's penetration depth is at least that of any of its triangles): a lower bound of the
   mesh distance, "hull clear" proves "mesh clear". GJK on the hull costs 2-4 microseconds,
-  coal's mesh distance 0.1-3 ms (the Jaco's hand: 44 578 triangles). A primitive (sphere, box,
-  cylinder, capsule, ...) and a mesh too flat for a hull are their own bound, with an exact
-  bound distance;
+  coal's distance on a whole mesh 0.1-13 ms (the Jaco's hand: 44 578 triangles; against a
+  large obstacle coal's traversal prunes little). A primitive (sphere, box, cylinder,
+  capsule, ...) and a mesh too flat for a hull are their own bound, with an exact bound
+  distance;
+- pieces. A mesh of more than ``PIECE_TRIANGLES`` triangles is measured as a tree of pieces
+  (built once per robot and collision object: 8 parts per node by median cuts of the triangle
+  centroids, sub-meshes of at most PIECE_TRIANGLES triangles at the leaves, a convex hull per
+  part). Its distance is the least of its leaves' (their union is the mesh: the same value
+  apart, to coal's tolerance), nearest hull first, a part opened only while its hull distance
+  is below the least leaf distance so far: a handful of small hull and leaf queries
+  (~0.1-0.5 ms) instead of one traversal of the whole mesh;
 - bounding spheres: ``|c_g - c_O| - r_g - r_O`` (the link's sphere about its hull vertices, the
   obstacle's from its size, or coal's AABB for other shapes): a lower bound without any query;
 - motion. The signed distance of a convex set to an obstacle is 1-Lipschitz in the set's
@@ -68,8 +82,20 @@ support state for the pair that decides a state value below the margin. The resu
   than the margin, never a collision that the meshes do not have;
 - ``state_distance[i]``: a lower bound of support state i's least exact distance: that
   distance itself when it is below the margin (so ``states_in_collision`` is exact), and at
-  least the margin otherwise (then the least hull or exact distance of the state's pairs);
-- ``lower_bound = min_distance - max_step / 2``, as below.
+  least the margin otherwise (the least bound of the state's pairs: exact, hull or sphere);
+- ``lower_bound``: what the whole continuous motion keeps, as below.
+
+Broad phase. Obstacles are many (perception gives thousands of boxes or spheres), the arm is
+near few of them. Per segment of the trajectory, each link geometry's bounding sphere at the
+segment's checked configurations sweeps an axis-aligned box; an obstacle's box (coal's AABB)
+farther than ``reach`` from it cannot be nearer than ``reach`` to the geometry at any checked
+configuration (``reach = max(REACH, margin)``, plus ``max_step`` with a resolution), so only
+the pairs within reach are searched (vectorised in numpy, then the bounds above); when the
+least distance found is farther than ``reach``, the search runs again with reach widened to
+it, so the result is the same as over every pair. States whose pairs are all out of reach get
+``reach`` as their state value (a lower bound). The cost grows with the obstacles near the
+arm, not with their number; memory is bounded by searching consecutive segments in windows of
+at most ``WINDOW_PAIRS`` configurations x pairs.
 
 Cost. A clear trajectory needs hull distances near its closest approach and a handful of
 mesh distances. A colliding one needs a mesh distance at (nearly) every overlapping
@@ -96,9 +122,29 @@ configurations (``report.max_step``; geometry g moves at most ``s_g = sum_j |dq_
 per step). The distance is 1-Lipschitz in that motion, so the whole continuous motion keeps at
 least ``report.lower_bound = min_distance - max_step / 2`` (every configuration on a segment is
 within max_step / 2 of a checked one).
+
+Resolution (certified success). With ``resolution`` set (default ``RESOLUTION``, 0.2 mm) and no
+collision found, the check certifies the motion between checked configurations: a pair at
+distances >= a and >= b at the ends of a step in which its geometry moves at most s keeps
+``>= (a + b - s) / 2`` throughout (the Lipschitz bound from both ends). Where that is below the
+margin, the ends get hull, then exact distances, and a step still open is halved (exact
+distance at its midpoint configuration, each half moving at most s / 2) until every part is
+certified, a distance below the margin is found (a collision, at the fractional index where it
+was found) or the part's motion bound is at most ``resolution``. So a report without collision
+guarantees that nowhere along the motion does any link come closer than
+``margin - resolution / 2`` (``report.lower_bound``, the least certified bound, is at least
+that): an obstacle thicker than the resolution cannot slip between checks, however large
+``max_motion`` is. Costs only where the trajectory skims an obstacle (within ~max_step / 2).
+``resolution=None`` skips it (``lower_bound = min_distance - max_step / 2``), e.g. to measure
+the support states alone.
+
+Faults. A check that cannot be made (coal raises on a pair of shapes) gives a report with
+``fault`` set (the reason), ``collision`` True and NaN distances, never an exception; bad
+arguments still raise CollisionCheckError naming them.
 """
 from __future__ import annotations
 
+import logging
 import math
 import time as _clock
 import weakref
@@ -114,12 +160,25 @@ from .errors import CollisionCheckError
 from .robot import Robot
 from .validation import as_array
 
+log = logging.getLogger(__name__)
+
 GEOMETRY_SOURCES = ("auto", "urdf", "spheres")
 #: a refusal, not a limit of the method: more checked configurations than this means max_motion
 #: is far too small for the trajectory
 MAX_CONFIGURATIONS = 200_000
-#: likewise for configurations x geometries x obstacles (the check keeps a few numbers per pair)
+#: the brute-force cross-checks (distances, hull_distances) refuse more configurations x
+#: geometries x obstacles than this; check() has no such limit
 MAX_PAIRS = 5_000_000
+#: a mesh with more triangles is measured as a tree of pieces with at most this many at its
+#: leaves (class _Pieces)
+PIECE_TRIANGLES = 256
+#: [m] how near (besides the margin) a link piece's swept box must come to an obstacle's box for
+#: the pair to be searched at all (broad phase); farther pairs are provably farther than this
+REACH = 0.05
+#: [m] default resolution of the certified in-between check (see "Resolution")
+RESOLUTION = 2e-4
+#: configurations x pairs searched at once (a window of consecutive segments); bounds memory only
+WINDOW_PAIRS = 1_000_000
 #: allowance [m] for coal's GJK tolerance: a hull distance h proves the exact distance >= h - SLACK
 SLACK = 1e-6
 #: coal's GJK tolerance for every query of the checker (coal's default, 1e-6, is relative and
@@ -127,6 +186,8 @@ SLACK = 1e-6
 GJK_TOLERANCE = 1e-9
 _POSE_CACHE = 1_000_000     # configurations x geometries whose poses a check keeps (else recomputed)
 _CHUNK = 4096               # configurations per block of the bounding-sphere bounds
+_BROAD_CHUNK = 2048          # obstacles per block of the broad phase
+_FAR = 1e4                  # [m] the broad phase gives up widening its reach beyond this
 _FLAT = 1e-5                # thinner (relative to its extent) than this, a mesh gets no hull (qhull)
 
 
@@ -150,8 +211,10 @@ def _transform(rotation: np.ndarray, translation: np.ndarray, points: np.ndarray
 class _RobotGeometry:
     """The link geometries of a robot (arrays over G). Each is fixed to a chain joint; its own
     (geometry) frame maps to that joint's axis-aligned frame (robots.kinematics, z = joint axis)
-    by (rotation, translation). shapes: the collision geometry coal measures; bounds: a convex
-    coal shape containing it (the hull of a mesh; the shape itself where exact)."""
+    by (rotation, translation). shapes: the collision geometry; pieces: what coal measures of it
+    (a mesh of more than PIECE_TRIANGLES triangles as its :class:`_Pieces`, else the shape);
+    bounds: a convex coal shape containing it (the hull of a mesh; the shape itself where
+    exact)."""
 
     source: str
     names: tuple[str, ...]
@@ -159,7 +222,8 @@ class _RobotGeometry:
     joints: np.ndarray              # (G,) chain joint (0 = fixed to the root)
     rotation: np.ndarray            # (G, 3, 3) geometry frame -> aligned joint frame
     translation: np.ndarray         # (G, 3)
-    shapes: list                    # coal geometry per g (the exact distance)
+    shapes: list                    # coal geometry per g (the collision object's own)
+    pieces: list                    # what the checker measures per g: shapes[g], or its _Pieces
     bounds: list                    # coal convex shape per g containing shapes[g]
     exact: np.ndarray               # (G,) bool: bounds[g] is shapes[g] (its distance is exact)
     sphere_centre: np.ndarray       # (G, 3) bounding sphere, geometry frame
@@ -190,6 +254,83 @@ def _convex_hull(vertices: np.ndarray) -> Any | None:
     std_points = coal.StdVec_Vec3s()
     std_points.extend(list(points))
     return coal.ConvexBase.convexHull(std_points, True, "Qt")
+
+
+def _submesh(vertices: np.ndarray, faces: np.ndarray) -> Any:
+    """A coal BVHModelOBBRSS of the triangles faces (F, 3) (indices into vertices (V, 3))."""
+    used, local = np.unique(faces, return_inverse=True)
+    mesh = coal.BVHModelOBBRSS()
+    mesh.beginModel(len(faces), len(used))
+    mesh.addVertices(np.ascontiguousarray(vertices[used]))
+    mesh.addTriangles(np.ascontiguousarray(local.reshape(-1, 3), dtype=np.int64))
+    mesh.endModel()
+    return mesh
+
+
+class _Pieces:
+    """A large mesh as a tree of pieces: 8 parts per node (median cuts of the triangle
+    centroids along their longest extent, three times), sub-meshes of at most PIECE_TRIANGLES
+    triangles at the leaves, each part with the convex hull of its vertices. Its coal distance
+    is the least of its leaves' (their union is the mesh), found nearest hull first: a part is
+    opened only while its hull distance (a lower bound of every triangle in it) is below the
+    least leaf distance so far. The same value as the whole mesh's when apart (to coal's
+    tolerance); when overlapping, coal's depth of a penetrating leaf. Built lazily: a node's
+    parts and hulls when it is first opened (most of a mesh never comes near an obstacle)."""
+
+    def __init__(self, source: Any = None, vertices: np.ndarray | None = None, faces: np.ndarray | None = None):
+        self._source, self._vertices, self._faces = source, vertices, faces
+        self._groups: list[np.ndarray] | None = None
+        self._parts: list = []
+        self._hulls: list = []
+
+    @classmethod
+    def of(cls, geometry: Any) -> Any:
+        """The geometry itself, or its pieces for a mesh of more than PIECE_TRIANGLES triangles."""
+        if not type(geometry).__name__.startswith("BVHModel") or geometry.num_tris <= PIECE_TRIANGLES:
+            return geometry
+        return cls(source=geometry)
+
+    def _open(self) -> None:
+        """Split this node into its parts and build their hulls (once)."""
+        if self._source is not None:           # the root: the mesh's triangles, read once
+            geometry = self._source
+            self._vertices = np.asarray(geometry.vertices(), dtype=float).reshape(-1, 3)
+            self._faces = np.array([[t[0], t[1], t[2]] for t in map(geometry.tri_indices, range(geometry.num_tris))],
+                                   dtype=np.int64)
+            self._source = None
+        vertices, faces = self._vertices, self._faces
+        centroid = vertices[faces].mean(axis=1)
+        groups = [np.arange(len(faces))]
+        for _ in range(3):
+            halves = []
+            for group in groups:
+                order = np.argsort(centroid[group, np.argmax(np.ptp(centroid[group], axis=0))], kind="stable")
+                halves += [group[order[:len(group) // 2]], group[order[len(group) // 2:]]]
+            groups = [group for group in halves if len(group)]
+        self._groups = [faces[group] for group in groups]
+        self._parts = [None] * len(groups)
+        self._hulls = [_convex_hull(vertices[np.unique(part)]) for part in self._groups]
+
+    def _part(self, i: int) -> Any:
+        if self._parts[i] is None:
+            faces = self._groups[i]
+            self._parts[i] = (_Pieces(vertices=self._vertices, faces=faces) if len(faces) > PIECE_TRIANGLES
+                              else _submesh(self._vertices, faces))
+        return self._parts[i]
+
+    def distance(self, measure: Any, least: float = math.inf) -> float:
+        """Least distance of the leaves below ``least`` (else ``least``: a lower bound);
+        measure(shape, kind) makes one coal query."""
+        if self._groups is None:
+            self._open()
+        bounds = [-math.inf if hull is None else measure(hull, "hull") for hull in self._hulls]
+        for i in np.argsort(bounds, kind="stable").tolist():
+            if bounds[i] >= least:
+                break
+            part = self._part(i)
+            value = part.distance(measure, least) if isinstance(part, _Pieces) else measure(part, "exact")
+            least = min(least, value)
+        return least
 
 
 def _ball(points: np.ndarray, pad: float = 0.0) -> tuple[np.ndarray, float]:
@@ -266,6 +407,7 @@ def _motion_radii(robot: Robot, joints: np.ndarray, points: list[np.ndarray], pa
 def _urdf_items(robot: Robot, include_fixed: bool) -> list[dict]:
     model, cm = robot.model, robot.collision_model
     aligned = np.asarray(robot.chain._aligned)
+    shapes = _CACHE.setdefault(robot, {})
     items = []
     for obj in cm.geometryObjects:
         joint = int(obj.parentJoint)
@@ -274,12 +416,14 @@ def _urdf_items(robot: Robot, include_fixed: bool) -> list[dict]:
         if joint > robot.n:
             raise CollisionCheckError(f"robot: collision object {obj.name!r} hangs off an unknown joint")
         U = aligned[joint]
-        item = dict(name=obj.name, link=model.frames[obj.parentFrame].name, joint=joint,
-                    rotation=U.T @ np.asarray(obj.placement.rotation),
-                    translation=U.T @ np.asarray(obj.placement.translation),
-                    shape=obj.geometry, pin_object=pin.GeometryObject(obj))
-        item.update(_shape_item(obj.geometry, obj.name))
-        items.append(item)
+        key = ("urdf object", obj.name)
+        if key not in shapes:       # hull, bounds and pieces: once per robot and collision object
+            shapes[key] = dict(_shape_item(obj.geometry, obj.name), pieces=_Pieces.of(obj.geometry))
+        items.append(dict(shapes[key], shape=obj.geometry, name=obj.name, link=model.frames[obj.parentFrame].name,
+                          joint=joint,
+                          rotation=U.T @ np.asarray(obj.placement.rotation),
+                          translation=U.T @ np.asarray(obj.placement.translation),
+                          pin_object=pin.GeometryObject(obj)))
     return items
 
 
@@ -331,7 +475,8 @@ def _robot_geometry(robot: Robot, source: str, include_fixed: bool) -> _RobotGeo
         source=source, names=tuple(it["name"] for it in items), links=tuple(it["link"] for it in items),
         joints=joints, rotation=np.array([it["rotation"] for it in items]),
         translation=np.array([it["translation"] for it in items]),
-        shapes=[it["shape"] for it in items], bounds=[it["bound"] for it in items],
+        shapes=[it["shape"] for it in items], pieces=[it.get("pieces", it["shape"]) for it in items],
+        bounds=[it["bound"] for it in items],
         exact=np.array([it["exact"] for it in items], dtype=bool),
         sphere_centre=np.array([it["centre"] for it in items]), sphere_radius=np.array([it["radius"] for it in items]),
         motion_radius=_motion_radii(robot, joints, motion, np.array([it["motion"][1] for it in items])),
@@ -351,24 +496,28 @@ class _Obstacles:
     transforms: tuple         # coal.Transform3s per obstacle (base frame)
     centre: np.ndarray        # (O, 3) bounding sphere, base frame
     radius: np.ndarray        # (O,) (inf for unbounded shapes)
+    box_min: np.ndarray       # (O, 3) coal's axis-aligned bounding box, base frame
+    box_max: np.ndarray       # (O, 3)
 
 
 def _placement(value: Any, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation (3, 3) and translation (3,) of a placement, checked (made exactly orthonormal
+    by the caller, for all obstacles at once)."""
     if isinstance(value, pin.SE3):
         rotation, translation = np.array(value.rotation), np.array(value.translation)
     elif isinstance(value, coal.Transform3s):
         rotation, translation = np.array(value.getRotation()), np.array(value.getTranslation())
     else:
-        matrix = as_array(value, name, (4, 4), max_leading=0)
-        if not np.allclose(matrix[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9):
+        matrix = value if isinstance(value, np.ndarray) and value.shape == (4, 4) and value.dtype == float \
+            else as_array(value, name, (4, 4), max_leading=0)
+        if np.abs(matrix[3] - [0.0, 0.0, 0.0, 1.0]).max() > 1e-9:
             raise CollisionCheckError(f"{name}: expected a homogeneous 4x4 matrix with last row [0, 0, 0, 1]")
         rotation, translation = matrix[:3, :3], matrix[:3, 3]
-    if not (np.all(np.isfinite(rotation)) and np.all(np.isfinite(translation))):
+    if not (np.isfinite(rotation).all() and np.isfinite(translation).all()):
         raise CollisionCheckError(f"{name}: contains NaN or inf values")
-    if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) <= 0:
+    if np.abs(rotation @ rotation.T - np.eye(3)).max() > 1e-6 or np.linalg.det(rotation) <= 0:
         raise CollisionCheckError(f"{name}: the rotation is not a proper rotation matrix (orthonormal, det +1)")
-    u, _, vt = np.linalg.svd(rotation)
-    return u @ vt, translation.astype(float)
+    return rotation, translation.astype(float)
 
 
 def _obstacle_ball(shape: Any, where: str) -> tuple[np.ndarray, float]:
@@ -401,6 +550,7 @@ def _parse_obstacles(obstacles: Any) -> _Obstacles:
             "obstacles: expected a sequence of (name, coal.CollisionGeometry, placement) triples "
             f"(scenes.coal_shapes.coal_obstacles builds them from a scene), got {type(obstacles).__name__}")
     names, shapes, rotations, translations, centres, radii = [], [], [], [], [], []
+    seen: set[str] = set()
     for i, entry in enumerate(obstacles):
         where = f"obstacles[{i}]"
         if not isinstance(entry, (tuple, list)) or len(entry) != 3:
@@ -409,8 +559,9 @@ def _parse_obstacles(obstacles: Any) -> _Obstacles:
         name, shape, placement = entry
         if not isinstance(name, str) or not name:
             raise CollisionCheckError(f"{where}: the name must be a non-empty string, got {name!r}")
-        if name in names:
+        if name in seen:
             raise CollisionCheckError(f"{where}: duplicate obstacle name {name!r}")
+        seen.add(name)
         if not isinstance(shape, coal.CollisionGeometry):
             raise CollisionCheckError(f"{where}: expected a coal.CollisionGeometry, got {type(shape).__name__}")
         rotation, translation = _placement(placement, f"{where} placement")
@@ -422,11 +573,17 @@ def _parse_obstacles(obstacles: Any) -> _Obstacles:
         centres.append(rotation @ centre + translation)
         radii.append(radius)
     O = len(names)
-    rotation = np.array(rotations).reshape(O, 3, 3)
+    u, _, vt = np.linalg.svd(np.array(rotations).reshape(O, 3, 3))
+    rotation = u @ vt                                            # exactly orthonormal
     translation = np.array(translations).reshape(O, 3)
-    return _Obstacles(tuple(names), tuple(shapes), rotation, translation,
-                      tuple(coal.Transform3s(r, t) for r, t in zip(rotation, translation)),
-                      np.array(centres).reshape(O, 3), np.array(radii, dtype=float))
+    transforms = tuple(coal.Transform3s(r, t) for r, t in zip(rotation, translation))
+    box_min, box_max = np.empty((O, 3)), np.empty((O, 3))
+    for i, (shape, transform) in enumerate(zip(shapes, transforms)):
+        box = coal.CollisionObject(shape, transform)
+        box.computeAABB()
+        box_min[i], box_max[i] = box.getAABB().min_, box.getAABB().max_
+    return _Obstacles(tuple(names), tuple(shapes), rotation, translation, transforms,
+                      np.array(centres).reshape(O, 3), np.array(radii, dtype=float), box_min, box_max)
 
 
 # =================================================================================== report
@@ -465,8 +622,15 @@ class CollisionReport:
     num_configurations: configurations checked (support states and the ones in between);
     num_exact: coal distances computed on the collision geometry itself (meshes, primitives);
     max_step: largest motion of any link point between two consecutive checked configurations
-    (<= max_motion); lower_bound = min_distance - max_step / 2: a distance the whole continuous
-    motion keeps; timings [s]; num_hull: coal distances computed on the meshes' convex hulls.
+    (<= max_motion); lower_bound: a distance the whole continuous motion provably keeps (the
+    certified bound of "Resolution" when resolution is set and there is no collision, else
+    min_distance - max_step / 2); resolution: the certified check's resolution [m] (None: the
+    in-between motion was only bounded, not refined); timings [s]; num_hull: coal distances
+    computed on the meshes' convex hulls; fixed_overlaps: ((link, obstacle, depth [m]), ...) for
+    every obstacle overlapping geometry fixed to the world (the robot's base), which no plan can
+    change and the trajectory check leaves out (unless include_fixed); fault: why the check
+    could not be completed (coal failed on a pair; then collision is True and the distances
+    NaN), else None.
     """
 
     geometry: str
@@ -482,6 +646,17 @@ class CollisionReport:
     lower_bound: float
     timings: dict[str, float] = field(default_factory=dict)
     num_hull: int = 0
+    resolution: float | None = None
+    fixed_overlaps: tuple[tuple[str, str, float], ...] = ()
+    fault: str | None = None
+
+    @classmethod
+    def failed(cls, geometry: str, margin: float, max_motion: float, num_states: int, fault: str,
+               fixed_overlaps: tuple[tuple[str, str, float], ...] = ()) -> "CollisionReport":
+        """The report of a check that could not be completed: ``fault`` says why; it counts as
+        a collision (never a clear verdict) with NaN distances."""
+        return cls(geometry, margin, max_motion, math.nan, None, True, np.full(num_states, math.nan), 0, 0,
+                   math.nan, math.nan, fixed_overlaps=fixed_overlaps, fault=fault)
 
     @property
     def states_in_collision(self) -> np.ndarray:
@@ -495,7 +670,8 @@ class CollisionReport:
                 "nearest": None if self.nearest is None else self.nearest.to_dict(),
                 "state_distance": self.state_distance.tolist(), "num_configurations": self.num_configurations,
                 "num_exact": self.num_exact, "num_hull": self.num_hull, "max_step": self.max_step,
-                "lower_bound": self.lower_bound}
+                "lower_bound": self.lower_bound, "resolution": self.resolution,
+                "fixed_overlaps": [list(item) for item in self.fixed_overlaps], "fault": self.fault}
 
 
 @dataclass(frozen=True)
@@ -544,41 +720,46 @@ class _Search:
     geometry); hull / exact (K, P) the coal distances made so far (queried / measured)."""
 
     def __init__(self, checker: "CollisionChecker", poses: _Poses, col_g: np.ndarray, col_o: np.ndarray,
-                 travel: np.ndarray, lower: np.ndarray):
+                 travel: np.ndarray, lower: np.ndarray, margin: float, offset: int = 0,
+                 best: float = math.inf, nearest: tuple[int, int, int] | None = None):
         self.checker, self.poses, self.col_g, self.col_o = checker, poses, col_g, col_o
-        self.travel, self.lower = travel, lower
+        self.margin = margin
+        self.support = np.zeros(len(lower), dtype=bool)   # rows that are support states
+        self.travel, self.lower, self.offset = travel, lower, offset
         self.col_exact = checker._geo.exact[col_g]
         self.hull = np.full(lower.shape, np.nan)
         self.exact = np.full(lower.shape, np.nan)
         self.queried = np.zeros(lower.shape, dtype=bool)
         self.measured = np.zeros(lower.shape, dtype=bool)
-        self.best, self.nearest = math.inf, None          # least exact distance, (k, g, o)
+        self.best, self.nearest = best, nearest           # least exact distance, (k, g, o), k in poses
         self.seconds = {"hull": 0.0, "exact": 0.0}
-        self.count = {"hull": 0, "exact": 0}
 
     def _offer(self, k: np.ndarray, g: np.ndarray, o: np.ndarray, values: np.ndarray) -> None:
         m = int(np.argmin(values))
         if values[m] < self.best:
-            self.best, self.nearest = float(values[m]), (int(k[m]), int(g[m]), int(o[m]))
+            self.best, self.nearest = float(values[m]), (int(k[m]) + self.offset, int(g[m]), int(o[m]))
 
     def _query(self, shapes: list, k: np.ndarray, g: np.ndarray, o: np.ndarray, kind: str) -> np.ndarray:
         start = _clock.perf_counter()
-        values = self.checker._query(shapes, self.poses, k, g, o)
+        values = self.checker._query(shapes, self.poses, k + self.offset, g, o)
         self.seconds[kind] += _clock.perf_counter() - start
         return values
 
-    def fixed(self, k: np.ndarray, g: np.ndarray, o: np.ndarray) -> float:
-        """Exact distances of geometry fixed to the world (one configuration stands for all)."""
-        values = self._query(self.checker._geo.shapes, k, g, o, "exact")
-        self.count["exact"] += len(values)
-        self._offer(k, g, o, values)
-        return float(values.min())
+    def bounds(self) -> np.ndarray:
+        """Best lower bound (K, P) of every pair's exact distance known so far."""
+        return np.where(self.measured, self.exact, np.where(self.queried, np.fmax(self.hull, self.lower), self.lower))
 
     def measure(self, k: np.ndarray, c: np.ndarray) -> None:
-        """Exact distances (coal on the collision geometry) of pairs (k, c)."""
+        """Exact distances (coal on the collision geometry) of pairs (k, c), exact where the
+        search needs them: below the least distance so far, and at support states below the
+        margin too (state values). A mesh measured as pieces stops there (a value at or above
+        that cutoff is a lower bound, which never becomes the least or a state value below the
+        margin)."""
         g, o = self.col_g[c], self.col_o[c]
-        values = self._query(self.checker._geo.shapes, k, g, o, "exact")
-        self.count["exact"] += len(values)
+        start = _clock.perf_counter()
+        cutoff = np.where(self.support[k], max(self.best, self.margin), self.best)
+        values = self.checker._query(self.checker._geo.pieces, self.poses, k + self.offset, g, o, cutoff)
+        self.seconds["exact"] += _clock.perf_counter() - start
         self.exact[k, c] = values
         self.measured[k, c] = True
         self._offer(k, g, o, values)
@@ -591,8 +772,6 @@ class _Search:
         self.hull[k, c] = values
         self.queried[k, c] = True
         on_exact = self.col_exact[c]
-        self.count["exact"] += int(on_exact.sum())
-        self.count["hull"] += int((~on_exact).sum())
         if on_exact.any():
             ke, ce, ve = k[on_exact], c[on_exact], values[on_exact]
             self.exact[ke, ce] = ve
@@ -669,6 +848,9 @@ class CollisionChecker:
         self._request.enable_signed_distance = True
         self._request.gjk_tolerance = GJK_TOLERANCE
         self._pin = None
+        self._fixed: tuple[tuple[str, str, float], ...] | None = None
+        self.tally = {"hull": 0, "exact": 0}      # coal queries made (see _distance)
+        self._result = coal.DistanceResult()       # reused by every query (cleared first)
 
     # ------------------------------------------------------------------ description
     @property
@@ -707,13 +889,12 @@ class CollisionChecker:
             raise CollisionCheckError(expected)
         return float(value)
 
-    def _check_size(self, K: int, argument: str = "q") -> None:
-        pairs = K * len(self._geo.names) * len(self._obs.names)
-        if pairs > MAX_PAIRS:
+    def _check_size(self, K: int) -> None:
+        G, O = len(self._geo.names), len(self._obs.names)
+        if K * G * O > MAX_PAIRS:
             raise CollisionCheckError(
-                f"{argument}: {K} configurations x {len(self._geo.names)} geometries x {len(self._obs.names)} "
-                f"obstacles = {pairs} pairs, more than {MAX_PAIRS}; check fewer configurations at a time"
-                + (" or use a larger max_motion" if argument == "max_motion" else ""))
+                f"q: {K} configurations x {G} geometries x {O} obstacles = {K * G * O} pairs, more than "
+                f"{MAX_PAIRS} for a brute-force cross-check; check fewer configurations at a time")
 
     # ------------------------------------------------------------------ subdivision
     def configurations(self, q: Any, max_motion: float = 0.005) -> Subdivision:
@@ -759,27 +940,41 @@ class CollisionChecker:
         rotation = Rj if geo.aligned else Rj @ geo.rotation          # spheres: already aligned
         return rotation, _transform(Rj, oj, geo.translation)
 
-    def _query(self, shapes: list, poses: _Poses, k: np.ndarray, g: np.ndarray, o: np.ndarray) -> np.ndarray:
-        """coal.distance (M,) of shapes[g] at configurations k against obstacles o (signed)."""
+    def _query(self, shapes: list, poses: _Poses, k: np.ndarray, g: np.ndarray, o: np.ndarray,
+               cutoff: float | np.ndarray = math.inf) -> np.ndarray:
+        """coal distance (M,) of shapes[g] at configurations k against obstacles o (signed);
+        exact below cutoff (scalar or (M,); see _distance)."""
         out = np.empty(len(k))
         if not len(k):
             return out
         R, t, row = poses.rows(k)
-        obstacles, placements, request = self._obs.shapes, self._obs.transforms, self._request
-        result, transform = coal.DistanceResult(), coal.Transform3s()
-        gg = oo = 0
+        cutoffs = np.broadcast_to(np.asarray(cutoff, dtype=float), (len(k),)).tolist()
+        for m, (r, gg, oo) in enumerate(zip(row.tolist(), g.tolist(), o.tolist())):
+            out[m] = self._distance(shapes[gg], coal.Transform3s(R[r, gg], t[r, gg]), gg, oo, cutoffs[m])
+        return out
+
+    def _distance(self, shape: Any, transform: Any, g: int, o: int, cutoff: float = math.inf) -> float:
+        """coal's signed distance of one geometry (or _Pieces) placed at transform to obstacle
+        o; counted in self.tally ("hull": on a convex hull, "exact": on the geometry itself).
+        _Pieces stop at cutoff: exact below it, a lower bound at least cutoff otherwise."""
+        obstacle, placement = self._obs.shapes[o], self._obs.transforms[o]
+        result = self._result
         try:
-            for m, (r, gg, oo) in enumerate(zip(row.tolist(), g.tolist(), o.tolist())):
-                transform.setRotation(R[r, gg])
-                transform.setTranslation(t[r, gg])
+            if not isinstance(shape, _Pieces):
+                self.tally["hull" if isinstance(shape, coal.ConvexBase) else "exact"] += 1
                 result.clear()
-                out[m] = coal.distance(shapes[gg], transform, obstacles[oo], placements[oo], request, result)
+                return coal.distance(shape, transform, obstacle, placement, self._request, result)
+
+            def measure(part: Any, kind: str) -> float:
+                self.tally[kind] += 1
+                result.clear()
+                return coal.distance(part, transform, obstacle, placement, self._request, result)
+            return shape.distance(measure, cutoff)
         except Exception as error:   # coal: a pair of shape types it cannot measure
             raise CollisionCheckError(
-                f"obstacles: coal cannot compute the distance of {self._geo.names[gg]!r} "
-                f"({type(shapes[gg]).__name__}) to obstacle {self._obs.names[oo]!r} "
-                f"({type(obstacles[oo]).__name__}): {error}") from error
-        return out
+                f"obstacles: coal cannot compute the distance of {self._geo.names[g]!r} "
+                f"({type(shape).__name__}) to obstacle {self._obs.names[o]!r} "
+                f"({type(obstacle).__name__}): {error}") from error
 
     def _every_pair(self, q: Any, shapes: list) -> np.ndarray:
         qs = self._trajectory(q)
@@ -790,15 +985,16 @@ class CollisionChecker:
 
     # ------------------------------------------------------------------ every pair (no pruning)
     def distances(self, q: Any) -> np.ndarray:
-        """Distance (K, G, O) [m] of every geometry to every obstacle at configurations q (K, n):
-        coal.distance on the collision geometry itself (the full meshes), every pair evaluated;
-        negative when overlapping. Slow (milliseconds per mesh pair): for cross-checks."""
-        return self._every_pair(q, self._geo.shapes)
+        """Distance (K, G, O) [m] of every collision object to every obstacle at configurations
+        q (K, n): coal.distance on the collision geometry itself (a large mesh: the least of its
+        pieces', class _Pieces), every pair evaluated; negative when overlapping. Slow
+        (milliseconds per mesh pair): for cross-checks; the check's distances are these."""
+        return self._every_pair(q, self._geo.pieces)
 
     def hull_distances(self, q: Any) -> np.ndarray:
-        """Distance (K, G, O) [m] of every geometry's convex bound (a mesh's convex hull, a
-        primitive itself) to every obstacle at configurations q (K, n), by coal: a lower bound of
-        :meth:`distances` (to coal's tolerance, SLACK)."""
+        """Distance (K, G, O) [m] of every collision object's convex bound (the convex hull of
+        a whole mesh, a primitive itself) to every obstacle at configurations q (K, n), by coal:
+        a lower bound of :meth:`distances` (to coal's tolerance, SLACK)."""
         return self._every_pair(q, self._geo.bounds)
 
     def reference_distances(self, q: Any) -> np.ndarray:
@@ -809,7 +1005,7 @@ class CollisionChecker:
         micrometres (GJK tolerances). For cross-checks."""
         qs = self._trajectory(q)
         model, gmodel, gdata, data = self._pinocchio()
-        G, O = len(self._geo.names), len(self._obs.names)
+        G, O = len(self._geo.pin_objects), len(self._obs.names)
         out = np.empty((len(qs), G, O))
         for i, q_pin in enumerate(self.robot.to_pinocchio(qs)):
             pin.computeDistances(model, data, gmodel, gdata, q_pin)
@@ -836,14 +1032,118 @@ class CollisionChecker:
             self._pin = (robot.model, gmodel, gdata, robot.model.createData())
         return self._pin
 
+    # ------------------------------------------------------------------ broad phase
+    def _box_gap(self, low: np.ndarray, high: np.ndarray, obstacles: np.ndarray) -> np.ndarray:
+        """Distance (..., len(obstacles)) between boxes (low, high) (..., 3) and the obstacles'
+        axis-aligned boxes: a lower bound of the distance of anything inside them."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            gap = np.maximum(np.maximum(self._obs.box_min[obstacles] - high[..., None, :],
+                                        low[..., None, :] - self._obs.box_max[obstacles]), 0.0)
+            return np.sqrt((gap ** 2).sum(axis=-1))
+
+    def _near_pairs(self, centre: np.ndarray, support: np.ndarray, moving: np.ndarray, reach: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Broad phase. centre (K, Gm, 3): bounding-sphere centres of the moving pieces at every
+        configuration. Per segment (configurations support[i]..support[i+1]; the one
+        configuration when T = 1): the box swept by each piece's bounding sphere at its checked
+        configurations, against each obstacle's box; pairs within ``reach`` are near.
+        Returns near (I, Gm, On) bool and the obstacles On that are near some piece."""
+        radius = self._geo.sphere_radius[moving][None, :, None]
+        low, high = centre - radius, centre + radius
+        if len(support) > 1:
+            starts, ends = support[:-1], support[1:]
+            low = np.minimum(np.minimum.reduceat(low, starts, axis=0), low[ends])
+            high = np.maximum(np.maximum.reduceat(high, starts, axis=0), high[ends])
+        else:
+            low, high = low[:1], high[:1]
+        seg_low, seg_high = low.min(axis=1), high.max(axis=1)                      # (I, 3)
+        # obstacles near the whole swept box, then near some segment's
+        chosen = np.flatnonzero(self._box_gap(seg_low.min(axis=0), seg_high.max(axis=0),
+                                              np.arange(len(self._obs.names))) <= reach)
+        near_obstacle = np.zeros(len(chosen), dtype=bool)
+        for first in range(0, len(chosen), _BROAD_CHUNK):
+            block = slice(first, first + _BROAD_CHUNK)
+            near_obstacle[block] = (self._box_gap(seg_low, seg_high, chosen[block]) <= reach).any(axis=0)
+        chosen = chosen[near_obstacle]
+        near = np.zeros((len(low), len(moving), len(chosen)), dtype=bool)
+        step = max(1, _BROAD_CHUNK * 16 // max(1, len(moving) * len(chosen)))
+        for first in range(0, len(low), step):
+            rows = slice(first, first + step)
+            near[rows] = self._box_gap(low[rows], high[rows], chosen) <= reach
+        return near, chosen
+
+    @staticmethod
+    def _windows(near: np.ndarray, support: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
+        """Consecutive segments grouped into windows of at most WINDOW_PAIRS configurations x
+        near pairs (a segment alone may exceed it): (first segment, last segment + 1, near
+        pairs (Gm * On,) bool) each."""
+        flat = near.reshape(len(near), -1)
+        every = flat.any(axis=0)
+        if (support[-1] + 1) * int(every.sum()) <= WINDOW_PAIRS:               # one window
+            return [(0, len(flat), every)]
+        windows, first, union = [], 0, np.zeros(flat.shape[1], dtype=bool)
+        for i in range(len(flat)):
+            grown = union | flat[i]
+            end = support[min(i + 1, len(support) - 1)]
+            if i > first and (end - support[first] + 1) * int(grown.sum()) > WINDOW_PAIRS:
+                windows.append((first, i, union))
+                first, grown = i, flat[i].copy()
+            union = grown
+        windows.append((first, len(flat), union))
+        return windows
+
+    # ------------------------------------------------------------------ geometry fixed to the world
+    def _fixed_pairs(self, geo: _RobotGeometry, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pieces fixed to the world within reach of an obstacle (box test): (g, o) and the
+        exact coal distance of each, at any configuration (they do not move)."""
+        fixed = np.flatnonzero(geo.joints == 0)
+        if not fixed.size or not self._obs.names:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+        q0 = np.zeros((1, self.robot.n))
+        frames = self.robot.chain.joint_frames(q0)
+        R, o0 = frames.rotations[0, 0], frames.origins[0, 0]
+        centre = (np.einsum("gij,gj->gi", geo.rotation[fixed], geo.sphere_centre[fixed])
+                  + geo.translation[fixed]) @ R.T + o0
+        radius = geo.sphere_radius[fixed][:, None]
+        gap = self._box_gap(centre - radius, centre + radius, np.arange(len(self._obs.names)))  # (F, O)
+        g, o = np.nonzero(gap <= reach)
+        g = fixed[g]
+        rotation = R @ geo.rotation[g]
+        translation = np.einsum("ij,gj->gi", R, geo.translation[g]) + o0
+        values = np.array([self._distance(geo.pieces[gg], coal.Transform3s(rotation[m], translation[m]), gg, oo)
+                           for m, (gg, oo) in enumerate(zip(g.tolist(), o.tolist()))])
+        return g, o, values
+
+    @property
+    def fixed_overlaps(self) -> tuple[tuple[str, str, float], ...]:
+        """(link, obstacle, depth [m]) for every obstacle that overlaps geometry fixed to the
+        world (the robot's base): measured once per checker by coal, logged as a warning."""
+        if self._fixed is None:
+            geo = _robot_geometry(self.robot, self._geo.source, True)
+            g, o, values = self._fixed_pairs(geo, 0.0)
+            deepest: dict[tuple[str, str], float] = {}
+            for gg, oo, value in zip(g.tolist(), o.tolist(), values.tolist()):
+                if value < 0.0:
+                    key = (geo.links[gg], self._obs.names[oo])
+                    deepest[key] = max(deepest.get(key, 0.0), -value)
+            self._fixed = tuple((link, name, depth) for (link, name), depth in sorted(deepest.items()))
+            for link, name, depth in self._fixed:
+                log.warning("obstacle %s overlaps the robot's fixed link %s (%.1f mm deep): geometry fixed "
+                            "to the world is the same at every state, no plan can clear it", name, link,
+                            1e3 * depth)
+        return self._fixed
+
     # ------------------------------------------------------------------ the check
-    def check(self, q: Any, time: Any = None, margin: float = 0.0, max_motion: float = 0.005) -> CollisionReport:
+    def check(self, q: Any, time: Any = None, margin: float = 0.0, max_motion: float = 0.005,
+              resolution: float | None = RESOLUTION) -> CollisionReport:
         """Check a trajectory q (T, n) (linear in joint space between support states).
 
         time (T,) [s] (strictly increasing) or None: only used to report when the nearest
         contact happens. margin [m]: ``collision`` is min_distance < margin. max_motion [m]:
-        largest motion of any link point between two checked configurations. See the module
-        docstring for what is exact and why.
+        largest motion of any link point between two checked configurations. resolution [m]:
+        the certified check between them ("Resolution" in the module docstring); None: only
+        bound the motion in between (report.lower_bound), e.g. to measure support states alone.
+        A coal failure gives a report with ``fault`` set (a collision), not an exception.
         """
         start = _clock.perf_counter()
         q = self._trajectory(q)
@@ -854,41 +1154,129 @@ class CollisionChecker:
                 raise CollisionCheckError("time: expected strictly increasing time stamps")
         margin = self._number(margin, "margin", positive=False)
         max_motion = self._number(max_motion, "max_motion", positive=True)
+        if resolution is not None:
+            resolution = self._number(resolution, "resolution", positive=True)
         geo, obs = self._geo, self._obs
         if not obs.names:
             return CollisionReport(geo.source, margin, max_motion, math.inf, None, False, np.full(T, np.inf),
-                                   0, 0, 0.0, math.inf, {"total": _clock.perf_counter() - start})
+                                   0, 0, 0.0, math.inf, {"total": _clock.perf_counter() - start},
+                                   resolution=resolution)
         sub = self.configurations(q, max_motion)
-        K, O = len(sub.q), len(obs.names)
-        self._check_size(K, "max_motion")
-        t_sub = _clock.perf_counter()
+        try:
+            fixed_overlaps = self.fixed_overlaps
+            return self._check(q, time, margin, max_motion, resolution, sub, start, fixed_overlaps)
+        except CollisionCheckError as error:
+            log.warning("collision check failed: %s", error)
+            return CollisionReport.failed(geo.source, margin, max_motion, T, str(error),
+                                          self._fixed if self._fixed is not None else ())
 
+    def _check(self, q: np.ndarray, time: np.ndarray | None, margin: float, max_motion: float,
+               resolution: float | None, sub: Subdivision, start: float,
+               fixed_overlaps: tuple) -> CollisionReport:
+        geo, obs = self._geo, self._obs
+        T, K = len(q), len(sub.q)
+        S = sub.support
+        max_step = float(sub.step.max()) if sub.step.size else 0.0
+        t_sub = _clock.perf_counter()
         poses = _Poses(self, sub.q)
         moving = np.flatnonzero(geo.joints != 0)
-        fixed = np.flatnonzero(geo.joints == 0)
-        P = len(moving) * O                      # pair column c: geometry moving[c // O], obstacle c % O
-        col_g, col_o = np.repeat(moving, O), np.tile(np.arange(O), len(moving))
-        # bounding spheres: a lower bound of every pair at every configuration, no query
-        lower = np.empty((K, P))
+        travel = self._travel(q, sub)                                               # (K, Gp)
+        centre = np.empty((K, len(moving), 3))
         some = slice(None) if len(moving) == len(geo.names) else moving
         for chunk, R, t in poses.chunks():
-            centre = _transform(R[:, some], t[:, some], geo.sphere_centre[some])            # (k, Gm, 3)
-            gap = np.linalg.norm(centre[:, :, None, :] - obs.centre[None, None], axis=3)     # (k, Gm, O)
-            gap -= geo.sphere_radius[moving][None, :, None] + obs.radius[None, None, :]
-            lower[chunk] = gap.reshape(-1, P)
-        search = _Search(self, poses, col_g, col_o, np.repeat(self._travel(q, sub)[:, moving], O, axis=1), lower)
-        t_broad = _clock.perf_counter()
+            centre[chunk] = _transform(R[:, some], t[:, some], geo.sphere_centre[some])
+        reach = max(REACH, margin) + (max_step if resolution is not None else 0.0)
+        seconds = {"broad_phase": 0.0, "hull": 0.0, "exact": 0.0, "certify": 0.0}
+        count = {"configurations": K}
+        tally = dict(self.tally)
+        while True:
+            t0 = _clock.perf_counter()
+            near, chosen = self._near_pairs(centre, S, moving, reach)
+            seconds["broad_phase"] += _clock.perf_counter() - t0
+            best, nearest, where = math.inf, None, math.nan
+            state = np.full(T, reach - (max_step if resolution is not None else 0.0))
+            # geometry fixed to the world (include_fixed): the same at every configuration
+            fg, fo, fvalues = self._fixed_pairs(geo, reach)
+            if len(fvalues):
+                m = int(np.argmin(fvalues))
+                best, nearest, where = float(fvalues[m]), (0, int(fg[m]), int(fo[m])), float(sub.index[0])
+                state = np.minimum(state, best)
+            low_bound, uncertain = math.inf, []
+            for first, last, union in self._windows(near, S):
+                k0, k1 = int(S[first]), int(S[min(last, T - 1)])
+                pairs = np.flatnonzero(union)
+                if not pairs.size:
+                    continue
+                local_g, local_o = np.divmod(pairs, len(chosen))
+                col_g, col_o = moving[local_g], chosen[local_o]
+                rows = slice(k0, k1 + 1)
+                c = centre[rows][:, local_g]                                         # (Kw, Pw, 3)
+                r = geo.sphere_radius[col_g]
+                lower = np.linalg.norm(c - obs.centre[col_o], axis=2) - r - obs.radius[col_o]
+                with np.errstate(over="ignore", invalid="ignore"):
+                    gap = np.maximum(np.maximum(obs.box_min[col_o] - (c + r[:, None]),
+                                                (c - r[:, None]) - obs.box_max[col_o]), 0.0)
+                    apart = np.sqrt((gap ** 2).sum(axis=2))    # boxes apart: a bound; touching: none
+                    lower = np.where(apart > 0.0, np.maximum(lower, apart), lower)
+                search = _Search(self, poses, col_g, col_o, travel[rows][:, col_g], lower, margin, k0, best,
+                                 nearest)
+                Sw = S[first:min(last, T - 1) + 1] - k0
+                search.support[Sw] = True
+                self._search(search, Sw, margin)
+                if resolution is not None and search.best >= margin:
+                    t0 = _clock.perf_counter()
+                    low, items = self._tighten(search, margin)
+                    seconds["certify"] += _clock.perf_counter() - t0
+                    low_bound = min(low_bound, low)
+                    uncertain.append(items)
+                states = np.arange(first, min(last, T - 1) + 1)
+                state[states] = np.minimum(state[states], search.bounds()[Sw].min(axis=1))
+                for key in ("hull", "exact"):
+                    seconds[key] += search.seconds[key]
+                if search.nearest is not nearest:
+                    best, nearest = search.best, search.nearest
+                    where = float(sub.index[nearest[0]])
+            if best <= reach + SLACK or (not math.isfinite(best) and reach > _FAR):
+                break
+            reach = best + SLACK + (max_step if resolution is not None else 0.0) if math.isfinite(best) else 4.0 * reach
+        if resolution is not None and best >= margin and uncertain:
+            t0 = _clock.perf_counter()
+            found, low = self._bisect(sub, uncertain, margin, resolution, count)
+            seconds["certify"] += _clock.perf_counter() - t0
+            low_bound = min(low_bound, low)
+            if found is not None and found[0] < best:
+                best, nearest, where = found[0], (None, found[1], found[2]), found[3]
+        if resolution is not None and best >= margin:
+            lower_bound = min(low_bound, reach - max_step, best)
+        else:
+            lower_bound = best - 0.5 * max_step
+        if nearest is None:         # no obstacle within _FAR of the robot
+            return CollisionReport(geo.source, margin, max_motion, math.inf, None, False, state, K,
+                                   self.tally["exact"] - tally["exact"], max_step, math.inf,
+                                   {"total": _clock.perf_counter() - start}, self.tally["hull"] - tally["hull"],
+                                   resolution, fixed_overlaps)
+        gg, oo = nearest[1], nearest[2]
+        when = None
+        if time is not None:
+            i = min(int(math.floor(where)), T - 1)
+            when = float(time[i] + (where - i) * (time[i + 1] - time[i])) if i < T - 1 else float(time[i])
+        contact = Contact(geo.links[gg], geo.names[gg], obs.names[oo], where, when, best)
+        end = _clock.perf_counter()
+        # hull / exact: time in coal queries (also those of the certification, which is timed whole)
+        timings = {"subdivide": t_sub - start, **seconds, "total": end - start}
+        return CollisionReport(geo.source, margin, max_motion, best, contact, best < margin, state,
+                               count["configurations"], self.tally["exact"] - tally["exact"], max_step,
+                               lower_bound, timings, self.tally["hull"] - tally["hull"], resolution, fixed_overlaps)
 
-        # geometry fixed to the world: the same at every configuration, measured once (exactly)
-        fixed_least = math.inf
-        if fixed.size:
-            fg, fo = np.repeat(fixed, O), np.tile(np.arange(O), len(fixed))
-            fixed_least = search.fixed(np.zeros(len(fg), dtype=np.int64), fg, fo)
-        S = sub.support
-        while P:
-            state = search.states(S, fixed_least)                                         # (T,)
-            threshold = np.full(K, search.best)
-            threshold[S] = np.maximum(search.best, state)
+    @staticmethod
+    def _search(search: _Search, S: np.ndarray, margin: float) -> None:
+        """The pruned search of one window (S: its support states) until nothing is left open."""
+        while True:
+            state = search.states(S, math.inf)                                        # (T,)
+            # support states: every pair that may come below the margin, and below that the
+            # state's least (its exact value); elsewhere below the least distance so far
+            threshold = np.full(len(search.lower), search.best)
+            threshold[S] = np.maximum(search.best, np.minimum(state, margin))
             candidate = ~search.queried & (search.lower < threshold[:, None] + SLACK)
             pending = search.queried & ~search.measured
             if pending.any() and not math.isfinite(search.best):
@@ -908,22 +1296,75 @@ class CollisionChecker:
                 search.hulls(*np.nonzero(pick))
             elif not search.settle(S, state, margin):
                 break
-        state = search.states(S, fixed_least) if P else np.full(T, fixed_least)
-        best, nearest = search.best, search.nearest
-        t_exact = _clock.perf_counter()
 
-        kk, gg, oo = nearest
-        index = float(sub.index[kk])
-        when = None
-        if time is not None:
-            i = min(int(math.floor(index)), T - 1)
-            when = float(time[i] + (index - i) * (time[i + 1] - time[i])) if i < T - 1 else float(time[i])
-        contact = Contact(geo.links[gg], geo.names[gg], obs.names[oo], index, when, best)
-        max_step = float(sub.step.max()) if sub.step.size else 0.0
-        end = _clock.perf_counter()
-        seconds = search.seconds
-        timings = {"subdivide": t_sub - start, "broad_phase": t_broad - t_sub, "hull": seconds["hull"],
-                   "exact": seconds["exact"], "search": (t_exact - t_broad) - seconds["hull"] - seconds["exact"],
-                   "total": end - start}
-        return CollisionReport(geo.source, margin, max_motion, best, contact, best < margin, state, K,
-                               search.count["exact"], max_step, best - 0.5 * max_step, timings, search.count["hull"])
+    def _tighten(self, search: _Search, margin: float) -> tuple[float, tuple]:
+        """Certified bound between consecutive configurations of a window with no collision:
+        a pair at distances >= a and >= b at the ends of a step in which its piece moves at most
+        s keeps >= (a + b - s) / 2 throughout (1-Lipschitz in the motion). Steps whose bound is
+        below the margin get hull, then exact distances at their ends; the least certified bound
+        and the steps still open (configuration, column, a, b, s) are returned."""
+        step = np.diff(search.travel, axis=0)                                        # (Kw-1, Pw)
+        for stage in ("hull", "exact"):
+            bound = search.bounds()
+            open_ = (bound[:-1] + bound[1:] - step) / 2.0 < margin
+            if not open_.any() or search.best < margin:
+                break
+            ends = np.zeros(bound.shape, dtype=bool)
+            ends[:-1] |= open_
+            ends[1:] |= open_
+            if stage == "hull":
+                k, c = np.nonzero(ends & ~search.queried)
+                if k.size:
+                    search.hulls(k, c)
+            else:
+                k, c = np.nonzero(ends & ~search.measured)
+                if k.size:
+                    search.measure(k, c)
+        bound = search.bounds()
+        value = (bound[:-1] + bound[1:] - step) / 2.0
+        open_ = value < margin
+        low = float(value[~open_].min()) if (~open_).any() else math.inf
+        k, c = np.nonzero(open_)
+        return low, (k + search.offset, search.col_g[c], search.col_o[c], bound[k, c], bound[k + 1, c], step[k, c])
+
+    def _bisect(self, sub: Subdivision, uncertain: list, margin: float, resolution: float, count: dict
+                ) -> tuple[tuple[float, int, int, float] | None, float]:
+        """Refine the open steps by halving: exact distance at the midpoint of each, until every
+        half is certified, a distance below the margin is found, or its motion bound is at most
+        ``resolution``. Returns (distance, piece, obstacle, fractional index) of the least
+        distance below the margin found (or None) and the least certified bound."""
+        k = np.concatenate([u[0] for u in uncertain])
+        g = np.concatenate([u[1] for u in uncertain])
+        o = np.concatenate([u[2] for u in uncertain])
+        va = np.concatenate([u[3] for u in uncertain])
+        vb = np.concatenate([u[4] for u in uncertain])
+        s = np.concatenate([u[5] for u in uncertain])
+        qa, qb = sub.q[k], sub.q[k + 1]
+        ia, ib = sub.index[k], sub.index[k + 1]
+        low = math.inf
+        while len(g):
+            settled = s <= resolution
+            if settled.any():
+                low = min(low, float(((va + vb - s) / 2.0)[settled].min()))
+                keep = ~settled
+                qa, qb, ia, ib, g, o, va, vb, s = (x[keep] for x in (qa, qb, ia, ib, g, o, va, vb, s))
+                if not len(g):
+                    break
+            qm, im = 0.5 * (qa + qb), 0.5 * (ia + ib)
+            values = self._query(self._geo.pieces, _Poses(self, qm), np.arange(len(g)), g, o)
+            count["configurations"] += len(values)
+            m = int(np.argmin(values))
+            if values[m] < margin:
+                return (float(values[m]), int(g[m]), int(o[m]), float(im[m])), low
+            half = 0.5 * s
+            left, right = (va + values - half) / 2.0, (values + vb - half) / 2.0
+            done = np.concatenate([left[left >= margin], right[right >= margin]])
+            if done.size:
+                low = min(low, float(done.min()))
+            lo, ro = left < margin, right < margin
+            qa, qb = np.concatenate([qa[lo], qm[ro]]), np.concatenate([qm[lo], qb[ro]])
+            ia, ib = np.concatenate([ia[lo], im[ro]]), np.concatenate([im[lo], ib[ro]])
+            g, o = np.concatenate([g[lo], g[ro]]), np.concatenate([o[lo], o[ro]])
+            va, vb = np.concatenate([va[lo], values[ro]]), np.concatenate([values[lo], vb[ro]])
+            s = np.concatenate([half[lo], half[ro]])
+        return None, low

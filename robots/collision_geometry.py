@@ -8,15 +8,23 @@ Cylinder, Capsule and triangle meshes (BVH models read from .dae/.stl/.obj). Len
 """
 from __future__ import annotations
 
+import logging
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from .errors import CollisionGeometryError, UnknownFrameError
+from scenes.command_line import native_stderr_logged
+
+from .errors import CollisionGeometryError, UnknownFrameError, URDFParseError
 from .kinematics import frame_names
 
+log = logging.getLogger(__name__)
+
+GEOMETRY_KINDS = {"collision": pin.GeometryType.COLLISION, "visual": pin.GeometryType.VISUAL}
 SUPPORTED_SHAPES = ("Sphere", "Box", "Cylinder", "Capsule", "BVHModel (triangle mesh)")
 
 
@@ -94,6 +102,45 @@ class LinkSurface:
     def extreme_points(self) -> np.ndarray:
         """Extreme points (F, 3) of all shapes (see Shape.extreme_points), link frame."""
         return np.concatenate([shape.extreme_points() for shape in self.shapes])
+
+
+def _one_line(error: Exception) -> str:
+    """A native library's (coal / assimp) multi-line error as one line: its "message:" part
+    when it has one (not the C++ file, function and line), every line joined by "; "."""
+    text = str(error).strip()
+    if "message:" in text:
+        text = text.split("message:", 1)[1]
+    return "; ".join(line.strip() for line in text.splitlines() if line.strip())
+
+
+def _package_hint(message: str, package_dirs: Sequence[str]) -> str:
+    """How to resolve a package:// mesh the loader could not find: the folder that holds the
+    package (``package_dirs``; on the command lines ``--package-dir DIR``)."""
+    match = re.search(r"package://([^/\s]+)/", message)
+    if match is None:
+        return ""
+    return (f"; the URDF's meshes are package:// URIs: pass the folder that holds the package "
+            f"{match.group(1)!r} as package_dirs (command line: --package-dir DIR)"
+            + (", in addition to the folders given" if package_dirs else ""))
+
+
+def load_geometry(model: pin.Model, urdf_path: str | Path, package_dirs: Sequence[str], kind: str = "collision"
+                  ) -> pin.GeometryModel:
+    """The URDF's collision or visual geometry (``kind``) as a Pinocchio GeometryModel (meshes
+    read by coal / assimp). Raises URDFParseError with a one-line reason (e.g. an empty or
+    missing mesh file); what the native loaders print is logged at debug level."""
+    try:
+        with native_stderr_logged(log):
+            return pin.buildGeomFromUrdf(model, str(urdf_path), GEOMETRY_KINDS[kind], package_dirs=list(package_dirs))
+    except Exception as exc:
+        raise URDFParseError(f"cannot load {kind} geometry of {str(urdf_path)!r} (package_dirs="
+                             f"{list(package_dirs)}): {_one_line(exc).rstrip('.')}"
+                             f"{_package_hint(str(exc), package_dirs)}") from exc
+
+
+def moves(geometry: pin.GeometryModel) -> bool:
+    """Whether any geometry object moves with a joint (is not fixed to the world)."""
+    return any(obj.parentJoint != 0 for obj in geometry.geometryObjects)
 
 
 def link_frame_name(model: pin.Model, joint_id: int) -> str:

@@ -1,7 +1,7 @@
 """The Robot: a Pinocchio model of an arm with its planning joints, end effector and collision spheres."""
 from __future__ import annotations
 
-import re
+import logging
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -10,10 +10,13 @@ import pinocchio as pin
 
 from scenes.command_line import native_stderr_logged
 
+from .collision_geometry import load_geometry, moves
 from .errors import InvalidArrayError, RobotError, UnknownFrameError, URDFParseError
 from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain, frame_index, frame_names
 from .sphere_model import SphereModel, load_sphere_file
 from .validation import as_file, as_joint_array, as_scalar
+
+log = logging.getLogger(__name__)
 
 
 def _chain_to(model: pin.Model, frame_id: int) -> list[int]:
@@ -43,17 +46,6 @@ def _is_xacro(path: Path) -> bool:
         return "<xacro:" in path.read_text(encoding="utf-8", errors="replace")
     except OSError:
         return False
-
-
-def _package_hint(message: str, package_dirs: Sequence[str]) -> str:
-    """How to resolve a package:// mesh the loader could not find: the folder that holds the
-    package (``package_dirs``; on the command lines ``--package-dir DIR``)."""
-    match = re.search(r"package://([^/\s]+)/", message)
-    if match is None:
-        return ""
-    return (f"; the URDF's meshes are package:// URIs: pass the folder that holds the package "
-            f"{match.group(1)!r} as package_dirs (command line: --package-dir DIR)"
-            + (", in addition to the folders given" if package_dirs else ""))
 
 
 class Robot:
@@ -133,13 +125,7 @@ class Robot:
         if self._collision_model is None:
             if self.urdf_path is None:
                 raise RobotError("collision_model: this robot was not loaded from a URDF file")
-            try:
-                self._collision_model = pin.buildGeomFromUrdf(
-                    self.model, str(self.urdf_path), pin.GeometryType.COLLISION, package_dirs=list(self.package_dirs))
-            except Exception as exc:
-                raise URDFParseError(f"cannot load collision geometry of {str(self.urdf_path)!r} "
-                                     f"(package_dirs={list(self.package_dirs)}): {str(exc).rstrip('.')}"
-                                     f"{_package_hint(str(exc), self.package_dirs)}") from exc
+            self._collision_model = load_geometry(self.model, self.urdf_path, self.package_dirs)
         return self._collision_model
 
     @property
@@ -148,7 +134,16 @@ class Robot:
         else fitted from the URDF's collision geometry on first use (slow: seconds)."""
         if self._spheres is None:
             from .spheres import fit_spheres  # sphere fitting lives in its own module
-            self._spheres = fit_spheres(self.model, self.collision_model)
+            geometry = self.collision_model
+            if not moves(geometry):            # no <collision> on the moving links: fit the <visual>
+                geometry = load_geometry(self.model, self.urdf_path, self.package_dirs, "visual")
+                if not moves(geometry):
+                    raise RobotError(f"spheres: the URDF {str(self.urdf_path)!r} has neither collision nor "
+                                     "visual geometry on its moving links; pass spheres= (a SphereModel or a "
+                                     "sphere JSON file)")
+                log.warning("robot %s: the URDF has no collision geometry on its moving links; collision "
+                            "spheres fitted to its visual geometry", self.name)
+            self._spheres = fit_spheres(self.model, geometry)
         return self._spheres
 
     @spheres.setter

@@ -13,7 +13,7 @@ import pytest
 
 from robots import Robot, RobotError, SphereModel
 from robots import collision_check
-from robots.collision_check import SLACK, CollisionChecker, CollisionReport
+from robots.collision_check import REACH, SLACK, CollisionChecker, CollisionReport
 from robots.errors import CollisionCheckError, InvalidArrayError
 from scenes import Box, Capsule, Cylinder, Scene, Sphere
 from scenes.coal_shapes import coal_obstacles, coal_shape
@@ -119,7 +119,9 @@ def test_check_is_exact_against_every_pair_at_every_configuration(name, seed, re
     time = np.linspace(0.0, 2.5, 5)
     max_motion = 0.03
     sub = checker.configurations(q, max_motion=max_motion)
+    tally = sum(checker.tally.values())
     every = checker.distances(sub.q)                                   # (K, G, O), coal on every pair
+    brute_force = sum(checker.tally.values()) - tally                  # its coal queries
     states = every[sub.support].min(axis=(1, 2))
     margin = float(np.mean(np.sort(states)[1:3]))                      # two states closer, three not
     report = checker.check(q, time, margin=margin, max_motion=max_motion)
@@ -140,7 +142,7 @@ def test_check_is_exact_against_every_pair_at_every_configuration(name, seed, re
     assert np.all(report.state_distance[~close] >= margin)
     assert np.all(report.state_distance <= states + SLACK)
     np.testing.assert_array_equal(report.states_in_collision, close)
-    assert report.num_exact + report.num_hull < every.size / 4         # the bounds do prune
+    assert report.num_exact + report.num_hull < brute_force / 4        # the bounds do prune
     if name == "sawyer":                                               # primitives: no hulls
         assert report.num_hull == 0
 
@@ -223,9 +225,12 @@ def test_thin_obstacle_crossed_between_two_clear_states_is_found(jaco):
     checker = CollisionChecker(jaco, coal_obstacles([plate], names=["plate"]))
     q = np.stack([start, end])
 
-    only_states = checker.check(q, max_motion=10.0)                    # no configuration in between
+    only_states = checker.check(q, max_motion=10.0, resolution=None)   # no configuration in between
     assert only_states.num_configurations == 2 and not only_states.collision
     assert np.all(only_states.state_distance > 0.03)
+    certified = checker.check(q, max_motion=10.0)          # the certified bound refines the segment
+    assert certified.collision and certified.nearest.obstacle == "plate"
+    assert 0.0 < certified.nearest.index < 1.0
 
     report = checker.check(q, time=[0.0, 2.0])
     assert np.all(report.state_distance > 0.03)                        # both support states clear
@@ -292,7 +297,10 @@ def test_robot_without_collision_geometry_falls_back_to_its_spheres(jaco):
     assert checker.geometry == "spheres"
     report = checker.check(q, max_motion=0.05)
     assert report.geometry == "spheres" and report.to_dict()["geometry"] == "spheres"
-    np.testing.assert_allclose(report.state_distance, sphere_clearance(bare, obstacles, q), atol=1e-12)
+    expected = sphere_clearance(bare, obstacles, q)
+    near = expected < REACH                  # farther states: a bound, at least the broad phase's reach
+    assert near.any() and np.all(report.state_distance[~near] >= REACH)
+    np.testing.assert_allclose(report.state_distance[near], expected[near], atol=1e-12)
     assert "#" in report.nearest.geometry and report.nearest.link in bare.spheres.link_names
     forced = CollisionChecker(jaco, coal_obstacles(obstacles), geometry="spheres").check(q, max_motion=0.05)
     np.testing.assert_allclose(forced.state_distance, report.state_distance, atol=1e-12)

@@ -1,0 +1,89 @@
+"""Faults of the collision check become reports, never crashes: obstacles overlapping the
+fixed base (a warning and report.fixed_overlaps), a coal failure (report.fault, the verdict's
+reason), a URDF without collision geometry (spheres fitted to its visual geometry), an empty
+mesh file (a one-line error, raised: the URDF is bad input)."""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from clamp.clearance import collision_reason
+from robots import Robot, RobotError, collision_check
+from robots.collision_check import CollisionChecker
+from robots.errors import URDFParseError
+from scenes import Box, Sphere
+from scenes.coal_shapes import coal_obstacles
+from test_collision_check import URDF_WITHOUT_COLLISION
+
+START = np.array([-0.52, 2.97, 4.80, 0.0, 2.14, 0.0])
+
+VISUAL = '<visual><geometry><box size="0.1 0.1 0.3"/></geometry></visual>'
+assert VISUAL in URDF_WITHOUT_COLLISION
+
+
+def arm(geometry: str) -> str:
+    """The two-link arm of test_collision_check with ``geometry`` on its upper link instead."""
+    return URDF_WITHOUT_COLLISION.replace(VISUAL, geometry)
+
+
+def test_obstacle_through_the_fixed_base_is_reported(jaco, caplog):
+    table = Box([0.0, 0.0, 0.05], [1.0, 1.0, 0.1])                  # a slab at z 0-0.1 through the base
+    q = np.stack([START, START])
+    with caplog.at_level(logging.WARNING, logger="robots"):
+        report = CollisionChecker(jaco, coal_obstacles([table], names=["table"])).check(q)
+    assert [(link, name) for link, name, _ in report.fixed_overlaps] == [("j2s6s200_link_base", "table")]
+    assert report.fixed_overlaps[0][2] > 0.0
+    assert "table" in caplog.text and "j2s6s200_link_base" in caplog.text
+    assert report.to_dict()["fixed_overlaps"][0][:2] == ["j2s6s200_link_base", "table"]
+    around = Box([0.0, 0.0, 0.05], [0.4, 0.4, 0.4])                 # a box around the whole base
+    report = CollisionChecker(jaco, coal_obstacles([around], names=["crate"])).check(q)
+    assert ("j2s6s200_link_base", "crate") in [(link, name) for link, name, _ in report.fixed_overlaps]
+    apart = CollisionChecker(jaco, coal_obstacles([Box([0.6, 0.0, 0.3], [0.05, 0.05, 0.05])])).check(q)
+    assert apart.fixed_overlaps == ()
+
+
+def test_a_coal_failure_is_a_fault_in_the_report_and_a_verdict_reason(jaco, monkeypatch):
+    checker = CollisionChecker(jaco, coal_obstacles([Sphere([0.3, -0.3, 0.2], 0.05)]))
+    checker.fixed_overlaps                                          # measured before coal breaks
+
+    def broken(*args):
+        raise RuntimeError("GJK did not converge")
+
+    monkeypatch.setattr(collision_check.coal, "distance", broken)
+    report = checker.check(np.stack([START, START + 0.1]))
+    assert report.fault is not None and "GJK did not converge" in report.fault
+    assert report.collision and np.isnan(report.min_distance)
+    assert collision_reason(report).startswith("collision check failed: ")
+
+
+def test_urdf_without_collision_geometry_fits_spheres_to_its_visual_geometry(tmp_path, caplog):
+    path = tmp_path / "arm.urdf"
+    path.write_text(URDF_WITHOUT_COLLISION)              # a 0.1 x 0.1 x 0.3 m visual box, centred
+    robot = Robot.from_urdf(path, end_effector="tool")
+    with caplog.at_level(logging.WARNING, logger="robots"):
+        spheres = robot.spheres
+    assert "visual geometry" in caplog.text
+    centres, _ = robot.sphere_centres(np.zeros((1, 2)))
+    assert np.all(np.abs(centres[0, :, 2]) <= 0.15 + 1e-9)           # inside the box's height
+    inside = Sphere([0.0, 0.07, 0.0], 0.03)                          # touches the box's side face
+    report = CollisionChecker(robot, coal_obstacles([inside])).check(np.zeros((2, 2)))
+    assert report.geometry == "spheres" and report.collision
+    assert len(spheres.radii) >= 1
+    path.write_text(arm(""))
+    with pytest.raises(RobotError, match="neither collision nor visual"):
+        Robot.from_urdf(path, end_effector="tool").spheres
+
+
+def test_an_empty_mesh_file_is_one_clear_line(tmp_path):
+    mesh = tmp_path / "empty.stl"
+    mesh.write_text("")
+    path = tmp_path / "arm.urdf"
+    path.write_text(arm(f'<collision><geometry><mesh filename="{mesh}"/></geometry></collision>'))
+    robot = Robot.from_urdf(path, end_effector="tool")
+    with pytest.raises(URDFParseError) as caught:
+        robot.collision_model
+    message = str(caught.value)
+    assert "\n" not in message and "File is empty" in message and str(mesh) in message
+    assert "assimp.cpp" not in message
