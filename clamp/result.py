@@ -60,8 +60,10 @@ class PlanResult:
     and completion_radius [m], None when a goal was given); self_clearance [m]: least distance
     between two of the robot's own links that may touch (:mod:`robots.self_collision`: URDF
     collision geometry, adjacent / rigid / always-touching pairs left out; at and between
-    states; negative: overlap depth), self_contact: where; within_limits; success and reasons
-    (why it failed);
+    states; negative: overlap depth), self_contact: where; fixed_overlaps: (link, obstacle,
+    depth [m]) of the robot's world-fixed links (its base) overlapping an obstacle (a warning,
+    not a failure: such links never move; :mod:`robots.collision_check`); within_limits;
+    success and reasons (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
     computed); violations: per constraint family (e.g. "orientation") how far beyond its
@@ -105,6 +107,7 @@ class PlanResult:
     skill: dict[str, Any] = field(default_factory=dict)
     self_clearance: float = float("inf")
     self_contact: dict[str, Any] | None = None
+    fixed_overlaps: list[tuple[str, str, float]] = field(default_factory=list)
     #: the request (not a dataclass field: left out of to_dict / asdict); set by clamp.plan
     inputs = None
 
@@ -129,6 +132,7 @@ class PlanResult:
                 "within_limits": bool(self.within_limits),
                 "self_clearance_m": number(self.self_clearance),
                 "self_contact": self.self_contact,
+                "fixed_overlaps": [list(item) for item in self.fixed_overlaps],
                 "skill": {k: number(v) if isinstance(v, float) else v
                           for k, v in self.skill.items()}}
 

@@ -161,6 +161,7 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       start_error=start_error, goal_error=goal_error,
                       log_likelihood=log_likelihood, plausibility=skill.plausibility,
                       skill=skill.to_dict(), self_clearance=float(self_report.min_distance),
+                      fixed_overlaps=[] if report is None else list(report.fixed_overlaps),
                       self_contact=None if self_report.nearest is None
                       else self_report.nearest.to_dict(),
                       within_limits=not limits, success=not reasons, reasons=reasons,

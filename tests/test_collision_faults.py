@@ -87,3 +87,18 @@ def test_an_empty_mesh_file_is_one_clear_line(tmp_path):
     message = str(caught.value)
     assert "\n" not in message and "File is empty" in message and str(mesh) in message
     assert "assimp.cpp" not in message
+
+
+def test_a_plan_reports_the_fixed_base_overlap(jaco, caplog):
+    """A table slab through the base (z 0-0.1) is planned around as usual and the plan says the
+    base overlaps it: result.fixed_overlaps and the verdict's JSON, with a warning."""
+    from clamp import learn_prior, plan
+    from scenes import Scene, make_demonstrations
+    prior = learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
+    table = Box([0.0, 0.0, 0.05], [0.5, 0.5, 0.1])
+    with caplog.at_level(logging.WARNING, logger="robots"):
+        result = plan(prior, jaco, Scene([table]), prior.mean[0, :3], covariance=False)
+    assert [(link, name) for link, name, _ in result.fixed_overlaps] == [
+        ("j2s6s200_link_base", "box_0")]
+    assert result.verdict()["fixed_overlaps"][0][:2] == ["j2s6s200_link_base", "box_0"]
+    assert "j2s6s200_link_base" in caplog.text
