@@ -259,7 +259,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     robot = load_robot_from_args(args)
     limits = acceleration_limits(args, robot)
     start = _start(args, robot)
-    demos = load_demonstrations(args.demos)
+    demos = load_demonstrations(args.demos, robot=robot)   # a joint-space file needs the arm
     if args.num_points is not None:
         demos = demos.resample(args.num_points)
     if args.translate is not None:

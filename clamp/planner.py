@@ -356,13 +356,19 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
     floor = 0.0
+    faults = []
     if covariance and problem.banded:
-        state_cov, ee_cov, floor = plan_covariances(problem, out.theta)
+        try:
+            state_cov, ee_cov, floor = plan_covariances(problem, out.theta)
+        except (InvalidParameterError, np.linalg.LinAlgError) as exc:
+            # a fault of the plan's own numbers (e.g. a time step of microseconds), not of the
+            # caller's input: the verdict says so instead of raising
+            faults.append(f"posterior covariance failed: {exc}")
     t_end = time.perf_counter()
     timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
                **out.timings}
     result = evaluate(prior, robot, scene, problem, request, out, config, timings, report,
-                      model_prior, own)
+                      model_prior, own, faults)
     result.initial_q = init.q
     result.attempts = attempts
     result.state_covariance, result.ee_covariance = state_cov, ee_cov

@@ -261,11 +261,13 @@ def _constraints(prior: LinearGaussianPrior, paths: np.ndarray, start: object, g
         if isinstance(item, (str, bytes)) or not isinstance(item, Sequence) or len(item) != 2:
             raise InvalidParameterError(f"via[{k}]: expected an (index, position ({A},)) pair, "
                                         f"got {item!r}")
-        index = as_count(item[0], f"via[{k}] index", minimum=1)
-        if index >= last:
+        index = item[0]
+        if (isinstance(index, bool) or not isinstance(index, (int, np.integer))
+                or not 1 <= index < last):
             raise InvalidParameterError(
-                f"via[{k}] index: expected a state index in 1..{last - 1} (0 is the start"
-                f"{', T-1 the goal' if goal is not None else ''}), got {index}")
+                f"via[{k}] index: expected an integer state index in 1..{last - 1} (0 is the "
+                f"start{', T-1 the goal' if goal is not None else ''}), got {index!r}")
+        index = int(index)
         if index in used:
             raise InvalidParameterError(f"via[{k}] index: state {index} is already constrained "
                                         f"by {used[index]}")

@@ -102,11 +102,13 @@ def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
 def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
              out: Optimized, config: PlannerConfig, timings: dict[str, float],
              report: CollisionReport | None = None, model_prior: Any = None,
-             self_report: SelfCollisionReport | None = None) -> PlanResult:
+             self_report: SelfCollisionReport | None = None,
+             faults: list[str] = ()) -> PlanResult:
     """Metrics and success checks of an optimised plan; report: the real-geometry check of
     ``out.theta`` when the caller already has it (else computed here); model_prior: the prior
     the plan was made with (conditioned on its targets; None: ``prior``); self_report: the
-    self-collision check of ``out.theta`` when the caller already has it."""
+    self-collision check of ``out.theta`` when the caller already has it; faults: reasons of
+    steps after the optimisation that failed (e.g. the posterior covariance)."""
     n, checks = robot.n, config.checks
     q, qdot = out.theta[:, :n], out.theta[:, n:]
     x, _ = problem.window(out.theta).workspace()
@@ -133,7 +135,7 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                          describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3], position,
                                                 config.model.epsilon))
 
-    reasons = []
+    reasons = list(faults)
     if not np.isfinite(out.final_error):
         reasons.append("optimisation diverged (non-finite error)")
     if start_error > checks.start_tolerance:

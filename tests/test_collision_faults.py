@@ -102,3 +102,17 @@ def test_a_plan_reports_the_fixed_base_overlap(jaco, caplog):
         ("j2s6s200_link_base", "box_0")]
     assert result.verdict()["fixed_overlaps"][0][:2] == ["j2s6s200_link_base", "box_0"]
     assert "j2s6s200_link_base" in caplog.text
+
+
+def test_a_microsecond_time_step_is_a_verdict_not_a_crash(jaco):
+    """Issue 20: dt = 1e-6 s crashed plan() in the covariance step; now the plan fails with
+    that step's reason and the honest one (the velocity limits), as covariance=False does."""
+    from clamp import learn_prior, plan
+    from scenes import make_demonstrations
+    prior = learn_prior(make_demonstrations("box_closing", dt=1e-6, seed=0))
+    result = plan(prior, jaco, None, prior.mean[0, :3])
+    assert not result.success and result.state_covariance is None
+    assert result.reasons[0].startswith("posterior covariance failed")
+    assert any("faster than its limit" in r for r in result.reasons)
+    without = plan(prior, jaco, None, prior.mean[0, :3], covariance=False)
+    assert without.reasons == result.reasons[1:]

@@ -139,3 +139,20 @@ def test_joint_recordings_of_unequal_length_are_resampled_together(jaco, tmp_pat
     np.testing.assert_allclose(loaded.joint_positions[1, [0, -1]], q[1, [0, 59]], atol=1e-12)
     # resampled by phase, the paths are still the forward kinematics of the joint trajectories
     np.testing.assert_allclose(jaco.fk(loaded.joint_positions), loaded.positions, atol=1e-4)
+
+
+def test_clamp_plan_takes_joint_space_demonstrations(jaco, tmp_path):
+    """Acceptance (issue 21): ``clamp plan --demos joints.csv --urdf ...`` learns from a joint
+    CSV through the arm's forward kinematics."""
+    import json
+
+    from clamp.cli import main
+    demos = make_demonstrations("box_closing", num_demos=6, seed=0, num_points=60)
+    path = write_joint_csv(tmp_path / "joints.csv", jaco, demos.time, joint_recordings(jaco, demos))
+    out = tmp_path / "out"
+    assert main(["plan", "--robot", "jaco", "--demos", str(path), "--start",
+                 *map(str, demos.positions[0, 0] + [0.02, 0.0, 0.0]), "--out", str(out),
+                 "-q"]) == 0
+    plan_json = json.loads((out / "plan.json").read_text())
+    assert plan_json["success"]
+    np.testing.assert_allclose(plan_json["ee_path"][-1], demos.positions[:, -1].mean(0), atol=0.02)

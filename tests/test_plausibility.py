@@ -345,3 +345,15 @@ def test_argument_errors(synthetic_prior):
     with pytest.raises(errors.InvalidParameterError, match="^floor_std:"):
         plausibility(singular, singular.mean, floor_std=0.0, velocity_floor_std=0.0)
     assert 0.0 <= plausibility(singular, singular.mean, floor_std=0.1) <= 1.0
+
+
+def test_a_via_index_out_of_range_gets_one_message_whatever_side(synthetic_prior):
+    """Issue 20: index 0 said "expected an integer >= 1" and -1 ">= 0"."""
+    x = synthetic_prior.mean
+    messages = set()
+    for index in (0, -1, synthetic_prior.T, 2.5):
+        with pytest.raises(errors.InvalidParameterError) as caught:
+            plausibility(synthetic_prior, x, start=x[0, :3], via=[(index, x[5, :3])])
+        messages.add(str(caught.value).rsplit(", got", 1)[0])
+    assert messages == {f"via[0] index: expected an integer state index in 1..{synthetic_prior.T - 1} "
+                        "(0 is the start)"}
