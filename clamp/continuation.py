@@ -104,7 +104,7 @@ def reweighted(problem: PlanningProblem, factors: dict[str, float], initial: np.
     factor (:meth:`clamp.factors.Family.reweighted`), starting at initial (T, 2n)."""
     families = [f.reweighted(factors[f.name]) if f.name in factors else f
                 for f in problem.families]
-    return PlanningProblem(problem.robot, problem.num_states, families, problem.foreign, initial)
+    return problem.with_families(families, initial)
 
 
 def with_obstacle_sigma(problem: PlanningProblem, sigma: float, initial: np.ndarray
@@ -115,7 +115,7 @@ def with_obstacle_sigma(problem: PlanningProblem, sigma: float, initial: np.ndar
     posture when keeping it collides."""
     current = 1.0 / float(problem.family(ObstacleFamily.name).whitening[0])
     factors = {ObstacleFamily.name: current / sigma}
-    if sigma < current and any(f.name == PostureFamily.name for f in problem.families):
+    if sigma < current and problem.has(PostureFamily.name):
         factors[PostureFamily.name] = sigma / current
     return reweighted(problem, factors, initial)
 

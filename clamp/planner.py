@@ -23,8 +23,8 @@ import numpy as np
 from clamp.clearance import check_clearance, contact_obstacle
 from clamp.conditioning import planning_prior, skill_reference
 from clamp.config import PlannerConfig
-from clamp.continuation import (detour_restarts, solve_collision_free, tighten_constraints,
-                                with_obstacle_sigma)
+from clamp.continuation import (Attempt, detour_restarts, solve_collision_free,
+                                tighten_constraints, with_obstacle_sigma)
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
                            JointTargetFamily, ObstacleFamily, PostureFamily,
@@ -111,14 +111,14 @@ def _free_of_self_collision(problem: PlanningProblem, out: Any, config: PlannerC
     model = config.model
     family = SelfCollisionFamily.for_robot(robot, range(T - 1), model.self_collision_epsilon,
                                            model.self_collision_sigma, SELF_COLLISION_BETWEEN)
-    guarded = PlanningProblem(robot, T, [*problem.families, family], problem.foreign, out.theta)
+    guarded = problem.with_families([*problem.families, family], out.theta)
     new = optimize(guarded, config, WarmStart())
     new_own = self_collision_report(robot, new.theta[:, :robot.n], time_)
     new_report = check(new.theta) if check is not None else None
     collides = new_report is not None and new_report.collision
-    attempts.append({"candidate": "self-collision hinges", "sigma": model.self_collision_sigma,
-                     "min_distance": float(new_own.min_distance), "feasible": not collides,
-                     "prior_cost": float("nan"), "iterations": new.iterations})
+    attempts.append(asdict(Attempt("self-collision hinges", model.self_collision_sigma,
+                                   float(new_own.min_distance), not collides, float("nan"),
+                                   new.iterations)))
     if collides and not (report is not None and report.collision):
         return problem, out, report, own
     new = replace(new, iterations=out.iterations + new.iterations,
@@ -250,7 +250,7 @@ def _build(prior, robot, scene, start, goal, via_points, extra_factors, config, 
     init = (_initialise(model_prior, robot, request, config) if initial is None
             else warm_start(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
-    if config.model.posture_sigma > 0 and any(f.name == ObstacleFamily.name for f in families):
+    if config.model.posture_sigma > 0 and problem.has(ObstacleFamily.name):
         problem = tied_to_free_plan(problem, config, keep_initial=initial is not None)
     return problem, request, init, model_prior
 
@@ -262,14 +262,16 @@ def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,
     from the free plan unless ``keep_initial``. The free plan is ``problem`` without its
     obstacle hinges, optimised as configured (one extra solve, ~20 ms): where it keeps clear of
     every obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
-    free = PlanningProblem(problem.robot, problem.num_states,
-                           [f for f in problem.families if f.name != ObstacleFamily.name],
-                           problem.foreign, problem.initial)
-    theta = optimize(free, config).theta
+    theta = optimize(_without(problem, ObstacleFamily.name, problem.initial), config).theta
     T, n = problem.num_states, problem.robot.n
     posture = PostureFamily(np.arange(T), theta[:, :n], np.full(T, config.model.posture_sigma))
-    return PlanningProblem(problem.robot, T, [*problem.families, posture], problem.foreign,
-                           problem.initial if keep_initial else theta)
+    return problem.with_families([*problem.families, posture],
+                                 problem.initial if keep_initial else theta)
+
+
+def _without(problem: PlanningProblem, name: str, initial: np.ndarray) -> PlanningProblem:
+    """``problem`` without the family called ``name``, starting at initial (T, 2n)."""
+    return problem.with_families([f for f in problem.families if f.name != name], initial)
 
 
 def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
@@ -310,14 +312,15 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     t_opt = time.perf_counter()
     report, attempts = None, []
     base, sigma, check = problem, float("nan"), None
-    if any(f.name == ObstacleFamily.name for f in problem.families):
+    reference = skill_reference(prior, robot, request, config, model_prior)
+    if problem.has(ObstacleFamily.name):
         # collision-free is a constraint: continuation on the hinge and restarts (see
         # clamp.continuation), judged on the robot's own collision geometry
         def check(theta):
             return check_clearance(robot, scene, theta[:, :robot.n], prior.time)
+
         def restarts(found):
             return _restarts(prior, robot, scene, request, config, init, found)
-        reference = skill_reference(prior, robot, request, config, model_prior)
 
         def with_the_skill(theta):
             return not skill_checks(prior, reference, robot.fk(theta[:, :robot.n]),
@@ -326,13 +329,10 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
                                       config.optimizer.constraint_rounds, warm_start,
                                       with_the_skill)
         attempts = list(solved.attempts)
-        if solved.report.collision and any(f.name == PostureFamily.name
-                                            for f in problem.families):
+        if solved.report.collision and problem.has(PostureFamily.name):
             # the free plan's posture leads into the obstacles however loose the tie: plan
             # without it from the configured initialisation (the arm may then turn further)
-            untied = PlanningProblem(robot, T, [f for f in problem.families
-                                                if f.name != PostureFamily.name],
-                                     problem.foreign, init.theta)
+            untied = _without(problem, PostureFamily.name, init.theta)
             alternative = solve_collision_free(untied, config, check, restarts,
                                                config.optimizer.constraint_rounds)
             attempts += [replace(a, candidate="untied " + a.candidate)
@@ -368,7 +368,7 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
     timings = {"build": t_opt - t0, "optimize": t_cov - t_opt, "marginals": t_end - t_cov,
                **out.timings}
     result = evaluate(prior, robot, scene, problem, request, out, config, timings, report,
-                      model_prior, own, faults)
+                      reference, own, faults)
     result.initial_q = init.q
     result.attempts = attempts
     result.state_covariance, result.ee_covariance = state_cov, ee_cov

@@ -96,6 +96,15 @@ class PlanningProblem:
         """Whether every factor connects one state or two neighbouring states (fast solver)."""
         return self._foreign_states is not None
 
+    def has(self, name: str) -> bool:
+        """Whether a family is called ``name``."""
+        return any(f.name == name for f in self.families)
+
+    def with_families(self, families: Sequence[Family], initial: np.ndarray) -> "PlanningProblem":
+        """The same robot, states and foreign factors with ``families`` instead, starting at
+        ``initial`` (T, 2n)."""
+        return PlanningProblem(self.robot, self.num_states, families, self.foreign, initial)
+
     def family(self, name: str) -> Family:
         """The family called ``name``."""
         for f in self.families:

@@ -17,7 +17,7 @@ from clamp.config import PlannerConfig
 from clamp.limit_report import limit_violations
 from clamp.optimizers import Optimized
 from clamp.conditioning import skill_reference
-from clamp.skill import SkillCheck, skill_checks
+from clamp.skill import skill_checks
 from clamp.problem import PlanningProblem
 from clamp.request import Request, as_scene, has_obstacles
 from clamp.result import PlanResult
@@ -101,12 +101,13 @@ def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
 
 def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
              out: Optimized, config: PlannerConfig, timings: dict[str, float],
-             report: CollisionReport | None = None, model_prior: Any = None,
+             report: CollisionReport | None = None, reference: Any = None,
              self_report: SelfCollisionReport | None = None,
              faults: list[str] = ()) -> PlanResult:
     """Metrics and success checks of an optimised plan; report: the real-geometry check of
-    ``out.theta`` when the caller already has it (else computed here); model_prior: the prior
-    the plan was made with (conditioned on its targets; None: ``prior``); self_report: the
+    ``out.theta`` when the caller already has it (else computed here); reference: where the
+    skill goes for ``request`` (:func:`clamp.conditioning.skill_reference`; None: computed
+    here); self_report: the
     self-collision check of ``out.theta`` when the caller already has it; faults: reasons of
     steps after the optimisation that failed (e.g. the posterior covariance)."""
     n, checks = robot.n, config.checks
@@ -130,7 +131,8 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                   for i, t in request.vias]
     limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
-    reference = skill_reference(prior, robot, request, config, model_prior)
+    if reference is None:
+        reference = skill_reference(prior, robot, request, config)
     skill = skill_checks(prior, reference, position, goal_given=request.goal is not None,
                          describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3], position,
                                                 config.model.epsilon))
