@@ -53,3 +53,12 @@ def sawyer():
     """The built-in Rethink Sawyer (robots.load_robot), loaded once for the whole run."""
     from robots import load_robot
     return load_robot("sawyer")
+
+
+@pytest.fixture(scope="session")
+def prior():
+    """The synthetic box_closing prior (6 demonstrations, seed 0, T = 250), learned once for the
+    whole run; a module that needs another defines its own ``prior``. Read it, never change it."""
+    from clamp import learn_prior
+    from scenes import make_demonstrations
+    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))

@@ -26,11 +26,6 @@ README_BOX = Box.from_reference([0.32, -0.32, 0.13, 0.09, 0.06, 0.28])
 START = np.array([0.2054, -0.4722, 0.2625])
 
 
-@pytest.fixture(scope="module")
-def prior():
-    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
-
-
 def brute_force_clearance(robot, scene, q: np.ndarray, per_segment: int = 2) -> float:
     """Least coal distance over every link-obstacle pair at the states of q (T, n) and at
     per_segment - 1 configurations inside every segment."""

@@ -12,11 +12,6 @@ from scenes import make_demonstrations
 START = np.array([0.2054, -0.4722, 0.2625])      # the README's start
 
 
-@pytest.fixture(scope="module")
-def prior():
-    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
-
-
 def dense_conditioning(prior, observations, sigma):
     """Mean (T*D,) and marginal covariances of the prior conditioned by dense Gaussian algebra."""
     T, D = prior.T, prior.D

@@ -1,18 +1,11 @@
 """The posture tie: with obstacles, the plan keeps the free plan's posture and moves only as far
 as the obstacles demand (issue 19: no flailing wrist to dodge a box)."""
 import numpy as np
-import pytest
 
-from clamp import PlannerConfig, build, learn_prior, plan
-from robots import load_robot
-from scenes import Box, Scene, make_demonstrations
+from clamp import PlannerConfig, build, plan
+from scenes import Box, Scene
 
 START = [0.2054, -0.4722, 0.2625]
-
-
-@pytest.fixture(scope="module")
-def prior():
-    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
 
 
 def _travel(q):

@@ -4,18 +4,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clamp import PlannerConfig, build, errors, learn_prior, plan, replan
+from clamp import PlannerConfig, build, errors, plan, replan
 from clamp.result import PlanResult
 from clamp.solver import WarmStart, levenberg_marquardt
-from scenes import Box, Scene, make_demonstrations
+from scenes import Box, Scene
 
 START = [0.2054, -0.4722, 0.2625]
 BOX = Box.from_reference([0.32, -0.32, 0.13, 0.09, 0.06, 0.28])
-
-
-@pytest.fixture(scope="module")
-def prior():
-    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
 
 
 @pytest.mark.parametrize("arm", ["jaco", "sawyer"])

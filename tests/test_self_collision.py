@@ -19,7 +19,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from clamp import PlannerConfig, learn_prior, plan
+from clamp import PlannerConfig, plan
 from clamp.errors import ArgumentTypeError, InvalidParameterError
 from clamp.factors import SelfCollisionFamily, StateWindow
 from robots import Robot, SphereModel
@@ -27,14 +27,8 @@ from robots.collision_check import CollisionChecker
 from robots.errors import CollisionCheckError, RobotError
 from robots.self_collision import (SPHERE_REACH, checked_pairs, disabled_pairs, self_collision_report,
                                    self_collision_spheres)
-from scenes import make_demonstrations
 
 REPRODUCERS = {"sawyer": [-0.093, 0.107, 0.165], "jaco": [-0.025, -0.05, 0.113]}
-
-
-@pytest.fixture(scope="module")
-def prior():
-    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
 
 
 @pytest.fixture(scope="module")

@@ -47,11 +47,6 @@ def test_held_out_recorded_demonstrations_are_the_skill():
     _calibrated(_leave_one_out(load_demonstrations(path)))
 
 
-@pytest.fixture(scope="module")
-def prior():
-    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
-
-
 def test_plausibility_is_uniform_on_sampled_executions(prior):
     region = SkillRegion.of(prior)
     reference = condition_prior(prior, [(0, prior.mean[0, :3] + [0.05, 0.0, 0.0])])

@@ -11,17 +11,11 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import fidelity_checks as fc  # noqa: E402
 
-from clamp import PlannerConfig, learn_prior, plan  # noqa: E402
-from scenes import make_demonstrations  # noqa: E402
+from clamp import PlannerConfig, plan  # noqa: E402
 
 REPRODUCERS = {"sawyer": ([-0.093, 0.107, 0.165], ("right_l0", "right_l4_2")),
                "jaco": ([-0.025, -0.05, 0.113], ("j2s6s200_link_1", "j2s6s200_link_6"))}
 NO_REPAIR = PlannerConfig().with_(constraint_rounds=0)
-
-
-@pytest.fixture(scope="module")
-def prior():
-    return learn_prior(make_demonstrations("box_closing", num_demos=6, seed=0))
 
 
 @pytest.mark.parametrize("arm", ["sawyer", "jaco"])
