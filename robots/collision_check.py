@@ -713,6 +713,16 @@ class _Poses:
                 yield (chunk, *self._checker._poses(self._qs[chunk]))
 
 
+def motion_lower_bounds(known: np.ndarray, travel: np.ndarray) -> np.ndarray:
+    """Lower bounds (K, P) of every configuration's distance from the known ones: a distance h
+    at configuration a bounds the distance at every k by h - |travel(k) - travel(a)|. known
+    (K, P) distances, -inf where unknown; travel (K, P) accumulated motion [m] along the
+    configurations of the column's geometry."""
+    forward = np.maximum.accumulate(known + travel, axis=0) - travel
+    backward = np.maximum.accumulate((known - travel)[::-1], axis=0)[::-1] + travel
+    return np.maximum(forward, backward)
+
+
 class _Search:
     """The queries of one check: pairs (configuration k, column c) with column c standing for
     (geometry col_g[c], obstacle col_o[c]); lower (K, P) their lower bounds, raised by every
@@ -777,13 +787,10 @@ class _Search:
             self.exact[ke, ce] = ve
             self.measured[ke, ce] = True
             self._offer(ke, self.col_g[ce], self.col_o[ce], ve)
-        # a hull distance h at configuration a: >= h - |travel(k) - travel(a)| at every k
         cols = np.unique(c)
         known = np.where(self.queried[:, cols], self.hull[:, cols], -np.inf)
-        along = self.travel[:, cols]
-        forward = np.maximum.accumulate(known + along, axis=0) - along
-        backward = np.maximum.accumulate((known - along)[::-1], axis=0)[::-1] + along
-        self.lower[:, cols] = np.maximum(self.lower[:, cols], np.maximum(forward, backward))
+        self.lower[:, cols] = np.maximum(self.lower[:, cols],
+                                         motion_lower_bounds(known, self.travel[:, cols]))
 
     def states(self, S: np.ndarray, fixed_least: float) -> np.ndarray:
         """Value (T,) of each support state: least exact, else hull, distance of its queried pairs."""

@@ -62,7 +62,7 @@ import numpy as np
 
 from scenes.validation import as_time
 
-from .collision_check import SLACK, CollisionChecker
+from .collision_check import SLACK, CollisionChecker, motion_lower_bounds
 from .errors import CollisionCheckError
 from .robot import Robot
 from .validation import as_array
@@ -431,10 +431,8 @@ class _Search:
         self._record(k[exact], c[exact], values[exact])
         cols = np.unique(c)
         known = np.where(self.queried[:, cols], self.hull[:, cols], -np.inf)
-        travel = self.travel[:, cols]
-        ahead = np.maximum.accumulate(known + travel, axis=0) - travel
-        behind = np.flipud(np.maximum.accumulate(np.flipud(known - travel), axis=0)) + travel
-        self.lower[:, cols] = np.maximum(self.lower[:, cols], np.maximum(ahead, behind))
+        self.lower[:, cols] = np.maximum(self.lower[:, cols],
+                                         motion_lower_bounds(known, self.travel[:, cols]))
 
     def measure(self, k: np.ndarray, c: np.ndarray) -> None:
         """Exact signed distances at (k, c)."""
