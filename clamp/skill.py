@@ -30,13 +30,16 @@ synthetic skills (two seeds each) 0.7-3.5 and at most 1.97. Both limits pass eve
 demonstration of these sets.
 
 The *plausibility* (:func:`skill_plausibility`) is the same tube statistic turned into a
-probability: S = max over steps of the ratio above, and the score is the share of sampled
-executions of the skill (from the plan's start, meeting its goal and via points) whose S is at
-least the path's. The sampled executions are the conditioned prior's, rescaled step by step
-from the prior's own spread to the demonstrations' spread inflated for a new execution
-(sqrt((M + 1) / (M - 1)): the predictive spread of one more demonstration from M). The score
-is therefore uniform on such samples (by construction), has a resolution of
-1 / (:data:`PLAUSIBILITY_SAMPLES` + 1), and never saturates at 1.0 for a path that strays.
+probability: S = the largest ratio above over the steps, or :data:`END_WEIGHT` (2) times the
+end's distance from the reference's end in end radii when that is larger (:func:`statistic`),
+and the score is the share of sampled executions of the skill (from the plan's start, meeting
+its goal and via points) whose S is at least the path's. The sampled executions are the
+conditioned prior's, rescaled step by step from the prior's own spread to the demonstrations'
+spread inflated for a new execution (sqrt((M + 1) / (M - 1)): the predictive spread of one
+more demonstration from M) and by :data:`CALIBRATION` (1.5: the smallest factor, in steps of
+0.1-0.5, at which every held-out demonstration above scores >= 0.05; they scored down to 0.002
+at 1.0). The score is therefore uniform on such samples (by construction), has a resolution
+of 1 / (:data:`PLAUSIBILITY_SAMPLES` + 1), and never saturates at 1.0 for a path that strays.
 """
 from __future__ import annotations
 
