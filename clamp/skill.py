@@ -36,9 +36,9 @@ and the score is the share of sampled executions of the skill (from the plan's s
 its goal and via points) whose S is at least the path's. The sampled executions are the
 conditioned prior's, rescaled step by step from the prior's own spread to the demonstrations'
 spread inflated for a new execution (sqrt((M + 1) / (M - 1)): the predictive spread of one
-more demonstration from M) and by :data:`CALIBRATION` (1.5: the smallest factor, in steps of
-0.1-0.5, at which every held-out demonstration above scores >= 0.05; they scored down to 0.002
-at 1.0). The score is therefore uniform on such samples (by construction), has a resolution
+more demonstration from M) and by :data:`CALIBRATION` (1.5: of 0.7, 1.0, 1.2, 1.5, 2, 2.5
+and 3 the smallest at which every held-out demonstration above scores >= 0.05; at 1.2 the
+least scored 0.03, at 1.0 0.01). The score is therefore uniform on such samples (by construction), has a resolution
 of 1 / (:data:`PLAUSIBILITY_SAMPLES` + 1), and never saturates at 1.0 for a path that strays.
 """
 from __future__ import annotations
