@@ -172,22 +172,25 @@ def test_view_plans_the_recorded_problem_again(plan_folder):
     assert written["q"] and json.loads((plan_folder / "problem_plan.json").read_text())["config"] == {"sigma_obs": 0.02}
 
 
-def test_clamp_view_serves_until_interrupted(plan_folder):
+def test_clamp_view_serves_until_interrupted(plan_folder, tmp_path):
     import signal
     import sys
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    process = subprocess.Popen([sys.executable, "-m", "clamp", "view", str(plan_folder), "--port", "0"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    try:
-        line = process.stdout.readline()
-        assert line.startswith("clamp view: http://127.0.0.1:"), (line, process.stderr.read())
-        port = int(line.split("127.0.0.1:")[1].split()[0])
-        assert not port_is_closed(port)
-        process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=30) == 130
-    finally:
-        process.kill()
-        process.wait()
+    # stderr to a file, not a pipe nobody reads while the server runs: a full pipe would block
+    # the process on a write and keep it from exiting
+    with open(tmp_path / "stderr.txt", "w+") as stderr:
+        process = subprocess.Popen([sys.executable, "-m", "clamp", "view", str(plan_folder), "--port", "0"],
+                                   stdout=subprocess.PIPE, stderr=stderr, text=True, env=env)
+        try:
+            line = process.stdout.readline()
+            assert line.startswith("clamp view: http://127.0.0.1:"), (line, stderr.seek(0) or stderr.read())
+            port = int(line.split("127.0.0.1:")[1].split()[0])
+            assert not port_is_closed(port)
+            process.send_signal(signal.SIGINT)
+            assert process.wait(timeout=30) == 130, stderr.seek(0) or stderr.read()
+        finally:
+            process.kill()
+            process.wait()
     assert port_is_closed(port)
 
 
