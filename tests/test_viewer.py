@@ -179,8 +179,11 @@ def test_clamp_view_serves_until_interrupted(plan_folder, tmp_path):
     # stderr to a file, not a pipe nobody reads while the server runs: a full pipe would block
     # the process on a write and keep it from exiting
     with open(tmp_path / "stderr.txt", "w+") as stderr:
+        # as from a terminal: SIGINT at its default (a shell's background job, e.g. a test run
+        # started with &, ignores it, and that disposition is inherited)
         process = subprocess.Popen([sys.executable, "-m", "clamp", "view", str(plan_folder), "--port", "0"],
-                                   stdout=subprocess.PIPE, stderr=stderr, text=True, env=env)
+                                   stdout=subprocess.PIPE, stderr=stderr, text=True, env=env,
+                                   preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         try:
             line = process.stdout.readline()
             assert line.startswith("clamp view: http://127.0.0.1:"), (line, stderr.seek(0) or stderr.read())
