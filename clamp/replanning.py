@@ -13,6 +13,7 @@ first damping, one small step or a small predicted decrease stops).
 """
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -21,10 +22,12 @@ import numpy as np
 from clamp.conditioning import planning_prior
 from clamp.errors import ArgumentTypeError, InvalidParameterError
 from clamp.factors.states import StateWindow
-from clamp.planner import _plan
-from clamp.request import as_config, as_scene, make_request
-from clamp.result import PlanResult
+from clamp.pipeline import model
+from clamp.planner import plan_model
+from clamp.request import Request, Target, as_config, as_scene, make_request
+from clamp.result import PlanInputs, PlanResult
 from clamp.solver import WarmStart, WorkspaceCorrection
+from clamp.validation import as_bool
 from scenes.threads import single_blas_thread
 from scenes.validation import as_instance, as_sequence
 
@@ -44,6 +47,17 @@ def _shifted_start(previous: PlanResult, robot: Any, shift: np.ndarray) -> np.nd
     correction = WorkspaceCorrection(lambda t: StateWindow(robot, t), x + shift,
                                      np.zeros(x.shape + (theta.shape[1],)), CORRECTION_STEPS)
     return correction.apply(theta, np.zeros_like(theta))
+
+
+def _same_targets(request: Request, inputs: PlanInputs) -> bool:
+    """Whether ``request`` has the goal and via points ``inputs`` planned for (same values)."""
+    def same(target: Target | None, value: Any) -> bool:
+        if target is None or value is None:
+            return target is None and value is None
+        return bool(np.array_equal(target.value, value))
+    return (same(request.goal, inputs.goal) and len(request.vias) == len(inputs.via_points)
+            and all(i == j and same(target, value)
+                    for (i, target), (j, value) in zip(request.vias, inputs.via_points)))
 
 
 def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
@@ -69,18 +83,19 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
     scene = inputs.scene if scene is _KEEP else as_scene(scene)
     via_points = inputs.via_points if via_points is _KEEP else tuple(via_points)
     config = inputs.config if config is None else config
+    started = time.perf_counter()
     with single_blas_thread():
         config = as_config(config)
+        covariance = as_bool(covariance, "covariance")
         prior, robot = inputs.prior, inputs.robot
-        q_start = np.asarray(previous.q[0], dtype=float)
-        request = make_request(prior, robot, inputs.start, goal, via_points, config, q_start)
-        if (goal is inputs.goal and via_points == inputs.via_points
-                and config.model == inputs.config.model):
+        request = make_request(prior, robot, inputs.start, goal, via_points, config,
+                               q_start=previous.q[0])
+        if _same_targets(request, inputs) and config.model == inputs.config.model:
             model_prior = inputs.model_prior          # same targets: the same conditioned prior
         else:
             model_prior = planning_prior(prior, robot, request, config)
         shift = np.asarray(model_prior.mean) - np.asarray(inputs.model_prior.mean)
-        initial = _shifted_start(previous, robot, shift)
-        return _plan(prior, robot, scene, inputs.start, goal, via_points, inputs.extra_factors,
-                     config, inputs.sdf if scene is inputs.scene else None, initial, covariance,
-                     q_start=q_start, model_prior=model_prior, warm_start=WarmStart())
+        replanned = model(prior, robot, scene, request, config, inputs.extra_factors,
+                          inputs.sdf if scene is inputs.scene else None,
+                          _shifted_start(previous, robot, shift), model_prior=model_prior)
+        return plan_model(replanned, covariance, WarmStart(), started)

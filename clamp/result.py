@@ -1,7 +1,8 @@
 """What :func:`clamp.plan` returns: the plan, its verdict and its uncertainty, as plain data."""
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from copy import deepcopy
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -10,8 +11,9 @@ import numpy as np
 @dataclass(frozen=True)
 class PlanInputs:
     """What a plan was asked (kept by :func:`clamp.plan` on ``PlanResult.inputs`` for
-    :func:`clamp.replan`): the arguments of the call and the prior it planned with
-    (``model_prior``: the learned prior conditioned on the start, goal and via points)."""
+    :func:`clamp.replan`): the arguments of the call (start, goal and via points as validated:
+    arrays (n,) [rad] or (3,) [m]) and the prior it planned with (``model_prior``: the learned
+    prior conditioned on the start, goal and via points)."""
 
     prior: Any
     robot: Any
@@ -66,7 +68,7 @@ class PlanResult:
     success and reasons (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
-    computed); violations: per constraint family (e.g. "orientation") how far beyond its
+    computed); inputs: what the plan was asked (:class:`PlanInputs`); violations: per constraint family (e.g. "orientation") how far beyond its
     tolerance the plan goes [rad for orientation] (0.0: met); covariance_floor: information [1/rad^2] added to every coordinate because the
     graph left a direction unconstrained (0.0: the exact Laplace covariance; see
     :mod:`clamp.uncertainty`).
@@ -108,8 +110,8 @@ class PlanResult:
     self_clearance: float = float("inf")
     self_contact: dict[str, Any] | None = None
     fixed_overlaps: list[tuple[str, str, float]] = field(default_factory=list)
-    #: the request (not a dataclass field: left out of to_dict / asdict); set by clamp.plan
-    inputs = None
+    #: what the plan was asked (for clamp.replan and the viewer; left out of to_dict)
+    inputs: PlanInputs | None = field(default=None, compare=False, repr=False)
 
     @property
     def ee_std(self) -> np.ndarray | None:
@@ -171,9 +173,11 @@ class PlanResult:
         """JSON-ready dictionary (arrays as nested lists, non-finite floats as None); the joint
         state covariance (T, 2n, 2n) is left out (the end-effector one is kept)."""
         out: dict[str, Any] = {}
-        for key, value in asdict(self).items():
-            if key == "state_covariance":
+        for item in fields(self):
+            key = item.name
+            if key in ("state_covariance", "inputs"):
                 continue
+            value = deepcopy(getattr(self, key))
             if isinstance(value, np.ndarray):
                 value = value.tolist()
             elif isinstance(value, float) and not np.isfinite(value):

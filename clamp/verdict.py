@@ -15,15 +15,14 @@ import numpy as np
 from clamp.clearance import check_clearance, collision_reason, describe_contact
 from clamp.config import PlannerConfig
 from clamp.limit_report import limit_violations
-from clamp.optimizers import Optimized
-from clamp.conditioning import skill_reference
+from clamp.errors import ArgumentTypeError
+from clamp.pipeline import Model, Posterior, Solution
 from clamp.skill import skill_checks
-from clamp.problem import PlanningProblem
 from clamp.request import Request, as_scene, has_obstacles
-from clamp.result import PlanResult
+from clamp.result import PlanInputs, PlanResult
 from clamp.targets import constraint_violations, inside_obstacle
-from robots.collision_check import CollisionReport
-from robots.self_collision import SelfCollisionReport, self_collision_report
+from robots.self_collision import self_collision_report
+from scenes.validation import as_instance
 
 
 def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
@@ -99,17 +98,31 @@ def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
     return describe
 
 
-def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, request: Request,
-             out: Optimized, config: PlannerConfig, timings: dict[str, float],
-             report: CollisionReport | None = None, reference: Any = None,
-             self_report: SelfCollisionReport | None = None,
-             faults: list[str] = ()) -> PlanResult:
-    """Metrics and success checks of an optimised plan; report: the real-geometry check of
-    ``out.theta`` when the caller already has it (else computed here); reference: where the
-    skill goes for ``request`` (:func:`clamp.conditioning.skill_reference`; None: computed
-    here); self_report: the
-    self-collision check of ``out.theta`` when the caller already has it; faults: reasons of
-    steps after the optimisation that failed (e.g. the posterior covariance)."""
+def plan_inputs(model: Model) -> PlanInputs:
+    """What ``model`` was asked, for ``PlanResult.inputs`` (:func:`clamp.replan` plans it again):
+    start, goal and via points as the request's validated values."""
+    request = model.request
+    return PlanInputs(model.prior, model.robot, model.scene, request.start.value,
+                      None if request.goal is None else request.goal.value,
+                      tuple((index, target.value) for index, target in request.vias),
+                      model.extra_factors, model.config, model.sdf, model.model_prior)
+
+
+def evaluate(model: Model, solution: Solution, posterior: Posterior, timings: dict[str, float],
+             started: float) -> PlanResult:
+    """The complete :class:`~clamp.result.PlanResult` of ``solution`` (metrics, success checks
+    with their reasons, ``posterior``'s covariances and faults, the model's initial trajectory
+    and inputs, the constraint loop's attempts) for ``model``: timings [s] of the stages before
+    it plus the optimizer's phases; "total": since ``started`` (``time.perf_counter()`` when the
+    plan began) until the result is made."""
+    as_instance(model, "model", Model, "a clamp.pipeline.Model", ArgumentTypeError)
+    as_instance(solution, "solution", Solution, "a clamp.pipeline.Solution", ArgumentTypeError)
+    as_instance(posterior, "posterior", Posterior, "a clamp.pipeline.Posterior",
+                ArgumentTypeError)
+    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
+                                            model.request, model.config)
+    problem, out, report = solution.problem, solution.optimum, solution.report
+    self_report, reference = solution.self_report, model.reference
     n, checks = robot.n, config.checks
     q, qdot = out.theta[:, :n], out.theta[:, n:]
     x, _ = problem.window(out.theta).workspace()
@@ -117,8 +130,6 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     families = problem.family_errors(out.theta)
     if report is None:
         report = check_clearance(robot, scene, q, np.asarray(prior.time, dtype=float))
-    if self_report is None:
-        self_report = self_collision_report(robot, q, np.asarray(prior.time, dtype=float))
     clearance = math.inf if report is None else float(report.min_distance)
     start = request.start
     start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
@@ -131,13 +142,11 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                   for i, t in request.vias]
     limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
-    if reference is None:
-        reference = skill_reference(prior, robot, request, config)
     skill = skill_checks(prior, reference, position, goal_given=request.goal is not None,
                          describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3], position,
                                                 config.model.epsilon))
 
-    reasons = list(faults)
+    reasons = list(posterior.faults)
     if not np.isfinite(out.final_error):
         reasons.append("optimisation diverged (non-finite error)")
     if start_error > checks.start_tolerance:
@@ -158,7 +167,7 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
     reasons += broken
     reasons += skill.reasons
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
-                      time=np.asarray(prior.time, dtype=float), timings=timings,
+                      time=np.asarray(prior.time, dtype=float),
                       iterations=out.iterations, initial_error=out.initial_error,
                       final_error=out.final_error, family_errors=families,
                       collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
@@ -177,4 +186,9 @@ def evaluate(prior: Any, robot: Any, scene: Any, problem: PlanningProblem, reque
                       via_errors=via_errors, violations=violations,
                       collision_geometry=None if report is None else report.geometry,
                       nearest_contact=None if report is None or report.nearest is None
-                      else report.nearest.to_dict())
+                      else report.nearest.to_dict(),
+                      initial_q=model.initialisation.q, attempts=list(solution.attempts),
+                      state_covariance=posterior.state_covariance,
+                      ee_covariance=posterior.ee_covariance, covariance_floor=posterior.floor,
+                      inputs=plan_inputs(model),
+                      timings={**timings, "total": time.perf_counter() - started})

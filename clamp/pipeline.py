@@ -1,0 +1,270 @@
+"""The stages of a plan, each an immutable record made once from the one before:
+
+request (:class:`clamp.request.Request`, :func:`clamp.request.make_request`: the caller's
+start, goal and via points validated and the start resolved) -> :class:`Model` (:func:`model`:
+the planning problem and what it was built from) -> :class:`Solution` (:func:`solve`: the
+optimum, collision-free as a constraint, and the real-geometry checks of it) ->
+:class:`Posterior` (:func:`posterior`: the Laplace covariances at the optimum) -> the verdict
+(:func:`clamp.verdict.evaluate`: the complete :class:`clamp.PlanResult`).
+
+:func:`clamp.plan` runs them in turn; :func:`clamp.replan` runs them with the previous plan's
+start configuration, conditioned prior and trajectory. A caller may run them by hand, e.g. to
+inspect ``model(...).problem.graph()`` before solving.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from clamp.assembly import (ExtraFactor, configured_initialisation, distance_query,
+                            given_initialisation, planner_families, split_extras,
+                            tied_to_free_plan, without_family)
+from clamp.clearance import check_clearance, contact_obstacle
+from clamp.conditioning import planning_prior, skill_reference
+from clamp.config import PlannerConfig
+from clamp.continuation import (Attempt, detour_restarts, solve_collision_free,
+                                tighten_constraints, with_obstacle_sigma)
+from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
+from clamp.factors import ObstacleFamily, PostureFamily, SelfCollisionFamily
+from clamp.initialisation import Initialisation
+from clamp.optimizers import Optimized, optimize
+from clamp.problem import PlanningProblem
+from clamp.request import Request, as_config, as_extras, as_scene, check_prior, check_robot
+from clamp.skill import skill_checks
+from clamp.solver import WarmStart
+from clamp.targets import violated_families
+from clamp.uncertainty import plan_covariances
+from clamp.validation import as_bool
+from robots.collision_check import CollisionReport
+from robots.self_collision import SelfCollisionReport, self_collision_report
+from scenes.validation import as_instance
+
+#: configurations checked between two states by the self-collision hinges (a link swept
+#: through another between states is caught)
+SELF_COLLISION_BETWEEN = 8
+
+
+@dataclass(frozen=True)
+class Model:
+    """What is solved: ``problem`` (:class:`~clamp.problem.PlanningProblem` over the T joint
+    states [q, qdot] (T, 2n), its GTSAM graph ``problem.graph()``, initial values
+    ``problem.initial``) for ``request``; ``prior``: the learned workspace prior;
+    ``model_prior``: it conditioned on the request's targets (the prior the families use);
+    ``reference``: where the skill goes for the request (:func:`clamp.conditioning.skill_reference`);
+    ``initialisation``: the initial trajectory (q, qdot (T, n), path (T, 3) [m]) before the
+    posture tie; ``scene`` (scenes.Scene or None), ``config``; ``extra_factors`` and ``sdf`` as
+    the caller gave them."""
+
+    prior: Any
+    problem: PlanningProblem
+    request: Request
+    initialisation: Initialisation
+    model_prior: Any
+    reference: Any
+    scene: Any
+    config: PlannerConfig
+    extra_factors: tuple = ()
+    sdf: Any = None
+
+    @property
+    def robot(self) -> Any:
+        """The robot planned for (robots.Robot, n joints)."""
+        return self.problem.robot
+
+
+@dataclass(frozen=True)
+class Solution:
+    """The optimum of a :class:`Model`: ``optimum`` (:class:`~clamp.optimizers.Optimized`:
+    theta (T, 2n), iterations, errors [nats], stop reason, phase timings [s]); ``problem``: the
+    problem it optimises at the end (the model's, with the obstacle hinges' final sigma or the
+    self-collision hinges added: the graph a user gets); ``report``: the obstacle check on the
+    robot's collision geometry (None when the model has no obstacle hinges); ``self_report``:
+    the self-collision check; ``attempts``: the constraint loop's solves (dicts, see
+    ``PlanResult.attempts``)."""
+
+    optimum: Optimized
+    problem: PlanningProblem
+    report: CollisionReport | None
+    self_report: SelfCollisionReport
+    attempts: tuple[dict[str, Any], ...]
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """The Laplace posterior at a :class:`Solution`'s optimum: ``state_covariance`` (T, 2n, 2n)
+    and ``ee_covariance`` (T, 3, 3) [m^2] (None when not asked for or not computable: GTSAM
+    optimizer problems, a fault); ``floor`` [1/rad^2] information added to every coordinate
+    (0.0: exact; :mod:`clamp.uncertainty`); ``faults``: why it failed (reasons for the verdict)."""
+
+    state_covariance: np.ndarray | None = None
+    ee_covariance: np.ndarray | None = None
+    floor: float = 0.0
+    faults: tuple[str, ...] = ()
+
+
+# ------------------------------------------------------------------------------------ model
+def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig | None,
+          extra_factors: Sequence[ExtraFactor] = (), sdf: Any = None,
+          initial: np.ndarray | None = None, *, model_prior: Any = None) -> Model:
+    """The :class:`Model` of ``request`` (from :func:`clamp.request.make_request` with the same
+    prior, robot and config): the learned ``prior`` conditioned on the request's targets
+    (``model_prior`` when the caller already has it, e.g. :func:`clamp.replan` with unchanged
+    targets), the planner's families and ``extra_factors`` (see :data:`ExtraFactor`), the
+    initialisation (``initial``: joint positions (T, n) or states (T, 2n) instead of the
+    configured one) and, with obstacles, the tie to the free plan's posture. Other arguments as
+    for :func:`clamp.build`. Raises ClampError subclasses on bad input."""
+    check_prior(prior)
+    check_robot(robot)
+    scene, config = as_scene(scene), as_config(config)
+    as_instance(request, "request", Request, "a clamp.request.Request (from make_request)",
+                ArgumentTypeError)
+    if np.shape(request.q_start) != (robot.n,):
+        raise ShapeError(f"request: expected a request for a robot with {robot.n} joints, got "
+                         f"q_start of shape {np.shape(request.q_start)}")
+    T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
+    extra_factors = tuple(as_extras(extra_factors))
+    extra_families, foreign = split_extras(extra_factors, T)
+    if model_prior is None:                       # the prior conditioned on the targets
+        model_prior = planning_prior(prior, robot, request, config)
+    elif np.shape(getattr(model_prior, "Phi", None)) != np.shape(prior.Phi):
+        raise ShapeError(f"model_prior: expected a workspace prior over the same {T} states as "
+                         f"prior (Phi {np.shape(prior.Phi)}), got {type(model_prior).__name__} "
+                         f"with Phi of shape {np.shape(getattr(model_prior, 'Phi', None))}")
+    reach = config.model.epsilon + float(np.max(robot.spheres.radii, initial=0.0))
+    families = planner_families(model_prior, robot, request, config,
+                                distance_query(scene, config, sdf, reach))
+    init = (configured_initialisation(model_prior, robot, request, config) if initial is None
+            else given_initialisation(robot, initial, T, dt))
+    problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
+    if config.model.posture_sigma > 0 and problem.has(ObstacleFamily.name):
+        problem = tied_to_free_plan(problem, config, keep_initial=initial is not None)
+    reference = skill_reference(prior, robot, request, config, model_prior)
+    return Model(prior, problem, request, init, model_prior, reference, scene, config,
+                 extra_factors, sdf)
+
+
+# ------------------------------------------------------------------------------------ solve
+def _restarts(prior, robot, scene, request: Request, config: PlannerConfig, init: Initialisation,
+              report: Any):
+    """Other starting trajectories when the plan collides: detours of the initial path around
+    the obstacle of the deepest contact, then a straight line in joint space."""
+    yield from detour_restarts(robot, init.path, request.q_start, float(prior.dt),
+                               contact_obstacle(robot, scene, report.nearest),
+                               config.model.epsilon, report.nearest.index,
+                               config.checks.ik_tolerance)
+    if config.optimizer.initialisation != "straight_line":
+        line = configured_initialisation(prior, robot, request,
+                                         config.with_(initialisation="straight_line"))
+        yield "straight_line", line.theta
+
+
+def _free_of_self_collision(problem: PlanningProblem, out: Any, config: PlannerConfig,
+                            check: Callable | None, report: Any, time_: np.ndarray,
+                            attempts: list[dict]) -> tuple:
+    """When the plan ``out`` collides with itself (:func:`robots.self_collision_report`),
+    re-solve from it with the self-collision hinges added (:class:`SelfCollisionFamily`,
+    ``config.model.self_collision_epsilon`` / ``_sigma``), kept if it brings no obstacle
+    collision back; appends the attempt. Returns (problem, out, obstacle report, self report)
+    of the plan chosen."""
+    robot, T = problem.robot, problem.num_states
+    own = self_collision_report(robot, out.theta[:, :robot.n], time_)
+    if not own.collision or config.optimizer.constraint_rounds == 0:
+        return problem, out, report, own
+    model = config.model
+    family = SelfCollisionFamily.for_robot(robot, range(T - 1), model.self_collision_epsilon,
+                                           model.self_collision_sigma, SELF_COLLISION_BETWEEN)
+    guarded = problem.with_families([*problem.families, family], out.theta)
+    new = optimize(guarded, config, WarmStart())
+    new_own = self_collision_report(robot, new.theta[:, :robot.n], time_)
+    new_report = check(new.theta) if check is not None else None
+    collides = new_report is not None and new_report.collision
+    attempts.append(asdict(Attempt("self-collision hinges", model.self_collision_sigma,
+                                   float(new_own.min_distance), not collides, float("nan"),
+                                   new.iterations)))
+    if collides and not (report is not None and report.collision):
+        return problem, out, report, own
+    new = replace(new, iterations=out.iterations + new.iterations,
+                  trials=out.trials + new.trials, initial_error=out.initial_error)
+    return guarded, new, new_report, new_own
+
+
+def solve(model: Model, warm_start: WarmStart | None = None) -> Solution:
+    """The :class:`Solution` of ``model``: optimised from ``model.problem.initial`` (the fast
+    solver or the configured GTSAM optimizer; ``warm_start``: the fast solver's warm-start
+    rule, for a start near the optimum), collision-free as a constraint with obstacles
+    (continuation on the hinge and restarts, :mod:`clamp.continuation`; judged on the robot's
+    collision geometry), soft constraints tightened while violated, self-collision hinges added
+    when the plan collides with itself."""
+    as_instance(model, "model", Model, "a clamp.pipeline.Model (from clamp.pipeline.model)",
+                ArgumentTypeError)
+    if warm_start is not None:
+        as_instance(warm_start, "warm_start", WarmStart, "a clamp.solver.WarmStart or None",
+                    ArgumentTypeError)
+    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
+                                            model.request, model.config)
+    problem, init, reference = model.problem, model.initialisation, model.reference
+    report, attempts = None, []
+    base, sigma, check = problem, float("nan"), None
+    if problem.has(ObstacleFamily.name):
+        # collision-free is a constraint: continuation on the hinge and restarts (see
+        # clamp.continuation), judged on the robot's own collision geometry
+        def check(theta):
+            return check_clearance(robot, scene, theta[:, :robot.n], prior.time)
+
+        def restarts(found):
+            return _restarts(prior, robot, scene, request, config, init, found)
+
+        def with_the_skill(theta):
+            return not skill_checks(prior, reference, robot.fk(theta[:, :robot.n]),
+                                    request.goal is not None, score=False).reasons
+        solved = solve_collision_free(problem, config, check, restarts,
+                                      config.optimizer.constraint_rounds, warm_start,
+                                      with_the_skill)
+        attempts = list(solved.attempts)
+        if solved.report.collision and problem.has(PostureFamily.name):
+            # the free plan's posture leads into the obstacles however loose the tie: plan
+            # without it from the configured initialisation (the arm may then turn further)
+            untied = without_family(problem, PostureFamily.name, init.theta)
+            alternative = solve_collision_free(untied, config, check, restarts,
+                                               config.optimizer.constraint_rounds)
+            attempts += [replace(a, candidate="untied " + a.candidate)
+                         for a in alternative.attempts]
+            if not alternative.report.collision:
+                problem, solved = untied, alternative
+        out, report, sigma = solved.out, solved.report, solved.sigma
+        base = with_obstacle_sigma(problem, sigma, problem.initial)
+    else:
+        out = optimize(problem, config, warm_start)
+    # the other soft constraints (limits, orientation): stiffer while the verdict finds them
+    # violated
+    out, report, tightened = tighten_constraints(
+        problem, base, out, config,
+        lambda theta: violated_families(problem.families, robot, theta, config),
+        check, config.optimizer.constraint_rounds, report, sigma)
+    attempts = [asdict(a) for a in attempts + tightened]
+    problem, out, report, own = _free_of_self_collision(problem, out, config, check, report,
+                                                        np.asarray(prior.time, dtype=float),
+                                                        attempts)
+    return Solution(out, problem, report, own, tuple(attempts))
+
+
+# -------------------------------------------------------------------------------- posterior
+def posterior(model: Model, solution: Solution, covariance: bool = True) -> Posterior:
+    """The :class:`Posterior` at ``solution``'s optimum: the covariance of every joint state and
+    end-effector position when ``covariance`` and the problem is the fast solver's (banded); a
+    numerical failure (e.g. a time step of microseconds) is a fault of the plan, reported, not
+    raised."""
+    as_instance(model, "model", Model, "a clamp.pipeline.Model", ArgumentTypeError)
+    as_instance(solution, "solution", Solution, "a clamp.pipeline.Solution (from solve)",
+                ArgumentTypeError)
+    if not as_bool(covariance, "covariance") or not solution.problem.banded:
+        return Posterior()
+    try:
+        state_cov, ee_cov, floor = plan_covariances(solution.problem, solution.optimum.theta)
+    except (InvalidParameterError, np.linalg.LinAlgError) as exc:
+        # a fault of the plan's own numbers, not of the caller's input: the verdict says so
+        return Posterior(faults=(f"posterior covariance failed: {exc}",))
+    return Posterior(state_cov, ee_cov, floor)
