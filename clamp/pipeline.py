@@ -53,7 +53,8 @@ class Model:
     states [q, qdot] (T, 2n), its GTSAM graph ``problem.graph()``, initial values
     ``problem.initial``) for ``request``; ``prior``: the learned workspace prior;
     ``model_prior``: it conditioned on the request's targets (the prior the families use);
-    ``reference``: where the skill goes for the request (:func:`clamp.conditioning.skill_reference`);
+    ``reference``: where the skill goes for the request
+    (:func:`clamp.conditioning.skill_reference`);
     ``initialisation``: the initial trajectory (q, qdot (T, n), path (T, 3) [m]) before the
     posture tie; ``scene`` (scenes.Scene or None), ``config``; ``extra_factors`` and ``sdf`` as
     the caller gave them."""

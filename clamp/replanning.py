@@ -38,8 +38,10 @@ _KEEP = object()
 CORRECTION_STEPS = 1
 
 
-def _shifted_start(previous: PlanResult, robot: Any, shift: np.ndarray) -> np.ndarray:
-    """Previous joint states (T, 2n) moved so their workspace states gain ``shift`` (T, 6)."""
+def shifted_plan(previous: PlanResult, robot: Any, shift: np.ndarray) -> np.ndarray:
+    """The joint states (T, 2n) of ``previous`` (planned for ``robot``) moved so that their
+    workspace states [p, v] gain ``shift`` (T, 6) [m, m/s]: the initial trajectory of a replan
+    (``shift``: the new conditioned prior mean minus the previous one)."""
     theta = np.hstack([previous.q, previous.qdot])
     if not np.any(shift):
         return theta
@@ -97,5 +99,5 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         shift = np.asarray(model_prior.mean) - np.asarray(inputs.model_prior.mean)
         replanned = model(prior, robot, scene, request, config, inputs.extra_factors,
                           inputs.sdf if scene is inputs.scene else None,
-                          _shifted_start(previous, robot, shift), model_prior=model_prior)
+                          shifted_plan(previous, robot, shift), model_prior=model_prior)
         return plan_model(replanned, covariance, WarmStart(), started)

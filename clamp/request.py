@@ -142,15 +142,18 @@ def has_obstacles(scene: Any) -> bool:
     return scene is not None and len(getattr(scene, "obstacles", ())) > 0
 
 
-def make_request(prior: Any, robot: Any, start: Any, goal: Any, via_points: Sequence,
-                 config: PlannerConfig, q_start: np.ndarray | None = None) -> Request:
+def make_request(prior: Any, robot: Any, start: Any, goal: Any = None, via_points: Sequence = (),
+                 config: PlannerConfig | None = None,
+                 q_start: np.ndarray | None = None) -> Request:
     """The :class:`Request` for planning ``prior`` with ``robot`` (the first stage of
     :mod:`clamp.pipeline`): start, goal (or None) and via points checked against the robot's n
     joints and the prior's T states; the start configuration is ``q_start`` (n,) [rad] when
     given (a replan keeps its previous one), the joint start itself, or inverse kinematics of
-    the start position (``config.checks`` tolerances: its error is ``start_ik_error`` [m])."""
+    the start position (``config.checks`` tolerances, None: the defaults; its error is
+    ``start_ik_error`` [m])."""
     check_prior(prior)
     check_robot(robot)
+    config = as_config(config)
     n, T = robot.n, prior.Phi.shape[0] + 1
     check_prior_reach(prior, robot)
     if start is None:

@@ -68,9 +68,10 @@ class PlanResult:
     success and reasons (why it failed);
     state_covariance (T, 2n, 2n) and ee_covariance (T, 3, 3) [m^2]: Laplace posterior
     covariance of every joint state and end-effector position at the optimum (None when not
-    computed); inputs: what the plan was asked (:class:`PlanInputs`); violations: per constraint family (e.g. "orientation") how far beyond its
-    tolerance the plan goes [rad for orientation] (0.0: met); covariance_floor: information [1/rad^2] added to every coordinate because the
-    graph left a direction unconstrained (0.0: the exact Laplace covariance; see
+    computed); inputs: what the plan was asked (:class:`PlanInputs`); violations: per
+    constraint family (e.g. "orientation") how far beyond its tolerance the plan goes [rad for
+    orientation] (0.0: met); covariance_floor: information [1/rad^2] added to every coordinate
+    because the graph left a direction unconstrained (0.0: the exact Laplace covariance; see
     :mod:`clamp.uncertainty`).
     """
 
