@@ -21,6 +21,7 @@ from clamp.skill import skill_checks
 from clamp.request import Request, as_scene, has_obstacles
 from clamp.result import PlanInputs, PlanResult
 from clamp.targets import constraint_violations, inside_obstacle
+from clamp.validation import as_scalar
 from robots.self_collision import self_collision_report
 from scenes.validation import as_instance
 
@@ -108,13 +109,17 @@ def plan_inputs(model: Model) -> PlanInputs:
                       model.extra_factors, model.config, model.sdf, model.model_prior)
 
 
-def evaluate(model: Model, solution: Solution, posterior: Posterior, timings: dict[str, float],
-             started: float) -> PlanResult:
+def evaluate(model: Model, solution: Solution, posterior: Posterior,
+             timings: dict[str, float] | None = None, started: float | None = None
+             ) -> PlanResult:
     """The complete :class:`~clamp.result.PlanResult` of ``solution`` (metrics, success checks
     with their reasons, ``posterior``'s covariances and faults, the model's initial trajectory
-    and inputs, the constraint loop's attempts) for ``model``: timings [s] of the stages before
-    it plus the optimizer's phases; "total": since ``started`` (``time.perf_counter()`` when the
-    plan began) until the result is made."""
+    and inputs, the constraint loop's attempts) for ``model``, made in one go: timings [s] of
+    the stages before it (None: none) plus "total", from ``started`` (``time.perf_counter()``
+    when the plan began; None: when the verdict began) until the result is made."""
+    started = time.perf_counter() if started is None else as_scalar(started, "started")
+    timings = {} if timings is None else as_instance(
+        timings, "timings", dict, "a dict of stage name -> seconds, or None", ArgumentTypeError)
     as_instance(model, "model", Model, "a clamp.pipeline.Model", ArgumentTypeError)
     as_instance(solution, "solution", Solution, "a clamp.pipeline.Solution", ArgumentTypeError)
     as_instance(posterior, "posterior", Posterior, "a clamp.pipeline.Posterior",

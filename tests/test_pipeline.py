@@ -28,7 +28,7 @@ def by_hand(prior, robot, scene, start, goal, config=None, covariance=True):
     planned = model(prior, robot, scene, request, config)
     solution = solve(planned)
     belief = posterior(planned, solution, covariance)
-    return planned, solution, evaluate(planned, solution, belief, {}, started)
+    return planned, solution, evaluate(planned, solution, belief, started=started)
 
 
 @pytest.fixture(scope="module")
@@ -136,6 +136,9 @@ def test_the_solution_is_the_plan_model_of_plan(prior, jaco):
     (lambda p, r, m, s: posterior(m, "solution"), ArgumentTypeError, "solution"),
     (lambda p, r, m, s: posterior(m, s, covariance="yes"), InvalidParameterError, "covariance"),
     (lambda p, r, m, s: evaluate(m, s, None, {}, 0.0), ArgumentTypeError, "posterior"),
+    (lambda p, r, m, s: evaluate(m, s, Posterior(), [], 0.0), ArgumentTypeError, "timings"),
+    (lambda p, r, m, s: evaluate(m, s, Posterior(), None, "now"), InvalidParameterError,
+     "started"),
 ])
 def test_bad_stage_input_is_named(prior, jaco, staged, call, error, name):
     planned, solution, _ = staged
