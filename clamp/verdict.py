@@ -192,7 +192,7 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
                       collision_geometry=None if report is None else report.geometry,
                       nearest_contact=None if report is None or report.nearest is None
                       else report.nearest.to_dict(),
-                      initial_q=model.initialisation.q, attempts=list(solution.attempts),
+                      initial_q=model.initialisation.q, attempts=[dict(a) for a in solution.attempts],
                       state_covariance=posterior.state_covariance,
                       ee_covariance=posterior.ee_covariance, covariance_floor=posterior.floor,
                       inputs=plan_inputs(model),
