@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import asdict, replace
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict
 from typing import Any, Union
 
 import gtsam
@@ -23,8 +23,8 @@ import numpy as np
 from clamp.clearance import check_clearance, contact_obstacle
 from clamp.conditioning import planning_prior, skill_reference
 from clamp.config import PlannerConfig
-from clamp.continuation import (Attempt, detour_restarts, solve_collision_free,
-                                tighten_constraints, with_obstacle_sigma)
+from clamp.constrained import Candidate, Feasibility, Judge, Progress, solve_constrained
+from clamp.detours import detour_restarts
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
                            JointTargetFamily, ObstacleFamily, PostureFamily,
@@ -42,7 +42,6 @@ from clamp.skill import skill_checks
 from clamp.targets import target_problems, violated_families
 from clamp.uncertainty import plan_covariances
 from clamp.validation import as_array, as_bool
-from clamp.solver import WarmStart
 from clamp.verdict import evaluate, failed_result, start_problems
 from robots.self_collision import self_collision_report
 from scenes.threads import single_blas_thread
@@ -84,46 +83,52 @@ def _initialise(prior: Any, robot: Any, request: Request, config: PlannerConfig)
 
 
 def _restarts(prior, robot, scene, request: Request, config: PlannerConfig, init: Initialisation,
-              report: Any):
-    """Other starting trajectories when the plan collides: detours of the initial path around
-    the obstacle of the deepest contact, then a straight line in joint space."""
-    yield from detour_restarts(robot, init.path, request.q_start, float(prior.dt),
-                               contact_obstacle(robot, scene, report.nearest),
-                               config.model.epsilon, report.nearest.index,
-                               config.checks.ik_tolerance)
-    if config.optimizer.initialisation != "straight_line":
-        line = _initialise(prior, robot, request, config.with_(initialisation="straight_line"))
-        yield "straight_line", line.theta
+              problem: PlanningProblem) -> Callable[[Progress], Iterable[Candidate]]:
+    """Other starts when the problem as built fails its checks (see :mod:`clamp.constrained`):
+    detours of the initial path around the obstacle nearest the closest optimum, a straight line
+    in joint space, and, while none is feasible, the problem without the posture tie from the
+    configured initialisation (the arm may then turn further than the free plan)."""
+    def generate(progress: Progress) -> Iterable[Candidate]:
+        report = progress.closest.reports.get(ObstacleFamily.name) if progress.closest else None
+        if report is not None and report.nearest is not None:
+            for name, theta in detour_restarts(
+                    robot, init.path, request.q_start, float(prior.dt),
+                    contact_obstacle(robot, scene, report.nearest), config.model.epsilon,
+                    report.nearest.index, config.checks.ik_tolerance):
+                yield Candidate(name, problem.with_families(problem.families, theta))
+        if config.optimizer.initialisation != "straight_line":
+            line = _initialise(prior, robot, request, config.with_(initialisation="straight_line"))
+            yield Candidate("straight_line", problem.with_families(problem.families, line.theta))
+        if problem.has(PostureFamily.name) and not progress.feasible:
+            yield Candidate("untied", _without(problem, PostureFamily.name, init.theta))
+    return generate
 
 
-def _free_of_self_collision(problem: PlanningProblem, out: Any, config: PlannerConfig,
-                            check: Callable | None, report: Any, time_: np.ndarray,
-                            attempts: list[dict]) -> tuple:
-    """When the plan ``out`` collides with itself (:func:`robots.self_collision_report`),
-    re-solve from it with the self-collision hinges added (:class:`SelfCollisionFamily`,
-    ``config.model.self_collision_epsilon`` / ``_sigma``), kept if it brings no obstacle
-    collision back; appends the attempt. Returns (problem, out, obstacle report, self report)
-    of the plan chosen."""
-    robot, T = problem.robot, problem.num_states
-    own = self_collision_report(robot, out.theta[:, :robot.n], time_)
-    if not own.collision or config.optimizer.constraint_rounds == 0:
-        return problem, out, report, own
-    model = config.model
-    family = SelfCollisionFamily.for_robot(robot, range(T - 1), model.self_collision_epsilon,
-                                           model.self_collision_sigma, SELF_COLLISION_BETWEEN)
-    guarded = problem.with_families([*problem.families, family], out.theta)
-    new = optimize(guarded, config, WarmStart())
-    new_own = self_collision_report(robot, new.theta[:, :robot.n], time_)
-    new_report = check(new.theta) if check is not None else None
-    collides = new_report is not None and new_report.collision
-    attempts.append(asdict(Attempt("self-collision hinges", model.self_collision_sigma,
-                                   float(new_own.min_distance), not collides, float("nan"),
-                                   new.iterations)))
-    if collides and not (report is not None and report.collision):
-        return problem, out, report, own
-    new = replace(new, iterations=out.iterations + new.iterations,
-                  trials=out.trials + new.trials, initial_error=out.initial_error)
-    return guarded, new, new_report, new_own
+def _judge(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig,
+           reference: Any, families: Sequence[Family], obstacles: bool) -> Judge:
+    """The verdict's checks of an optimum theta (T, 2n), as the constrained solve needs them:
+    obstacle collision on the robot's collision geometry (first: the others only run on a clear
+    plan), the joint limits and constraint families (:func:`clamp.targets.violated_families`),
+    self-collision, and with obstacles the skill checks (a collision-free plan that leaves the
+    skill is not accepted)."""
+    time_ = np.asarray(prior.time, dtype=float)
+
+    def judge(theta: np.ndarray) -> Feasibility:
+        q, reports, clearance = theta[:, :robot.n], {}, math.inf
+        if obstacles:
+            report = check_clearance(robot, scene, q, time_)
+            reports[ObstacleFamily.name], clearance = report, float(report.min_distance)
+            if report.collision:
+                return Feasibility((ObstacleFamily.name,), True, reports, clearance)
+        violated = violated_families(families, robot, theta, config)
+        own = self_collision_report(robot, q, time_)
+        reports[SelfCollisionFamily.name] = own
+        if own.collision:
+            violated.append(SelfCollisionFamily.name)
+        accepted = not obstacles or bool(violated) or not skill_checks(
+            prior, reference, robot.fk(q), request.goal is not None, score=False).reasons
+        return Feasibility(tuple(violated), accepted, reports, clearance)
+    return judge
 
 
 def warm_start(robot: Any, initial: Any, T: int, dt: float) -> Initialisation:
@@ -310,49 +315,21 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
                                                  extra_factors, config, sdf, initial, request,
                                                  model_prior)
     t_opt = time.perf_counter()
-    report, attempts = None, []
-    base, sigma, check = problem, float("nan"), None
     reference = skill_reference(prior, robot, request, config, model_prior)
-    if problem.has(ObstacleFamily.name):
-        # collision-free is a constraint: continuation on the hinge and restarts (see
-        # clamp.continuation), judged on the robot's own collision geometry
-        def check(theta):
-            return check_clearance(robot, scene, theta[:, :robot.n], prior.time)
-
-        def restarts(found):
-            return _restarts(prior, robot, scene, request, config, init, found)
-
-        def with_the_skill(theta):
-            return not skill_checks(prior, reference, robot.fk(theta[:, :robot.n]),
-                                    request.goal is not None, score=False).reasons
-        solved = solve_collision_free(problem, config, check, restarts,
-                                      config.optimizer.constraint_rounds, warm_start,
-                                      with_the_skill)
-        attempts = list(solved.attempts)
-        if solved.report.collision and problem.has(PostureFamily.name):
-            # the free plan's posture leads into the obstacles however loose the tie: plan
-            # without it from the configured initialisation (the arm may then turn further)
-            untied = _without(problem, PostureFamily.name, init.theta)
-            alternative = solve_collision_free(untied, config, check, restarts,
-                                               config.optimizer.constraint_rounds)
-            attempts += [replace(a, candidate="untied " + a.candidate)
-                         for a in alternative.attempts]
-            if not alternative.report.collision:
-                problem, solved = untied, alternative
-        out, report, sigma = solved.out, solved.report, solved.sigma
-        base = with_obstacle_sigma(problem, sigma, problem.initial)
-    else:
-        out = optimize(problem, config, warm_start)
-    # the other soft constraints (limits, orientation): stiffer while the verdict finds them
-    # violated
-    out, report, tightened = tighten_constraints(
-        problem, base, out, config,
-        lambda theta: violated_families(problem.families, robot, theta, config),
-        check, config.optimizer.constraint_rounds, report, sigma)
-    attempts = [asdict(a) for a in attempts + tightened]
-    problem, out, report, own = _free_of_self_collision(problem, out, config, check, report,
-                                                        np.asarray(prior.time, dtype=float),
-                                                        attempts)
+    obstacles = problem.has(ObstacleFamily.name)
+    model = config.model
+    lazy = {SelfCollisionFamily.name: lambda: SelfCollisionFamily.for_robot(
+        robot, range(T - 1), model.self_collision_epsilon, model.self_collision_sigma,
+        SELF_COLLISION_BETWEEN)}
+    solved = solve_constrained(
+        problem, config, _judge(prior, robot, scene, request, config, reference,
+                                problem.families, obstacles),
+        _restarts(prior, robot, scene, request, config, init, problem) if obstacles
+        else lambda _: (), lazy, warm_start)
+    problem, out = solved.problem, solved.out
+    report = solved.feasibility.reports.get(ObstacleFamily.name)
+    own = solved.feasibility.reports.get(SelfCollisionFamily.name)
+    attempts = [asdict(a) for a in solved.attempts]
     t_cov = time.perf_counter()
     state_cov = ee_cov = None
     floor = 0.0
@@ -371,6 +348,7 @@ def _plan(prior, robot, scene, start, goal, via_points, extra_factors, config, s
                       reference, own, faults)
     result.initial_q = init.q
     result.attempts = attempts
+    result.problem = problem
     result.state_covariance, result.ee_covariance = state_cov, ee_cov
     result.covariance_floor = floor
     result.inputs = PlanInputs(prior, robot, scene, start, goal, tuple(via_points),
