@@ -97,18 +97,17 @@ class OptimizerConfig:
     absolute_error_tol: float = 1e-2
     #: ... for this many consecutive accepted steps
     convergence_patience: int = 2
-    #: constraints as constraints (:mod:`clamp.continuation`): when the optimum collides (on
-    #: the robot's collision geometry), rounds of 4x stiffer obstacle hinges per candidate
-    #: start (the optimum, detours, a straight line); then, while it violates the joint limits
-    #: or a constraint family (orientation), rounds of 4x stiffer hinges of those; 0: the
-    #: weighted solve only
+    #: constraints inside the solve (:mod:`clamp.constrained`, an augmented Lagrangian): while
+    #: the optimum fails a check (collision on the robot's geometry, self-collision, limits, a
+    #: constraint family such as orientation), at most this many multiplier / penalty updates
+    #: per candidate start (the problem as built, then detours, a straight line, the untied
+    #: problem); 0: the weighted solve only
     constraint_rounds: int = 3
     #: a fresh plan whose initial trajectory runs through an obstacle first solves with the
     #: obstacle hinge noise multiplied by this, loosely
-    #: (:data:`clamp.continuation.SOFT_START_TOLERANCE`), then at the configured weight
-    #: warm-started from there (:mod:`clamp.continuation`); 1: the configured weight directly.
-    #: A penalty schedule: soft hinges let the path slide around the obstacles first
-    #: (box_closing + box, Jaco: 43 -> 8 iterations)
+    #: (:data:`clamp.constrained.SOFT_START_TOLERANCE`): the first penalty of the schedule, soft
+    #: hinges letting the path slide around the obstacles before stiff ones pin it (box_closing +
+    #: box, Jaco: 43 -> 8 iterations); 1: the configured weight directly.
     soft_start: float = 4.0
     #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
     #: workspace states (0 = plain LM, which crawls against stiff learned priors)

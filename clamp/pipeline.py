@@ -13,8 +13,9 @@ inspect ``model(...).problem.graph()`` before solving.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, replace
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -25,12 +26,12 @@ from clamp.assembly import (ExtraFactor, configured_initialisation, distance_que
 from clamp.clearance import check_clearance, contact_obstacle
 from clamp.conditioning import planning_prior, skill_reference
 from clamp.config import PlannerConfig
-from clamp.continuation import (Attempt, detour_restarts, solve_collision_free,
-                                tighten_constraints, with_obstacle_sigma)
+from clamp.constrained import Candidate, Feasibility, Judge, Progress, solve_constrained
+from clamp.detours import detour_restarts
 from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
 from clamp.factors import ObstacleFamily, PostureFamily, SelfCollisionFamily
 from clamp.initialisation import Initialisation
-from clamp.optimizers import Optimized, optimize
+from clamp.optimizers import Optimized
 from clamp.problem import PlanningProblem
 from clamp.request import Request, as_config, as_extras, as_scene, check_prior, check_robot
 from clamp.skill import skill_checks
@@ -80,10 +81,11 @@ class Model:
 class Solution:
     """The optimum of a :class:`Model`: ``optimum`` (:class:`~clamp.optimizers.Optimized`:
     theta (T, 2n), iterations, errors [nats], stop reason, phase timings [s]); ``problem``: the
-    problem it optimises at the end (the model's, with the obstacle hinges' final sigma or the
-    self-collision hinges added: the graph a user gets); ``report``: the obstacle check on the
+    problem it optimises at the end (the model's with the constraint families' final shifts and
+    noise, the self-collision hinges when they joined, without the posture tie when the untied
+    restart won: the graph a user gets, ``PlanResult.problem``); ``report``: the obstacle check on the
     robot's collision geometry (None when the model has no obstacle hinges); ``self_report``:
-    the self-collision check; ``attempts``: the constraint loop's solves (dicts, see
+    the self-collision check; ``attempts``: the constrained solve's solves (dicts, see
     ``PlanResult.attempts``)."""
 
     optimum: Optimized
@@ -148,108 +150,87 @@ def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerC
 
 
 # ------------------------------------------------------------------------------------ solve
-def _restarts(prior, robot, scene, request: Request, config: PlannerConfig, init: Initialisation,
-              report: Any):
-    """Other starting trajectories when the plan collides: detours of the initial path around
-    the obstacle of the deepest contact, then a straight line in joint space."""
-    yield from detour_restarts(robot, init.path, request.q_start, float(prior.dt),
-                               contact_obstacle(robot, scene, report.nearest),
-                               config.model.epsilon, report.nearest.index,
-                               config.checks.ik_tolerance)
-    if config.optimizer.initialisation != "straight_line":
-        line = configured_initialisation(prior, robot, request,
-                                         config.with_(initialisation="straight_line"))
-        yield "straight_line", line.theta
+def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
+    """Other starts when the problem as built fails its checks (see :mod:`clamp.constrained`):
+    detours of the initial path around the obstacle nearest the closest optimum, a straight line
+    in joint space, and, while none is feasible, the problem without the posture tie from the
+    configured initialisation (the arm may then turn further than the free plan)."""
+    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
+                                            model.request, model.config)
+    problem, init = model.problem, model.initialisation
+
+    def generate(progress: Progress) -> Iterable[Candidate]:
+        report = progress.closest.reports.get(ObstacleFamily.name) if progress.closest else None
+        if report is not None and report.nearest is not None:
+            for name, theta in detour_restarts(
+                    robot, init.path, request.q_start, float(prior.dt),
+                    contact_obstacle(robot, scene, report.nearest), config.model.epsilon,
+                    report.nearest.index, config.checks.ik_tolerance):
+                yield Candidate(name, problem.with_families(problem.families, theta))
+        if config.optimizer.initialisation != "straight_line":
+            line = configured_initialisation(prior, robot, request,
+                                             config.with_(initialisation="straight_line"))
+            yield Candidate("straight_line", problem.with_families(problem.families, line.theta))
+        if problem.has(PostureFamily.name) and not progress.feasible:
+            yield Candidate("untied", without_family(problem, PostureFamily.name, init.theta))
+    return generate
 
 
-def _free_of_self_collision(problem: PlanningProblem, out: Any, config: PlannerConfig,
-                            check: Callable | None, report: Any, time_: np.ndarray,
-                            attempts: list[dict]) -> tuple:
-    """When the plan ``out`` collides with itself (:func:`robots.self_collision_report`),
-    re-solve from it with the self-collision hinges added (:class:`SelfCollisionFamily`,
-    ``config.model.self_collision_epsilon`` / ``_sigma``), kept if it brings no obstacle
-    collision back; appends the attempt. Returns (problem, out, obstacle report, self report)
-    of the plan chosen."""
-    robot, T = problem.robot, problem.num_states
-    own = self_collision_report(robot, out.theta[:, :robot.n], time_)
-    if not own.collision or config.optimizer.constraint_rounds == 0:
-        return problem, out, report, own
-    model = config.model
-    family = SelfCollisionFamily.for_robot(robot, range(T - 1), model.self_collision_epsilon,
-                                           model.self_collision_sigma, SELF_COLLISION_BETWEEN)
-    guarded = problem.with_families([*problem.families, family], out.theta)
-    new = optimize(guarded, config, WarmStart())
-    new_own = self_collision_report(robot, new.theta[:, :robot.n], time_)
-    new_report = check(new.theta) if check is not None else None
-    collides = new_report is not None and new_report.collision
-    attempts.append(asdict(Attempt("self-collision hinges", model.self_collision_sigma,
-                                   float(new_own.min_distance), not collides, float("nan"),
-                                   new.iterations)))
-    if collides and not (report is not None and report.collision):
-        return problem, out, report, own
-    new = replace(new, iterations=out.iterations + new.iterations,
-                  trials=out.trials + new.trials, initial_error=out.initial_error)
-    return guarded, new, new_report, new_own
+def _judge(model: Model) -> Judge:
+    """The verdict's checks of an optimum theta (T, 2n), as the constrained solve needs them:
+    obstacle collision on the robot's collision geometry (first: the others only run on a clear
+    plan), the joint limits and constraint families (:func:`clamp.targets.violated_families`),
+    self-collision, and with obstacles the skill checks (a collision-free plan that leaves the
+    skill is not accepted)."""
+    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
+                                            model.request, model.config)
+    families, obstacles = model.problem.families, model.problem.has(ObstacleFamily.name)
+    time_ = np.asarray(prior.time, dtype=float)
+
+    def judge(theta: np.ndarray) -> Feasibility:
+        q, reports, clearance = theta[:, :robot.n], {}, math.inf
+        if obstacles:
+            report = check_clearance(robot, scene, q, time_)
+            reports[ObstacleFamily.name], clearance = report, float(report.min_distance)
+            if report.collision:
+                return Feasibility((ObstacleFamily.name,), True, reports, clearance)
+        violated = violated_families(families, robot, theta, config)
+        own = self_collision_report(robot, q, time_)
+        reports[SelfCollisionFamily.name] = own
+        if own.collision:
+            violated.append(SelfCollisionFamily.name)
+        accepted = not obstacles or bool(violated) or not skill_checks(
+            prior, model.reference, robot.fk(q), request.goal is not None, score=False).reasons
+        return Feasibility(tuple(violated), accepted, reports, clearance)
+    return judge
 
 
 def solve(model: Model, warm_start: WarmStart | None = None) -> Solution:
     """The :class:`Solution` of ``model``: optimised from ``model.problem.initial`` (the fast
     solver or the configured GTSAM optimizer; ``warm_start``: the fast solver's warm-start
-    rule, for a start near the optimum), collision-free as a constraint with obstacles
-    (continuation on the hinge and restarts, :mod:`clamp.continuation`; judged on the robot's
-    collision geometry), soft constraints tightened while violated, self-collision hinges added
-    when the plan collides with itself."""
+    rule, for a start near the optimum) with every constraint inside one constrained solve
+    (:func:`clamp.constrained.solve_constrained`: an augmented Lagrangian on the constraint
+    families, judged by the verdict's checks: obstacles on the robot's collision geometry,
+    self-collision, whose hinges join when the plan collides with itself, limits, constraint
+    families and, with obstacles, the skill; restarts when the problem as built fails)."""
     as_instance(model, "model", Model, "a clamp.pipeline.Model (from clamp.pipeline.model)",
                 ArgumentTypeError)
     if warm_start is not None:
         as_instance(warm_start, "warm_start", WarmStart, "a clamp.solver.WarmStart or None",
                     ArgumentTypeError)
-    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
-                                            model.request, model.config)
-    problem, init, reference = model.problem, model.initialisation, model.reference
-    report, attempts = None, []
-    base, sigma, check = problem, float("nan"), None
-    if problem.has(ObstacleFamily.name):
-        # collision-free is a constraint: continuation on the hinge and restarts (see
-        # clamp.continuation), judged on the robot's own collision geometry
-        def check(theta):
-            return check_clearance(robot, scene, theta[:, :robot.n], prior.time)
-
-        def restarts(found):
-            return _restarts(prior, robot, scene, request, config, init, found)
-
-        def with_the_skill(theta):
-            return not skill_checks(prior, reference, robot.fk(theta[:, :robot.n]),
-                                    request.goal is not None, score=False).reasons
-        solved = solve_collision_free(problem, config, check, restarts,
-                                      config.optimizer.constraint_rounds, warm_start,
-                                      with_the_skill)
-        attempts = list(solved.attempts)
-        if solved.report.collision and problem.has(PostureFamily.name):
-            # the free plan's posture leads into the obstacles however loose the tie: plan
-            # without it from the configured initialisation (the arm may then turn further)
-            untied = without_family(problem, PostureFamily.name, init.theta)
-            alternative = solve_collision_free(untied, config, check, restarts,
-                                               config.optimizer.constraint_rounds)
-            attempts += [replace(a, candidate="untied " + a.candidate)
-                         for a in alternative.attempts]
-            if not alternative.report.collision:
-                problem, solved = untied, alternative
-        out, report, sigma = solved.out, solved.report, solved.sigma
-        base = with_obstacle_sigma(problem, sigma, problem.initial)
-    else:
-        out = optimize(problem, config, warm_start)
-    # the other soft constraints (limits, orientation): stiffer while the verdict finds them
-    # violated
-    out, report, tightened = tighten_constraints(
-        problem, base, out, config,
-        lambda theta: violated_families(problem.families, robot, theta, config),
-        check, config.optimizer.constraint_rounds, report, sigma)
-    attempts = [asdict(a) for a in attempts + tightened]
-    problem, out, report, own = _free_of_self_collision(problem, out, config, check, report,
-                                                        np.asarray(prior.time, dtype=float),
-                                                        attempts)
-    return Solution(out, problem, report, own, tuple(attempts))
+    robot, problem, m = model.robot, model.problem, model.config.model
+    lazy = {SelfCollisionFamily.name: lambda: SelfCollisionFamily.for_robot(
+        robot, range(problem.num_states - 1), m.self_collision_epsilon, m.self_collision_sigma,
+        SELF_COLLISION_BETWEEN)}
+    restarts = _restarts(model) if problem.has(ObstacleFamily.name) else (lambda _: ())
+    solved = solve_constrained(problem, model.config, _judge(model), restarts, lazy, warm_start)
+    reports = solved.feasibility.reports
+    own = reports.get(SelfCollisionFamily.name)
+    if own is None:             # the chosen optimum collides with an obstacle: not yet checked
+        own = self_collision_report(robot, solved.out.theta[:, :robot.n],
+                                    np.asarray(model.prior.time, dtype=float))
+    return Solution(solved.out, solved.problem, reports.get(ObstacleFamily.name), own,
+                    tuple(asdict(a) for a in solved.attempts))
 
 
 # -------------------------------------------------------------------------------- posterior

@@ -46,10 +46,13 @@ class PlanResult:
     +inf without obstacles), measured on ``collision_geometry`` ("urdf": the URDF's collision
     meshes; "spheres": the robot has none, its collision spheres; None without obstacles);
     nearest_contact: where min_clearance occurs (link, geometry, obstacle, fractional state
-    index, time [s], distance [m]); attempts: the solves of the collision constraint loop
-    (:mod:`clamp.continuation`: candidate, hinge sigma [m], min_distance [m], feasible,
-    prior_cost [nats], iterations; one entry when the first solve was collision-free, none
-    without obstacle factors); start_error, goal_error [m] (rad for joint targets; None without goal),
+    index, time [s], distance [m]); attempts: the solves of the constrained solve
+    (:mod:`clamp.constrained`: candidate, round, obstacle hinge sigma [m] (nan without),
+    min_distance [m] (inf without obstacles), feasible, prior_cost [nats], iterations, the
+    constraint families found violated; one entry when the first solve met every check);
+    initial_error / final_error: the graph errors of the first problem at its initial
+    trajectory and of the problem solved at the plan (``problem``: shifts and weights of its
+    constraint families included); start_error, goal_error [m] (rad for joint targets; None without goal),
     via_errors [m or rad] one per via point;
     log_likelihood of the plan's workspace path under the prior (initial-state term left out);
     plausibility: the share of sampled executions of the skill (from the plan's start, meeting
@@ -113,6 +116,9 @@ class PlanResult:
     fixed_overlaps: list[tuple[str, str, float]] = field(default_factory=list)
     #: what the plan was asked (for clamp.replan and the viewer; left out of to_dict)
     inputs: PlanInputs | None = field(default=None, compare=False, repr=False)
+    #: the clamp.PlanningProblem the plan solves: ``problem.graph()`` at the plan is the graph
+    #: the solver finished on (left out of to_dict)
+    problem: Any = field(default=None, compare=False, repr=False)
 
     @property
     def ee_std(self) -> np.ndarray | None:
@@ -176,7 +182,7 @@ class PlanResult:
         out: dict[str, Any] = {}
         for item in fields(self):
             key = item.name
-            if key in ("state_covariance", "inputs"):
+            if key in ("state_covariance", "inputs", "problem"):
                 continue
             value = deepcopy(getattr(self, key))
             if isinstance(value, np.ndarray):

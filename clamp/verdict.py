@@ -195,5 +195,5 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
                       initial_q=model.initialisation.q, attempts=[dict(a) for a in solution.attempts],
                       state_covariance=posterior.state_covariance,
                       ee_covariance=posterior.ee_covariance, covariance_floor=posterior.floor,
-                      inputs=plan_inputs(model),
+                      inputs=plan_inputs(model), problem=problem,
                       timings={**timings, "total": time.perf_counter() - started})

@@ -110,8 +110,10 @@ def test_readme_file_formats_load(tmp_path):
     demos = load_demonstrations(tmp_path / "demos.csv")
     assert (demos.M, demos.T) == (3, 5)
     plan = json.loads(plan_text)
-    # every field but those to_dict leaves out (the joint covariance, the request's objects)
-    assert set(PlanResult.__dataclass_fields__) - {"state_covariance", "inputs"} <= set(plan)
+    # every field but those to_dict leaves out (the joint covariance, the request's objects,
+    # the problem solved)
+    assert (set(PlanResult.__dataclass_fields__) - {"state_covariance", "inputs", "problem"}
+            <= set(plan))
     assert np.array(plan["q"]).shape == (5, 6) and plan["success"]
     assert len(plan["scene"]["obstacles"]) == len(scene.obstacles)
     data = json.loads(trajectory_text)

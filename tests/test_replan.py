@@ -67,6 +67,6 @@ def test_warm_start_rule_stops_at_an_optimum_and_near_one(prior, jaco):
 def test_replan_needs_a_planned_result(prior, jaco):
     blank = PlanResult(**{k: v for k, v in vars(plan(prior, jaco, None, START,
                                                      covariance=False)).items()
-                          if k != "inputs"})
+                          if k not in ("inputs", "problem")})
     with pytest.raises(errors.InvalidParameterError, match="previous"):
         replan(blank, goal=prior.mean[-1, :3])

@@ -13,7 +13,15 @@ factors at a :class:`~clamp.factors.states.StateWindow`. From it come:
 - the errors reported per family.
 
 Weighting lives only in the noise (the square-root information); kernels return unwhitened
-residuals. A kernel may leave out factors whose residual and Jacobian are exactly zero
+residuals.
+
+A family's ``role`` says how the solve treats it: ``"cost"`` (a term of the posterior) or
+``"constraint"``: a hinge family whose residual components are e = max(0, g(theta) + s) for a
+constraint g(theta) <= 0 (a sphere's reach into an obstacle, a joint beyond its limit) and a
+shift s >= 0 (:attr:`Family.shift`, zero unless set), which the augmented-Lagrangian solve of
+:mod:`clamp.constrained` sets to lambda / mu (the multiplier over the penalty weight mu, the
+squared whitening). Such a family is also judged by the verdict (its own check: the real
+collision geometry, the limits, ``violation(robot, q)``), which decides when its constraint holds. A kernel may leave out factors whose residual and Jacobian are exactly zero
 (inactive hinges): :class:`Linearization` lists the rows it describes.
 """
 from __future__ import annotations
@@ -81,6 +89,10 @@ class Family:
     arity: int = 1
     cost: int = 1
     linear: bool = False
+    #: "cost" or "constraint" (a hinge family with a shift; see the module docstring)
+    role: str = "cost"
+    #: (F, m) shifts s >= 0 of a constraint family's hinges (None: all zero)
+    shift: np.ndarray | None = None
 
     def __init__(self, first: np.ndarray, dim: int, sigma: float | np.ndarray | None = None,
                  sqrt_information: np.ndarray | None = None):
@@ -117,6 +129,25 @@ class Family:
         new = copy.copy(self)
         new.whitening = self.whitening * factor
         return new
+
+    def with_shift(self, shift: np.ndarray) -> "Family":
+        """A copy of this constraint family with hinge shifts ``shift`` (F, m) >= 0 (see the
+        module docstring), everything else shared."""
+        if self.role != "constraint":
+            raise InvalidParameterError(f"{self.name}: only a constraint family has hinge "
+                                        f"shifts (its role is {self.role!r})")
+        shift = as_array(shift, f"{self.name} shift", (len(self), self.dim))
+        if np.any(shift < 0):
+            raise InvalidParameterError(f"{self.name} shift: expected values >= 0, got "
+                                        f"{float(shift.min())}")
+        new = copy.copy(self)
+        new.shift = None if not np.any(shift) else shift
+        return new
+
+    def offset(self, rows: np.ndarray) -> np.ndarray | float:
+        """The shifts (F', m) of factors ``rows`` to add to their hinges before the max(0, .)
+        (0.0 when none is set)."""
+        return 0.0 if self.shift is None else self.shift[rows]
 
     @property
     def isotropic(self) -> bool:

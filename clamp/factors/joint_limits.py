@@ -23,6 +23,7 @@ class JointLimitFamily(Family):
     name = "joint_limits"
     arity = 1
     cost = 0
+    role = "constraint"
 
     def __init__(self, indices: Sequence[int], lower: np.ndarray, upper: np.ndarray,
                  velocity_limits: np.ndarray, sigma: float, margin: float = 0.0,
@@ -48,9 +49,11 @@ class JointLimitFamily(Family):
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         i = window.local(self.first[rows])
         q, qdot = window.q[i], window.qdot[i]
-        below = self.low - q
-        above = q - self.high
-        over = np.abs(qdot) - self.vmax
+        n = q.shape[1]
+        shift = np.broadcast_to(self.offset(rows), (len(rows), 2 * n))
+        below = self.low - q + shift[:, :n]
+        above = q - self.high + shift[:, :n]
+        over = np.abs(qdot) - self.vmax + shift[:, n:]
         slope = np.concatenate([np.where(below > 0, -1.0, 0.0) + np.where(above > 0, 1.0, 0.0),
                                 np.where(over > 0, np.sign(qdot), 0.0)], axis=1)
         active = np.any(slope != 0.0, axis=1)

@@ -30,6 +30,7 @@ class ObstacleFamily(Family):
     name = "obstacle"
     arity = 1
     cost = 2
+    role = "constraint"
 
     def __init__(self, indices: Sequence[int], radii: np.ndarray, query: DistanceQuery,
                  epsilon: float, sigma: float):
@@ -56,7 +57,7 @@ class ObstacleFamily(Family):
         centres = window.sphere_centres()[i]
         reach = self.epsilon + self.radii
         distance, gradient = self.query(centres)
-        hinge = reach - distance
+        hinge = reach - distance + self.offset(rows)
         active = hinge > 0.0
         states = np.flatnonzero(np.any(active, axis=1))
         error = np.where(active[states], hinge[states], 0.0)

@@ -52,6 +52,7 @@ class OrientationFamily(Family):
     name = "orientation"
     arity = 1
     cost = 1
+    role = "constraint"
 
     def __init__(self, indices: Sequence[int], *, tolerance: float,
                  axis: Any = None, direction: Any = None, rotation: Any = None,
@@ -127,7 +128,7 @@ class OrientationFamily(Family):
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         i = window.local(self.first[rows])
         angle, grad = self._angles(window.robot, window.q[i], jacobians)
-        hinge = angle - (self.tolerance - self.margin)
+        hinge = angle - (self.tolerance - self.margin) + np.reshape(self.offset(rows), -1)
         active = np.flatnonzero(hinge > 0.0)
         error = hinge[active, None]
         if not jacobians:

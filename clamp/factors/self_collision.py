@@ -46,6 +46,7 @@ class SelfCollisionFamily(Family):
     name = "self_collision"
     arity = 2
     cost = 2
+    role = "constraint"
 
     def __init__(self, indices: Sequence[int], spheres: SelfCollisionSpheres, epsilon: float, sigma: float,
                  between: int = 4):
@@ -103,7 +104,8 @@ class SelfCollisionFamily(Family):
         # motion bound of its two spheres: only steps where that leaves a hinge open are sampled
         motion = np.abs(q1 - q0) @ sp.motion_radius.T                                     # (R, S + B)
         floor = 0.5 * (start + end - motion[:, sp.first] - motion[:, sp.second])
-        r, p = np.nonzero(floor < self._reach)                                            # open (step, pair)
+        reach = self._reach + self.offset(rows)                                           # (R, P)
+        r, p = np.nonzero(floor < reach)                                                  # open (step, pair)
         if r.size and C > 2:
             inside, r = np.unique(r, return_inverse=True)
             qs = q0[inside, None] + self.tau[None, 1:-1, None] * (q1 - q0)[inside, None]  # (R', C - 2, n)
@@ -116,7 +118,7 @@ class SelfCollisionFamily(Family):
             smaller = value < least[inside[r], p]
             least[inside[r[smaller]], p[smaller]] = value[smaller]
             worst[inside[r[smaller]], p[smaller]] = closest[smaller] + 1
-        hinge = self._reach - least
+        hinge = reach - least
         active = hinge > 0.0
         states = np.flatnonzero(np.any(active, axis=1))
         error = np.where(active[states], hinge[states], 0.0)
