@@ -1,0 +1,108 @@
+"""The augmented-Lagrangian solve of clamp.constrained, on both arms at random points:
+
+- a constraint family's shifts move its hinges: e = max(0, g + s) for the unshifted hinge g
+  (measured from the unshifted kernel wherever it is active), Jacobians still those of g
+  (central differences), the GTSAM adapters the same kernel; cost families have no shifts;
+- one multiplier update (:func:`clamp.constrained.augmented`): the shift of a violated family
+  becomes its current residual, its noise is divided by STIFFEN at its first update (and its
+  shifts by STIFFEN^2, so lambda = mu s is the same multiplier), the posture tie loosens by
+  the same factor as the obstacle hinges stiffen, a family the checks did not name is left as
+  it is, a lazy family joins unshifted at its configured noise.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from clamp.constrained import PROGRESS, STIFFEN, augmented
+from clamp.errors import InvalidParameterError
+from clamp.factors import PostureFamily, SelfCollisionFamily, StateWindow
+from clamp.problem import PlanningProblem
+from tests.test_families import (assert_jacobians_match_finite_differences, dense_residual,
+                                 make_families, random_theta, whitened_rows)
+
+
+@pytest.fixture(params=["jaco", "sawyer"])
+def setup(request):
+    robot = request.getfixturevalue(request.param)
+    rng = np.random.default_rng(7 if request.param == "jaco" else 8)   # as test_families: every hinge active somewhere
+    theta = random_theta(robot, rng)
+    return robot, theta, make_families(robot, theta, rng), rng
+
+
+def constraints(families):
+    return [f for f in families if f.role == "constraint"]
+
+
+def test_the_constraint_families_are_the_hinges(setup):
+    _, _, families, _ = setup
+    assert {f.name for f in constraints(families)} == {
+        "obstacle", "joint_limits", "orientation", "self_collision"}
+
+
+def test_a_shift_moves_the_hinge_and_keeps_its_jacobian(setup):
+    robot, theta, families, rng = setup
+    for family in constraints(families):
+        unshifted = dense_residual(family, robot, theta)
+        shift = rng.uniform(0.0, 0.02, size=(len(family), family.dim))
+        shifted_family = family.with_shift(shift)
+        shifted = dense_residual(shifted_family, robot, theta)
+        active = unshifted > 0.0
+        assert active.any(), family.name
+        np.testing.assert_allclose(shifted[active], unshifted[active] + shift[active],
+                                   rtol=1e-9, atol=1e-12, err_msg=family.name)
+        # where the unshifted hinge is inactive (g <= 0), max(0, g + s) is at most s
+        assert np.all(shifted[~active] <= shift[~active] + 1e-12), family.name
+        assert np.all(shifted >= unshifted - 1e-12), family.name
+        assert family.shift is None                         # the original is unchanged
+        assert_jacobians_match_finite_differences(shifted_family, robot, theta)
+        # the GTSAM adapter evaluates the same shifted kernel
+        problem = PlanningProblem(robot, len(theta), [shifted_family], [], theta)
+        _, b = whitened_rows(shifted_family, robot, theta)
+        assert problem.graph().error(problem.values(theta)) == pytest.approx(
+            0.5 * float(np.sum(b * b)), rel=1e-9)
+
+
+def test_cost_families_have_no_shifts(setup):
+    _, _, families, _ = setup
+    cost = next(f for f in families if f.role == "cost")
+    with pytest.raises(InvalidParameterError, match="only a constraint family"):
+        cost.with_shift(np.zeros((len(cost), cost.dim)))
+    obstacle = next(f for f in families if f.name == "obstacle")
+    with pytest.raises(InvalidParameterError, match=r"obstacle shift: expected values >= 0"):
+        obstacle.with_shift(-np.ones((len(obstacle), obstacle.dim)))
+
+
+def test_one_multiplier_update(setup):
+    robot, theta, families, _ = setup
+    kept = [f for f in families if f.name != "self_collision"]
+    problem = PlanningProblem(robot, len(theta), kept, [], theta)
+    window = StateWindow(robot, theta)
+    lazy = {"self_collision": lambda: next(f for f in families if f.name == "self_collision")}
+    previous: dict[str, float] = {}
+    new = augmented(problem, theta, ["obstacle", "self_collision"], previous, lazy)
+
+    obstacle, updated = problem.family("obstacle"), new.family("obstacle")
+    # first update: noise / STIFFEN, shift = the residual now / STIFFEN^2 (same multiplier)
+    np.testing.assert_allclose(updated.whitening, STIFFEN * obstacle.whitening)
+    np.testing.assert_allclose(updated.shift, dense_residual(obstacle, robot, theta) / STIFFEN ** 2)
+    # the posture tie loosens as much as the obstacle hinges stiffen
+    np.testing.assert_allclose(new.family(PostureFamily.name).whitening,
+                               problem.family(PostureFamily.name).whitening / STIFFEN)
+    # families the checks did not name are the same objects; the lazy one joins as made
+    for name in ("joint_limits", "orientation", "workspace_gp", "joint_gp"):
+        assert new.family(name) is problem.family(name)
+    joined = new.family("self_collision")
+    assert isinstance(joined, SelfCollisionFamily) and joined.shift is None
+    assert previous["self_collision"] == np.inf
+    np.testing.assert_array_equal(new.initial, theta)
+
+    # a second update that made progress (violation below PROGRESS x the last) keeps the
+    # noise: the shift accumulates the residual of the shifted hinge, i.e. max(0, g + s)
+    previous["obstacle"] = 1e9
+    again = augmented(new, theta, ["obstacle"], previous, lazy)
+    np.testing.assert_allclose(again.family("obstacle").whitening, updated.whitening)
+    np.testing.assert_allclose(again.family("obstacle").shift,
+                               dense_residual(updated, robot, theta))
+    assert previous["obstacle"] < PROGRESS * 1e9
+    assert again.family(PostureFamily.name) is new.family(PostureFamily.name)
