@@ -13,8 +13,8 @@ import numpy as np
 from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
-                           JointTargetFamily, ObstacleFamily, PostureFamily, WorkspaceGPFamily,
-                           WorkspaceStartFamily, shifted_start_mean)
+                           JointTargetFamily, ObstacleFamily, PostureFamily, PostureMotionFamily,
+                           WorkspaceGPFamily, WorkspaceStartFamily, shifted_start_mean)
 from clamp.initialisation import (Initialisation, joint_velocities, prior_mean_initialisation,
                                   straight_line_initialisation)
 from clamp.keys import state_key
@@ -153,15 +153,20 @@ def split_extras(extra_factors: Sequence[ExtraFactor], T: int
 
 def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,
                       keep_initial: bool = False) -> PlanningProblem:
-    """``problem`` with every state's configuration tied to the free plan (a
-    :class:`~clamp.factors.PostureFamily` of noise ``config.model.posture_sigma``), starting
-    from the free plan unless ``keep_initial``. The free plan is ``problem`` without its
-    obstacle hinges, optimised as configured (one extra solve, ~20 ms): where it keeps clear of
-    every obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
+    """``problem`` tied to the free plan: every state's configuration (a
+    :class:`~clamp.factors.PostureFamily` of noise ``config.model.posture_sigma``) and, unless
+    ``config.model.posture_Qc`` is 0, the motion of the deviation from it (a
+    :class:`~clamp.factors.PostureMotionFamily`: a smooth detour, not a swing out and back),
+    starting from the free plan unless ``keep_initial``. The free plan is ``problem`` without
+    its obstacle hinges, optimised as configured (one extra solve, ~20 ms): where it keeps clear
+    of every obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
     theta = optimize(without_family(problem, ObstacleFamily.name, problem.initial), config).theta
-    T, n = problem.num_states, problem.robot.n
-    posture = PostureFamily(np.arange(T), theta[:, :n], np.full(T, config.model.posture_sigma))
-    return problem.with_families([*problem.families, posture],
+    T, n, model = problem.num_states, problem.robot.n, config.model
+    ties: list[Family] = [PostureFamily(np.arange(T), theta[:, :n], np.full(T, model.posture_sigma))]
+    if model.posture_Qc > 0:
+        dt = float(problem.family(JointGPFamily.name).Phi[0, n])
+        ties.append(PostureMotionFamily(theta, dt, model.posture_Qc))
+    return problem.with_families([*problem.families, *ties],
                                  problem.initial if keep_initial else theta)
 
 

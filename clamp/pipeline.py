@@ -151,28 +151,31 @@ def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerC
 
 # ------------------------------------------------------------------------------------ solve
 def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
-    """Other starts when the problem as built fails its checks (see :mod:`clamp.constrained`):
-    detours of the initial path around the obstacle nearest the closest optimum, a straight line
-    in joint space, and, while none is feasible, the problem without the posture tie from the
-    configured initialisation (the arm may then turn further than the free plan)."""
+    """Other starts when the problem as built fails its checks (see :mod:`clamp.constrained`),
+    all without the posture tie (the free plan's posture is what led into the obstacles; a
+    tied detour is pulled back into it): the configured initialisation, detours of the initial
+    path around the obstacle nearest the closest optimum, a straight line in joint space.
+    Measured on 80 scene-benchmark problems (Jaco): tied restarts failed where the untied
+    configured initialisation succeeded at once with a lower prior cost."""
     prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
                                             model.request, model.config)
     problem, init = model.problem, model.initialisation
+    untied = without_family(problem, PostureFamily.name, init.theta)
 
     def generate(progress: Progress) -> Iterable[Candidate]:
+        if problem.has(PostureFamily.name):
+            yield Candidate("untied", untied)
         report = progress.closest.reports.get(ObstacleFamily.name) if progress.closest else None
         if report is not None and report.nearest is not None:
             for name, theta in detour_restarts(
                     robot, init.path, request.q_start, float(prior.dt),
                     contact_obstacle(robot, scene, report.nearest), config.model.epsilon,
                     report.nearest.index, config.checks.ik_tolerance):
-                yield Candidate(name, problem.with_families(problem.families, theta))
+                yield Candidate(name, untied.with_families(untied.families, theta))
         if config.optimizer.initialisation != "straight_line":
             line = configured_initialisation(prior, robot, request,
                                              config.with_(initialisation="straight_line"))
-            yield Candidate("straight_line", problem.with_families(problem.families, line.theta))
-        if problem.has(PostureFamily.name) and not progress.feasible:
-            yield Candidate("untied", without_family(problem, PostureFamily.name, init.theta))
+            yield Candidate("straight_line", untied.with_families(untied.families, line.theta))
     return generate
 
 

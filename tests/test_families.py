@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
-                           ObstacleFamily, OrientationFamily, PostureFamily,
+                           ObstacleFamily, OrientationFamily, PostureFamily, PostureMotionFamily,
                            SelfCollisionFamily, StateWindow, WorkspaceGPFamily,
                            WorkspaceStartFamily)
 from clamp.errors import InvalidParameterError
@@ -63,6 +63,7 @@ def make_families(robot, theta: np.ndarray, rng) -> list:
         JointGPFamily(T, n, 0.16, 1.0),
         JointTargetFamily([0, T - 2], q[[0, T - 2]] + 0.1, [1e-3, 2e-3]),
         PostureFamily(np.arange(T), q + 0.05 * rng.normal(size=q.shape), np.full(T, 0.1)),
+        PostureMotionFamily(theta + 0.05 * rng.normal(size=theta.shape), 0.16, 1e-4),
         EEPositionFamily([1, T - 1], path[[1, T - 1]] + 0.05, [1e-3, 1e-2]),
         ObstacleFamily(np.arange(T), robot.spheres.radii,
                        sphere_query(path[T // 2] + [0.05, 0.0, 0.0], 0.05), 0.1, 0.05),

@@ -1,6 +1,7 @@
 """The posture tie: with obstacles, the plan keeps the free plan's posture and moves only as far
 as the obstacles demand (issue 19: no flailing wrist to dodge a box)."""
 import numpy as np
+import pytest
 
 from clamp import PlannerConfig, build, plan
 from scenes import Box, Scene
@@ -42,3 +43,45 @@ def test_the_graph_holds_the_tie(prior, jaco):
     assert "posture" not in [f.name for f in build(prior, jaco, None, START).families]
     off = PlannerConfig().with_(posture_sigma=0.0)
     assert "posture" not in [f.name for f in build(prior, jaco, scene, START, config=off).families]
+    assert "posture_motion" in names
+    off = PlannerConfig().with_(posture_Qc=0.0)
+    names = [f.name for f in build(prior, jaco, scene, START, config=off).families]
+    assert "posture" in names and "posture_motion" not in names
+
+
+def test_the_motion_tie_is_the_joint_gp_of_the_deviation(jaco):
+    """PostureMotionFamily(reference, dt, Qc) at theta has the joint GP's error of
+    theta - reference (same Qc), and none at the reference itself."""
+    from clamp.factors import JointGPFamily, PostureMotionFamily, StateWindow
+    rng = np.random.default_rng(3)
+    T, n, dt = 12, jaco.n, 0.16
+    reference = rng.normal(size=(T, 2 * n))
+    theta = reference + rng.normal(scale=0.1, size=reference.shape)
+    tie, gp = PostureMotionFamily(reference, dt, 1e-4), JointGPFamily(T, n, dt, 1e-4)
+    assert tie.error(StateWindow(jaco, theta)) == pytest.approx(
+        gp.error(StateWindow(jaco, theta - reference)), rel=1e-9)
+    assert tie.error(StateWindow(jaco, reference)) == pytest.approx(0.0, abs=1e-18)
+
+
+def test_the_motion_tie_smooths_the_detour(jaco):
+    """Fidelity-benchmark problem 45 (reach_from_above, Jaco, no goal): without the motion tie
+    the wrist swings out and back around the box (joint travel ~5x the free plan's); with it the
+    detour is smooth: less joint travel, smaller velocity changes, still collision-free and
+    with the skill."""
+    from pathlib import Path
+
+    from clamp.batch import resolve
+    from clamp.problem_sets import scene_benchmark
+    problem = scene_benchmark(46, "jaco", 0, skills=["box_closing", "reach_from_above",
+                                                      "pick_place", "two_target_press"],
+                              impossible_share=0.0, start_offset=0.08)[45]
+    kwargs = resolve(problem, Path("."))
+    kwargs.pop("config", None)
+    smooth = plan(**kwargs, covariance=False)
+    swing = plan(**kwargs, covariance=False, config=PlannerConfig().with_(posture_Qc=0.0))
+    assert smooth.success, smooth.reasons
+    jerk = lambda r: float(np.abs(np.diff(r.qdot, axis=0)).max())   # rad/s per step
+    print(f"joint travel {_travel(smooth.q):.2f} vs {_travel(swing.q):.2f} rad, largest velocity "
+          f"change per step {jerk(smooth):.3f} vs {jerk(swing):.3f} rad/s")
+    assert _travel(smooth.q) < 0.75 * _travel(swing.q)
+    assert jerk(smooth) < jerk(swing)

@@ -16,6 +16,7 @@ from .joint_target import JointTargetFamily
 from .obstacle import DistanceQuery, ObstacleFamily
 from .orientation import OrientationFamily
 from .posture import PostureFamily
+from .posture_motion import PostureMotionFamily
 from .self_collision import SelfCollisionFamily
 from .states import StateWindow
 from .workspace_gp import WorkspaceGPFamily
@@ -26,5 +27,5 @@ __all__ = [
     "WorkspaceGPFamily", "WorkspaceStartFamily", "shifted_start_mean",
     "JointGPFamily", "joint_gp_transition", "joint_gp_covariance",
     "JointTargetFamily", "EEPositionFamily", "ObstacleFamily", "DistanceQuery",
-    "JointLimitFamily", "OrientationFamily", "PostureFamily", "SelfCollisionFamily",
+    "JointLimitFamily", "OrientationFamily", "PostureFamily", "PostureMotionFamily", "SelfCollisionFamily",
 ]
