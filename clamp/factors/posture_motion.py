@@ -17,21 +17,18 @@ from __future__ import annotations
 import numpy as np
 
 from clamp.errors import ShapeError
-from clamp.validation import as_array, as_scalar
+from clamp.validation import as_array
 
-from .family import Family, Linearization, square_root_information
-from .joint_gp import joint_gp_covariance, joint_gp_transition
+from .family import Linearization
+from .joint_gp import JointGPFamily
 from .states import StateWindow
 
 
-class PostureMotionFamily(Family):
+class PostureMotionFamily(JointGPFamily):
     """T - 1 factors between consecutive states of the reference joint states (T, 2n) of step
-    dt [s], noise of the joint GP with power spectral density Qc [rad^2 / s^3]."""
+    dt [s]: the joint GP of power spectral density Qc [rad^2 / s^3] on theta - reference."""
 
     name = "posture_motion"
-    arity = 2
-    cost = 0
-    linear = True
 
     def __init__(self, reference: np.ndarray, dt: float, Qc: float):
         reference = as_array(reference, "reference", (None, None))
@@ -39,21 +36,11 @@ class PostureMotionFamily(Family):
         if T < 2 or d % 2:
             raise ShapeError(f"reference: expected joint states (T >= 2, 2n), got shape "
                              f"{reference.shape}")
-        n = d // 2
-        dt = as_scalar(dt, "dt", strictly_positive=True)
-        Qc = as_scalar(Qc, "Qc", strictly_positive=True)
-        self.Phi = joint_gp_transition(n, dt)
+        super().__init__(T, d // 2, dt, Qc)
         #: the reference's own GP residuals (T - 1, 2n), subtracted: the reference costs nothing
         self.reference_residual = reference[1:] - reference[:-1] @ self.Phi.T
-        R = square_root_information(joint_gp_covariance(n, dt, Qc))
-        super().__init__(np.arange(T - 1), 2 * n,
-                         sqrt_information=np.broadcast_to(R, (T - 1, 2 * n, 2 * n)))
-        self._jacobian = np.concatenate([-self.Phi, np.eye(2 * n)], axis=1)
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
-        i = window.local(self.first[rows])
-        theta = window.theta
-        error = theta[i + 1] - theta[i] @ self.Phi.T - self.reference_residual[self.first[rows]]
-        jac = np.broadcast_to(self._jacobian, (len(rows),) + self._jacobian.shape) \
-            if jacobians else None
-        return Linearization(rows, error, jac)
+        lin = super().residual(window, rows, jacobians)
+        return Linearization(lin.rows, lin.error - self.reference_residual[self.first[rows]],
+                             lin.jacobian)
