@@ -182,8 +182,12 @@ def plan_and_judge(data: dict[str, Any], with_obstacles: bool) -> dict:
                 "toppra_s": nan, "plan_s": nan, "failed": {"error": message}, "end_error_m": nan,
                 "mean_end_error_m": nan, "tight_deviation": nan, "leaves_skill": False}
     robot = _robot(data["robot"]["name"])
+    chosen = next((a for a in reversed(result.attempts) if a["feasible"]), None)
     return {"success": bool(result.success), "reasons": [str(r)[:120] for r in result.reasons],
-            **measure(robot, result), **judge(data, result.q, with_obstacles)}
+            **measure(robot, result), **judge(data, result.q, with_obstacles),
+            # which start of the constrained solve gave the plan, and how many solves it took
+            "candidate": None if chosen is None else chosen["candidate"],
+            "solves": len(result.attempts)}
 
 
 # ------------------------------------------------------------------ the oracle
@@ -251,7 +255,7 @@ def oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str, Any]]:
     out: list[tuple[str, Any]] = [("default", lambda: (q_start, None, {}))]
     out += [(label, along(p)) for label, p in _detour_paths(path, Scene.from_dict(data["scene"]))]
     out += [(f"line-{k}", line(k)) for k in range(3)]
-    out += [(f"epsilon-0.08", lambda: (q_start, None, {"epsilon": 0.08}))]
+    out += [("epsilon-0.08", lambda: (q_start, None, {"epsilon": 0.08}))]
     k = 0
     while len(out) < ORACLE_RESTARTS:
         perturbed = _perturbed_path(path, rng)
@@ -334,7 +338,22 @@ def summarize(records: list[dict]) -> dict:
         "plan_time": _quantiles(ratio("plan_s")),
         "end_obstacle_mm": _quantiles([1e3 * a["mean_end_error_m"] for a in o]),
         "end_free_mm": _quantiles([1e3 * b["mean_end_error_m"] for b in f]),
+        # per start of the constrained solve that gave the plan: plans, joint path and planning
+        # time ratio medians (where the tails come from)
+        "by_candidate": {name: (len(rows), float(np.median([a["joint_path"] / b["joint_path"]
+                                                            for a, b in rows])),
+                                float(np.median([a["plan_s"] / b["plan_s"] for a, b in rows])))
+                         for name, rows in _by_candidate(o, f).items()},
     }
+
+
+def _by_candidate(obstacle: list[dict], free: list[dict]) -> dict[str, list]:
+    """(obstacle, free) record pairs grouped by the obstacle plan's candidate (records of older
+    caches without one: "?")."""
+    groups: dict[str, list] = {}
+    for a, b in zip(obstacle, free):
+        groups.setdefault(str(a.get("candidate") or "?"), []).append((a, b))
+    return groups
 
 
 def targets(s: dict) -> list[tuple[str, bool]]:
@@ -382,6 +401,9 @@ def report(arm: str, s: dict) -> None:
           f"{q(s['end_free_mm'], '')}")
     print(f"leaves the skill (>{checks.TIGHT_SIGMA:.0f} spreads)         obstacle "
           f"{s['leaves_skill']} / {s['scored']}, free {s['free_leaves_skill']} / {s['scored']}")
+    print("plans by start (clamp.constrained)       " + "; ".join(
+        f"{name} {n} (joint {joint:.2f}x, time {time_:.1f}x)"
+        for name, (n, joint, time_) in sorted(s["by_candidate"].items(), key=lambda kv: -kv[1][0])))
     for text, holds in targets(s):
         print(f"  target {'HOLDS ' if holds else 'MISSED'} {text}")
 
