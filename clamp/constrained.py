@@ -149,10 +149,10 @@ def _obstacle_sigma(problem: PlanningProblem) -> float:
     return 1.0 / float(problem.family(ObstacleFamily.name).whitening[0])
 
 
-def _violation(family: Family, window, rows: np.ndarray) -> tuple[np.ndarray, float]:
+def _violation(family: Family, window) -> tuple[np.ndarray, float]:
     """The hinges' current residuals as the new shifts (F, m), and the family's violation:
     the largest max(0, g) [its units] over its residuals."""
-    lin = family.residual(window, rows, jacobians=False)
+    lin = family.residual(window, np.arange(len(family)), jacobians=False)
     shift = np.zeros((len(family), family.dim))
     shift[lin.rows] = lin.error
     before = np.broadcast_to(family.offset(lin.rows), lin.error.shape)
@@ -179,7 +179,7 @@ def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[st
             out.append(family)
             previous[family.name] = np.inf
             continue
-        shift, violation = _violation(family, window, np.arange(len(family)))
+        shift, violation = _violation(family, window)
         if violation > PROGRESS * previous.get(family.name, 0.0):
             family = family.reweighted(STIFFEN)
             shift /= STIFFEN ** 2
@@ -187,9 +187,20 @@ def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[st
                 loosen = STIFFEN
         previous[family.name] = violation
         out.append(family.with_shift(shift))
-    if loosen != 1.0:
-        out = [f.reweighted(1.0 / loosen) if f.name == PostureFamily.name else f for f in out]
-    return problem.with_families(out, theta)
+    return problem.with_families(_scaled(out, PostureFamily.name, 1.0 / loosen), theta)
+
+
+def _scaled(families: list[Family], name: str, factor: float) -> list[Family]:
+    """``families`` with the one called ``name`` reweighted by ``factor`` (noise / factor)."""
+    if factor == 1.0:
+        return families
+    return [f.reweighted(factor) if f.name == name else f for f in families]
+
+
+def _closeness(verdict: Feasibility) -> tuple[int, float]:
+    """Order of how close an infeasible optimum came: fewer violated checks, then more
+    clearance (smaller is closer)."""
+    return len(verdict.violated), -verdict.clearance
 
 
 def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Judge,
@@ -210,33 +221,33 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
     totals = {"iterations": 0, "trials": 0}
     progress = Progress()
     timings: dict[str, float] = {}
+    initial_error = None        # set by the first solve's soft stage; else that solve's own
 
     def solve(name: str, r: int, current: PlanningProblem, warm: WarmStart | None,
               before: Optimized | None = None) -> tuple[Optimized, Feasibility]:
+        """Solve ``current`` (after the soft stage ``before``, whose work it counts) and judge."""
         out = optimize(current, config, warm)
         for k, v in out.timings.items():
             timings[k] = timings.get(k, 0.0) + v
-        totals["iterations"] += out.iterations + (before.iterations if before else 0)
+        iterations = out.iterations + (before.iterations if before else 0)
+        totals["iterations"] += iterations
         totals["trials"] += out.trials + (before.trials if before else 0)
         clock = time.perf_counter()
         verdict = judge(out.theta)
         timings["checks"] = timings.get("checks", 0.0) + time.perf_counter() - clock
         cost = prior_cost(current, out.theta)
         attempts.append(Attempt(name, r, _obstacle_sigma(current), verdict.clearance,
-                                verdict.ok, cost,
-                                out.iterations + (before.iterations if before else 0),
-                                verdict.violated))
+                                verdict.ok, cost, iterations, verdict.violated))
         found.append((out, current, verdict, cost))
         if verdict.ok:
             progress.feasible += 1
-        closest = progress.closest
-        if closest is None or (len(verdict.violated), -verdict.clearance) < (
-                len(closest.violated), -closest.clearance):
+        if progress.closest is None or _closeness(verdict) < _closeness(progress.closest):
             progress.closest = verdict
         return out, verdict
 
     def run(candidate: Candidate, warm: WarmStart | None, budget: int) -> int | None:
         """The outer loop on one candidate; the round it became feasible, or None."""
+        nonlocal initial_error
         current = candidate.problem
         soft = None
         factor = float(config.optimizer.soft_start)
@@ -244,10 +255,12 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
             obstacles = current.family(ObstacleFamily.name)
             if obstacles.penetration(current.window(current.initial)) > 0.0:
                 soft = optimize(current.with_families(
-                    [f.reweighted(1.0 / factor) if f.name == ObstacleFamily.name else f
-                     for f in current.families], current.initial),
+                    _scaled(current.families, ObstacleFamily.name, 1.0 / factor),
+                    current.initial),
                     config.with_(relative_error_tol=SOFT_START_TOLERANCE,
                                  convergence_patience=1))
+                if not found:    # the first solve: the problem as asked, at its initial
+                    initial_error = current.error(current.initial)
                 current = current.with_families(current.families, soft.theta)
                 warm = WarmStart()
         previous: dict[str, float] = {}
@@ -276,8 +289,9 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
     timings["constraint_loop"] = time.perf_counter() - started
     chosen = replace(out, iterations=totals["iterations"], trials=totals["trials"],
                      stop_reason=out.stop_reason if verdict.ok else "infeasible",
-                     timings=timings, initial_error=problem.error(problem.initial),
-                     final_error=out.final_error)
+                     timings=timings,
+                     initial_error=found[0][0].initial_error if initial_error is None
+                     else initial_error)
     if not verdict.ok and len(found) > 1:
         log.info("no plan meets every constraint after %d attempts; kept the closest (%s)",
                  len(found), ", ".join(verdict.violated) or "refused by the skill checks")
@@ -298,6 +312,5 @@ def _choose(found: list) -> tuple[Optimized, PlanningProblem, Feasibility]:
     refused = [f for f in found if not f[2].violated]
     if refused:
         return min(refused, key=lambda f: f[3])[:3]
-    k = min(range(len(found)), key=lambda k: (len(found[k][2].violated), -found[k][2].clearance,
-                                               -k))
+    k = min(range(len(found)), key=lambda k: (*_closeness(found[k][2]), -k))
     return found[k][:3]
