@@ -46,7 +46,10 @@ hulls overlap are measured until one is found in collision. So ``min_distance`` 
 are the least exact distance over every checked configuration and pair (to ``SLACK``),
 ``collision`` (``min_distance < 0``) and ``states_in_collision`` are exact, and the continuous
 motion keeps at least ``lower_bound = min_distance - max_step`` (each of the two links is within
-``max_step / 2`` of a checked configuration).
+``max_step / 2`` of a checked configuration). With a ``tolerance`` (the planner's checks), the
+search resolves only what could lie below ``min_distance - tolerance`` (not below 0): a clear
+trajectory's ``min_distance`` is then within ``tolerance`` of the least distance and
+``lower_bound = max(min_distance - tolerance, 0) - max_step``; collisions and depths as above.
 """
 from __future__ import annotations
 
@@ -65,7 +68,7 @@ from scenes.validation import as_time
 from .collision_check import SLACK, CollisionChecker, motion_lower_bounds
 from .errors import CollisionCheckError
 from .robot import Robot
-from .validation import as_array
+from .validation import as_array, as_scalar
 
 #: configurations sampled for the "always in contact" rule
 ALWAYS_SAMPLES = 1000
@@ -401,8 +404,9 @@ def self_collision_spheres(robot: Robot) -> SelfCollisionSpheres:
 class _Search:
     """Hull and exact queries of one check over configurations (K) x checked pairs (P)."""
 
-    def __init__(self, queries: _PairQueries, R, t, a, b, lower, travel):
+    def __init__(self, queries: _PairQueries, R, t, a, b, lower, travel, tolerance: float = 0.0):
         self.q, self.R, self.t, self.a, self.b = queries, R, t, a, b
+        self.tolerance = tolerance
         self.lower, self.travel = lower, travel                  # (K, P)
         self.pair_exact = queries.exact[a] & queries.exact[b]
         self.hull = np.full(lower.shape, np.nan)
@@ -439,12 +443,19 @@ class _Search:
         self.count["exact"] += len(k)
         self._record(k, c, self.q.signed(self.R, self.t, k, self.a[c], self.b[c]))
 
+    def target(self) -> float:
+        """The distance [m] below which a pair must be resolved: the best exact distance found,
+        less the tolerance while it is positive (never below 0: an overlap is always found)."""
+        if self.tolerance <= 0.0 or self.best <= 0.0:
+            return self.best
+        return max(self.best - self.tolerance, 0.0)
+
     def run(self) -> None:
-        """Hull queries where a bound is below the best exact distance, exact ones where a hull
-        distance is, until neither is left (module docstring)."""
+        """Hull queries where a bound is below the target (:meth:`target`), exact ones where a
+        hull distance is, until neither is left (module docstring)."""
         batch = 1
         while True:
-            candidate = ~self.queried & (self.lower < self.best + SLACK)
+            candidate = ~self.queried & (self.lower < self.target() + SLACK)
             if candidate.any():
                 # both ends of every run of candidates of a pair, and each pair's lowest bound
                 inner = np.zeros_like(candidate)
@@ -455,7 +466,7 @@ class _Search:
                 self.hulls(*np.nonzero(pick))
                 if math.isfinite(self.best):
                     continue
-            pending = self.queried & ~self.measured & (self.hull < self.best - SLACK)
+            pending = self.queried & ~self.measured & (self.hull < self.target() - SLACK)
             if not pending.any():
                 if candidate.any():
                     continue
@@ -484,12 +495,17 @@ class _Search:
         return colliding
 
 
-def self_collision_report(robot: Robot, q: Any, time: Any = None, max_motion: float = 0.005) -> SelfCollisionReport:
+def self_collision_report(robot: Robot, q: Any, time: Any = None, max_motion: float = 0.005,
+                          tolerance: float = 0.0) -> SelfCollisionReport:
     """Check a joint trajectory q (T, n) (linear in joint space between support states) for
     self-collision of the robot's collision geometry (module docstring: disabled pairs, what
     is exact). time (T,) [s] strictly increasing or None: only used to say when the nearest
     contact happens. max_motion [m]: largest motion of any link point between two checked
-    configurations. Raises CollisionCheckError (a RobotError) on bad input."""
+    configurations. tolerance [m]: a clear trajectory's ``min_distance`` may exceed the least
+    distance by up to this much (``lower_bound`` accounts for it); ``collision``,
+    ``states_in_collision`` and a depth stay exact. The planner's checks pass 1 cm: a clearance
+    far from zero is certified with few exact mesh queries (~1 ms each). Raises
+    CollisionCheckError (a RobotError) on bad input."""
     start = _clock.perf_counter()
     checker, queries, a, b, _ = _geometry(robot)
     sub = checker.configurations(q, max_motion)       # checks q and max_motion
@@ -498,6 +514,7 @@ def self_collision_report(robot: Robot, q: Any, time: Any = None, max_motion: fl
     if time is not None:
         time = as_time(time, "time", T, CollisionCheckError) if T > 1 else as_array(time, "time", (1,), 0)
     max_motion = float(max_motion)
+    tolerance = as_scalar(tolerance, "tolerance", 0.0, CollisionCheckError)
     geo = checker._geo
     K, P = len(sub.q), len(a)
     max_step = float(sub.step.max()) if sub.step.size else 0.0
@@ -508,7 +525,7 @@ def self_collision_report(robot: Robot, q: Any, time: Any = None, max_motion: fl
     travel = checker._travel(q, sub)                               # (K, G)
     lower = _sphere_lower(geo, R, t, a, b)
     t_broad = _clock.perf_counter()
-    search = _Search(queries, R, t, a, b, lower, travel[:, a] + travel[:, b])
+    search = _Search(queries, R, t, a, b, lower, travel[:, a] + travel[:, b], tolerance)
     search.run()
     states = search.settle_states(sub.support)
     kk, c = search.nearest
@@ -522,5 +539,5 @@ def self_collision_report(robot: Robot, q: Any, time: Any = None, max_motion: fl
     end = _clock.perf_counter()
     timings = {"broad_phase": t_broad - start, "search": end - t_broad, "total": end - start}
     return SelfCollisionReport(geo.source, max_motion, search.best, contact, search.best < 0.0, states, K, P,
-                               search.count["hull"], search.count["exact"], max_step, search.best - max_step,
+                               search.count["hull"], search.count["exact"], max_step, search.target() - max_step,
                                timings)

@@ -5,7 +5,8 @@
   another) are found, naming both links and the depth; box_closing's default plans pass;
 - the checker agrees with an independent brute force (Pinocchio's GeometryModel, every
   non-disabled link pair, coal) at its configurations, and the continuous motion keeps its
-  lower bound on a much denser subdivision, on random trajectories of both arms;
+  lower bound on a much denser subdivision, on random trajectories of both arms; with the
+  planner's tolerance, the same collisions and a clearance within it;
 - the disabled-pair rule: adjacent and rigid pairs are in it, pairs that can collide are not,
   a pair always in contact is found by sampling;
 - the hinge family: Jacobians against finite differences with the worst configuration inside a
@@ -130,18 +131,24 @@ def test_checker_agrees_with_brute_force(name, seed, reproducer, request):
     random = random_trajectories(robot, seed, 6) if name == "sawyer" else random_trajectories(robot, seed, 2, 0.1)
     for q in random + [folded]:
         report = self_collision_report(robot, q, max_motion=0.02)
+        # the planner's tolerant check: the same collisions, a clearance within 1 cm above
+        tolerant = self_collision_report(robot, q, max_motion=0.02, tolerance=0.01)
         configurations = checker.configurations(q, 0.02)
         assert report.num_configurations == len(configurations.q)
         colliding = brute_force(robot, configurations.q, False).any(axis=1)
         outcomes.add(report.collision)
-        assert report.collision == bool(colliding.any())
+        assert report.collision == tolerant.collision == bool(colliding.any())
         np.testing.assert_array_equal(report.states_in_collision, colliding[configurations.support])
+        np.testing.assert_array_equal(tolerant.states_in_collision, report.states_in_collision)
+        assert tolerant.num_exact <= report.num_exact
         if report.collision:
             k = int(np.argmin(np.abs(configurations.index - report.nearest.index)))
             assert colliding[k] and report.min_distance < 0.0
             continue
         least = brute_force(robot, configurations.q, True).min(axis=1)
         assert report.min_distance == pytest.approx(least.min(), abs=2e-5)
+        assert least.min() - 2e-5 <= tolerant.min_distance <= least.min() + 0.01 + 2e-5
+        assert tolerant.lower_bound <= report.lower_bound + 2e-5
         # the continuous motion: 8 times denser, nothing closer than the report's lower bound
         dense = np.linspace(0.0, 1.0, 8 * len(configurations.q))[:, None]
         path = np.concatenate([q[i] + dense * (q[i + 1] - q[i]) for i in range(len(q) - 1)])
@@ -230,6 +237,8 @@ def test_bad_input_names_the_argument(jaco):
         self_collision_report(jaco, q, time=[0.0, 1.0, 1.0])
     with pytest.raises(CollisionCheckError, match="max_motion"):
         self_collision_report(jaco, q, max_motion=-1.0)
+    with pytest.raises(CollisionCheckError, match="tolerance"):
+        self_collision_report(jaco, q, tolerance=-0.01)
     with pytest.raises(CollisionCheckError, match="robot"):
         self_collision_report("jaco", q)
     with pytest.raises(InvalidParameterError, match="epsilon"):
