@@ -222,7 +222,9 @@ def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float
             lam *= growth
             growth *= 2.0
         if not accepted:
-            stop = "converged" if model_converged else "no_decrease"
+            # no step decreases the error: converged when the model predicts nothing or the
+            # last accepted step was already below the tolerances (at the optimum, rounding)
+            stop = "converged" if model_converged or small_steps else "no_decrease"
             break
         iterations += 1
         decrease = error - new_error
