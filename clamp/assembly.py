@@ -14,6 +14,7 @@ from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError
 from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
                            JointTargetFamily, ObstacleFamily, PostureFamily, PostureMotionFamily,
+                           PostureVelocityFamily,
                            WorkspaceGPFamily, WorkspaceStartFamily, shifted_start_mean)
 from clamp.initialisation import (Initialisation, joint_velocities, prior_mean_initialisation,
                                   straight_line_initialisation)
@@ -154,9 +155,11 @@ def split_extras(extra_factors: Sequence[ExtraFactor], T: int
 def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,
                       keep_initial: bool = False) -> PlanningProblem:
     """``problem`` tied to the free plan: every state's configuration (a
-    :class:`~clamp.factors.PostureFamily` of noise ``config.model.posture_sigma``) and, unless
-    ``config.model.posture_Qc`` is 0, the motion of the deviation from it (a
-    :class:`~clamp.factors.PostureMotionFamily`: a smooth detour, not a swing out and back),
+    :class:`~clamp.factors.PostureFamily` of noise ``config.model.posture_sigma``), unless
+    ``config.model.posture_Qc`` is 0 the motion of the deviation from it (a
+    :class:`~clamp.factors.PostureMotionFamily`: a smooth detour, not a swing out and back)
+    and unless ``config.model.posture_velocity_sigma`` is 0 every joint velocity (a
+    :class:`~clamp.factors.PostureVelocityFamily`: no joint keeps turning after a detour),
     starting from the free plan unless ``keep_initial``. The free plan is ``problem`` without
     its obstacle hinges, optimised as configured (one extra solve, ~20 ms): where it keeps clear
     of every obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
@@ -166,6 +169,8 @@ def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,
     if model.posture_Qc > 0:
         dt = float(problem.family(JointGPFamily.name).Phi[0, n])
         ties.append(PostureMotionFamily(theta, dt, model.posture_Qc))
+    if model.posture_velocity_sigma > 0:
+        ties.append(PostureVelocityFamily(theta, model.posture_velocity_sigma))
     return problem.with_families([*problem.families, *ties],
                                  problem.initial if keep_initial else theta)
 

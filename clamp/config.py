@@ -31,8 +31,11 @@ class ModelConfig:
     #: rather than 0.005 since the posture motion tie (which resists a detour): the README box
     #: on the Jaco is then clear at the first solve (181 -> 85 ms), and on the fidelity
     #: benchmark (200 problems per arm) Jaco 198 -> 199 of 199 completed, planning time p95
-    #: 19x -> 16x; Sawyer 127 / 129 -> 126 / 130, joint path p90 2.6x -> 2.3x
-    sigma_obs: float = 0.0025
+    #: 19x -> 16x; Sawyer 127 / 129 -> 126 / 130, joint path p90 2.6x -> 2.3x. 0.002 since the
+    #: posture velocity tie: at 0.0025 the README box's first optimum touched the box (0.4 mm,
+    #: 163 ms with a second round; 90 ms at 0.002), fidelity benchmark Jaco 196 -> 197 of 199
+    #: completed, Sawyer 129 -> 132 of 133
+    sigma_obs: float = 0.002
     #: joint GP power spectral density [rad^2 / s^3]
     Qc: float = 1.0
     #: [rad] start configuration fix (or [m] for an end-effector start without the IK fix)
@@ -73,6 +76,12 @@ class ModelConfig:
     #: the free plan: off 3.3x / 2.4x, 1e-3 2.1x / 1.4x, 1e-4 1.7x / 1.2x, 1e-5 1.9x / 1.2x
     #: (0 = off)
     posture_Qc: float = 1e-4
+    #: [rad/s] with obstacles (and posture_sigma > 0), every state's joint velocity is also
+    #: held this near the free plan's (``clamp.factors.posture_velocity``): no joint keeps
+    #: turning after a detour. Measured on 100 scene-benchmark problems (Jaco), joint path
+    #: median / p90 against the free plan: off 1.58x / 4.08x, 0.03 1.35x / 2.1x (0.02:
+    #: 1.27x / 1.9x but 57 of 60 completed against 60) (0 = off)
+    posture_velocity_sigma: float = 0.03
     #: [m] safety distance of the self-collision hinges the planner adds when a plan collides
     #: with itself (``clamp.factors.self_collision``; capped per sphere pair at the gap the
     #: pair keeps in 95 % of random configurations)
@@ -210,7 +219,7 @@ class PlannerConfig:
         """Check every field; raises InvalidParameterError naming the bad one."""
         m, o, c = self.model, self.optimizer, self.checks
         for name in ("epsilon", "limit_margin", "velocity_margin", "posture_sigma", "posture_Qc",
-                     "self_collision_epsilon"):
+                     "posture_velocity_sigma", "self_collision_epsilon"):
             as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
         for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
                      "conditioning_sigma", "self_collision_sigma"):

@@ -22,9 +22,10 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
    either), its penalty mu grows by :data:`STIFFEN` ** 2 (noise / STIFFEN, shifts /
    STIFFEN ** 2). A constraint a
    check finds violated that the problem does not yet hold (``lazy``: self-collision, whose
-   sphere pairs cost ~3x the obstacle hinges per iteration) joins here at its configured
-   noise. Stiffer obstacle hinges loosen the posture tie (:class:`~clamp.factors.PostureFamily`)
-   by the same factor: keeping the free plan's posture may be what collides;
+   sphere pairs cost ~3x the obstacle hinges per iteration; the skill's tube) joins here at its
+   configured noise. Stiffer (or joining) obstacle and skill-tube hinges loosen the posture tie
+   (:class:`~clamp.factors.PostureFamily`) by the same factor (:data:`LOOSENING`): keeping the
+   free plan's posture may be what collides, or what pushes the hand out of the skill;
 4. re-solve from the optimum with the solver's warm-start rule; at most ``rounds`` updates per
    candidate (one more when a lazy constraint joins on the last).
 
@@ -45,7 +46,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from clamp.config import PlannerConfig
-from clamp.factors import Family, ObstacleFamily, PostureFamily
+from clamp.factors import Family, ObstacleFamily, PostureFamily, SkillTubeFamily
 from clamp.optimizers import Optimized, optimize
 from clamp.problem import PlanningProblem
 from clamp.solver import WarmStart
@@ -61,6 +62,9 @@ STIFFEN = 4.0
 #: 2 -> 1 on 80 scene-benchmark Jaco problems (Qc 1e-3, 3 rounds): the same completions and
 #: path measures, planning time p95 13.6x -> 10.8x the free plan's)
 WANTED = 1
+#: constraint families whose stiffening (or joining) loosens the posture tie by as much: the
+#: free plan's posture may be what collides, or what pushes the hand out of the skill's tube
+LOOSENING = (ObstacleFamily.name, SkillTubeFamily.name)
 #: relative error decrease below which the soft first solve stops (after one such step; 3e-2
 #: took fewer iterations than 1e-2 and 3e-3 on box_closing with random boxes, both arms)
 SOFT_START_TOLERANCE = 3e-2
@@ -178,12 +182,14 @@ def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[st
         if family.name not in present:           # joins now, at its configured noise
             out.append(family)
             previous[family.name] = np.inf
+            if family.name in LOOSENING:
+                loosen = STIFFEN
             continue
         shift, violation = _violation(family, window)
         if violation > PROGRESS * previous.get(family.name, 0.0):
             family = family.reweighted(STIFFEN)
             shift /= STIFFEN ** 2
-            if family.name == ObstacleFamily.name:
+            if family.name in LOOSENING:
                 loosen = STIFFEN
         previous[family.name] = violation
         out.append(family.with_shift(shift))

@@ -29,12 +29,12 @@ from clamp.config import PlannerConfig
 from clamp.constrained import Candidate, Feasibility, Judge, Progress, solve_constrained
 from clamp.detours import detour_restarts
 from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
-from clamp.factors import ObstacleFamily, PostureFamily, SelfCollisionFamily
+from clamp.factors import ObstacleFamily, PostureFamily, SelfCollisionFamily, SkillTubeFamily
 from clamp.initialisation import Initialisation
 from clamp.optimizers import Optimized
 from clamp.problem import PlanningProblem
 from clamp.request import Request, as_config, as_extras, as_scene, check_prior, check_robot
-from clamp.skill import skill_checks
+from clamp.skill import TUBE_RATIO, SkillRegion, skill_checks
 from clamp.solver import WarmStart
 from clamp.targets import violated_families
 from clamp.uncertainty import plan_covariances
@@ -46,6 +46,10 @@ from scenes.validation import as_instance
 #: configurations checked between two states by the self-collision hinges (a link swept
 #: through another between states is caught)
 SELF_COLLISION_BETWEEN = 8
+#: [m] the self-collision check's tolerance on a clear plan's clearance (collisions and depths
+#: exact): Jaco plans whose wrist passes within ~7 cm of its forearm took 800 exact mesh
+#: queries (0.7 s) to pin the clearance exactly
+SELF_CLEARANCE_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
@@ -183,8 +187,10 @@ def _judge(model: Model) -> Judge:
     """The verdict's checks of an optimum theta (T, 2n), as the constrained solve needs them:
     obstacle collision on the robot's collision geometry (first: the others only run on a clear
     plan), the joint limits and constraint families (:func:`clamp.targets.violated_families`),
-    self-collision, and with obstacles the skill checks (a collision-free plan that leaves the
-    skill is not accepted)."""
+    self-collision, and with obstacles the skill checks of a plan that meets all of these: one
+    that leaves the skill's tube violates the ``skill_tube`` constraint (whose hinges then join,
+    :class:`~clamp.factors.SkillTubeFamily`), one that does not complete the skill is not
+    accepted (another start is tried)."""
     prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
                                             model.request, model.config)
     families, obstacles = model.problem.families, model.problem.has(ObstacleFamily.name)
@@ -198,12 +204,17 @@ def _judge(model: Model) -> Judge:
             if report.collision:
                 return Feasibility((ObstacleFamily.name,), True, reports, clearance)
         violated = violated_families(families, robot, theta, config)
-        own = self_collision_report(robot, q, time_)
+        own = self_collision_report(robot, q, time_, tolerance=SELF_CLEARANCE_TOLERANCE)
         reports[SelfCollisionFamily.name] = own
         if own.collision:
             violated.append(SelfCollisionFamily.name)
-        accepted = not obstacles or bool(violated) or not skill_checks(
-            prior, model.reference, robot.fk(q), request.goal is not None, score=False).reasons
+        accepted = True
+        if obstacles and not violated:
+            skill = skill_checks(prior, model.reference, robot.fk(q), request.goal is not None,
+                                 score=False)
+            if not skill.within_tube:
+                violated.append(SkillTubeFamily.name)
+            accepted = skill.completed
         return Feasibility(tuple(violated), accepted, reports, clearance)
     return judge
 
@@ -215,7 +226,8 @@ def solve(model: Model, warm_start: WarmStart | None = None) -> Solution:
     (:func:`clamp.constrained.solve_constrained`: an augmented Lagrangian on the constraint
     families, judged by the verdict's checks: obstacles on the robot's collision geometry,
     self-collision, whose hinges join when the plan collides with itself, limits, constraint
-    families and, with obstacles, the skill; restarts when the problem as built fails)."""
+    families and, with obstacles, the skill, whose tube hinges join when the plan leaves it;
+    restarts when the problem as built fails)."""
     as_instance(model, "model", Model, "a clamp.pipeline.Model (from clamp.pipeline.model)",
                 ArgumentTypeError)
     if warm_start is not None:
@@ -223,15 +235,19 @@ def solve(model: Model, warm_start: WarmStart | None = None) -> Solution:
                     ArgumentTypeError)
     robot, problem, m = model.robot, model.problem, model.config.model
     lazy = {SelfCollisionFamily.name: lambda: SelfCollisionFamily.for_robot(
-        robot, range(problem.num_states - 1), m.self_collision_epsilon, m.self_collision_sigma,
-        SELF_COLLISION_BETWEEN)}
+                robot, range(problem.num_states - 1), m.self_collision_epsilon,
+                m.self_collision_sigma, SELF_COLLISION_BETWEEN),
+            SkillTubeFamily.name: lambda: SkillTubeFamily(
+                np.asarray(model.reference.mean)[:, :3],
+                TUBE_RATIO * SkillRegion.of(model.prior).tube, m.sigma_obs)}
     restarts = _restarts(model) if problem.has(ObstacleFamily.name) else (lambda _: ())
     solved = solve_constrained(problem, model.config, _judge(model), restarts, lazy, warm_start)
     reports = solved.feasibility.reports
     own = reports.get(SelfCollisionFamily.name)
     if own is None:             # the chosen optimum collides with an obstacle: not yet checked
         own = self_collision_report(robot, solved.out.theta[:, :robot.n],
-                                    np.asarray(model.prior.time, dtype=float))
+                                    np.asarray(model.prior.time, dtype=float),
+                                    tolerance=SELF_CLEARANCE_TOLERANCE)
     return Solution(solved.out, solved.problem, reports.get(ObstacleFamily.name), own,
                     tuple(asdict(a) for a in solved.attempts))
 

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -162,6 +162,16 @@ class SkillCheck:
     def max_ratio(self) -> float:
         return float(self.ratio[self.worst])
 
+    @property
+    def within_tube(self) -> bool:
+        """Whether the path keeps within TUBE_RATIO tube radii of the reference everywhere."""
+        return self.max_ratio <= TUBE_RATIO
+
+    @property
+    def completed(self) -> bool:
+        """Whether the path ends within the completion radius (True when not judged)."""
+        return self.completion_radius is None or self.end_distance <= self.completion_radius
+
     def to_dict(self) -> dict[str, Any]:
         return {"max_tube_ratio": self.max_ratio, "worst_state": self.worst,
                 "end_distance": self.end_distance, "completion_radius": self.completion_radius,
@@ -234,9 +244,11 @@ def skill_checks(prior: Any, reference_prior: Any, path: np.ndarray, goal_given:
     ratio = tube_ratio(region, reference, path)
     worst = int(np.argmax(ratio))
     end_distance = float(np.linalg.norm(path[-1] - region.end_mean))
+    check = SkillCheck(ratio, worst, end_distance,
+                       None if goal_given else region.completion_radius, float("nan"), ())
     reasons = []
     T = len(ratio)
-    if ratio[worst] > TUBE_RATIO:
+    if not check.within_tube:
         out = np.flatnonzero(ratio > TUBE_RATIO)
         part = (f"states {out[0]}-{out[-1]} ({100 * out[0] / (T - 1):.0f}-"
                 f"{100 * out[-1] / (T - 1):.0f} % of the skill)")
@@ -246,16 +258,13 @@ def skill_checks(prior: Any, reference_prior: Any, path: np.ndarray, goal_given:
             f"where it goes at state {worst}, {ratio[worst]:.1f} x the demonstrations' spread "
             f"there ({1000 * region.tube[worst]:.0f} mm; limit {TUBE_RATIO:g} x)"
             + (f", pushed by {why}" if why else ""))
-    completion = None
-    if not goal_given:
-        completion = region.completion_radius
-        if end_distance > completion:
-            why = describe_pusher(T - 1) if describe_pusher else None
-            reasons.append(
-                f"skill not completed: ends {1000 * end_distance:.0f} mm from where the "
-                f"demonstrations end (limit {1000 * completion:.0f} mm)"
-                + (f", pushed by {why}" if why else ""))
+    if not check.completed:
+        why = describe_pusher(T - 1) if describe_pusher else None
+        reasons.append(
+            f"skill not completed: ends {1000 * end_distance:.0f} mm from where the "
+            f"demonstrations end (limit {1000 * check.completion_radius:.0f} mm)"
+            + (f", pushed by {why}" if why else ""))
     value = (float(skill_plausibility(region, prior, reference_prior,
                                       statistic(region, reference, path)))
              if score else float("nan"))
-    return SkillCheck(ratio, worst, end_distance, completion, value, tuple(reasons))
+    return replace(check, plausibility=value, reasons=tuple(reasons))

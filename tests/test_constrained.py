@@ -6,8 +6,8 @@
 - one multiplier update (:func:`clamp.constrained.augmented`): the shift of a violated family
   becomes its current residual, its noise is divided by STIFFEN at its first update (and its
   shifts by STIFFEN^2, so lambda = mu s is the same multiplier), the posture tie loosens by
-  the same factor as the obstacle hinges stiffen, a family the checks did not name is left as
-  it is, a lazy family joins unshifted at its configured noise.
+  the same factor as the obstacle hinges stiffen (or the skill tube joins), a family the checks
+  did not name is left as it is, a lazy family joins unshifted at its configured noise.
 """
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def constraints(families):
 def test_the_constraint_families_are_the_hinges(setup):
     _, _, families, _ = setup
     assert {f.name for f in constraints(families)} == {
-        "obstacle", "joint_limits", "orientation", "self_collision"}
+        "obstacle", "joint_limits", "orientation", "self_collision", "skill_tube"}
 
 
 def test_a_shift_moves_the_hinge_and_keeps_its_jacobian(setup):
@@ -75,10 +75,11 @@ def test_cost_families_have_no_shifts(setup):
 
 def test_one_multiplier_update(setup):
     robot, theta, families, _ = setup
-    kept = [f for f in families if f.name != "self_collision"]
+    kept = [f for f in families if f.name not in ("self_collision", "skill_tube")]
     problem = PlanningProblem(robot, len(theta), kept, [], theta)
     window = StateWindow(robot, theta)
-    lazy = {"self_collision": lambda: next(f for f in families if f.name == "self_collision")}
+    lazy = {name: (lambda name=name: next(f for f in families if f.name == name))
+            for name in ("self_collision", "skill_tube")}
     previous: dict[str, float] = {}
     new = augmented(problem, theta, ["obstacle", "self_collision"], previous, lazy)
 
@@ -106,3 +107,12 @@ def test_one_multiplier_update(setup):
                                dense_residual(updated, robot, theta))
     assert previous["obstacle"] < PROGRESS * 1e9
     assert again.family(PostureFamily.name) is new.family(PostureFamily.name)
+    assert not again.has("skill_tube")
+
+    # the skill's tube joins (a lazy constraint) and loosens the posture tie as a stiffer
+    # obstacle hinge does: the free plan's posture pushed the hand out of the skill
+    tube = augmented(again, theta, ["skill_tube"], previous, lazy)
+    assert tube.family("skill_tube").shift is None
+    np.testing.assert_allclose(tube.family(PostureFamily.name).whitening,
+                               again.family(PostureFamily.name).whitening / STIFFEN)
+    assert tube.family("obstacle") is again.family("obstacle")

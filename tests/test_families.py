@@ -18,8 +18,8 @@ import pytest
 
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
                            ObstacleFamily, OrientationFamily, PostureFamily, PostureMotionFamily,
-                           SelfCollisionFamily, StateWindow, WorkspaceGPFamily,
-                           WorkspaceStartFamily)
+                           PostureVelocityFamily, SelfCollisionFamily, SkillTubeFamily,
+                           StateWindow, WorkspaceGPFamily, WorkspaceStartFamily)
 from clamp.errors import InvalidParameterError
 from clamp.keys import state_key
 from clamp.problem import PlanningProblem
@@ -64,6 +64,9 @@ def make_families(robot, theta: np.ndarray, rng) -> list:
         JointTargetFamily([0, T - 2], q[[0, T - 2]] + 0.1, [1e-3, 2e-3]),
         PostureFamily(np.arange(T), q + 0.05 * rng.normal(size=q.shape), np.full(T, 0.1)),
         PostureMotionFamily(theta + 0.05 * rng.normal(size=theta.shape), 0.16, 1e-4),
+        PostureVelocityFamily(theta + 0.05 * rng.normal(size=theta.shape), 0.03),
+        SkillTubeFamily(path + 0.03 * rng.normal(size=path.shape), rng.uniform(0.01, 0.08, T),
+                        0.0025),
         EEPositionFamily([1, T - 1], path[[1, T - 1]] + 0.05, [1e-3, 1e-2]),
         ObstacleFamily(np.arange(T), robot.spheres.radii,
                        sphere_query(path[T // 2] + [0.05, 0.0, 0.0], 0.05), 0.1, 0.05),

@@ -47,6 +47,25 @@ def test_the_graph_holds_the_tie(prior, jaco):
     off = PlannerConfig().with_(posture_Qc=0.0)
     names = [f.name for f in build(prior, jaco, scene, START, config=off).families]
     assert "posture" in names and "posture_motion" not in names
+    assert "posture_velocity" in names
+    off = PlannerConfig().with_(posture_velocity_sigma=0.0)
+    names = [f.name for f in build(prior, jaco, scene, START, config=off).families]
+    assert "posture_motion" in names and "posture_velocity" not in names
+
+
+def test_the_velocity_tie_is_the_excess_joint_speed(jaco):
+    """PostureVelocityFamily(reference, sigma) at theta costs 0.5 sum |qdot - qdot_ref|^2 /
+    sigma^2 over the states, whatever the positions, and nothing at the reference."""
+    from clamp.factors import PostureVelocityFamily, StateWindow
+    rng = np.random.default_rng(4)
+    T, n = 12, jaco.n
+    reference = rng.normal(size=(T, 2 * n))
+    theta = reference + rng.normal(scale=0.1, size=reference.shape)
+    tie = PostureVelocityFamily(reference, 0.03)
+    excess = theta[:, n:] - reference[:, n:]
+    assert tie.error(StateWindow(jaco, theta)) == pytest.approx(
+        0.5 * float(np.sum(excess ** 2)) / 0.03 ** 2, rel=1e-12)
+    assert tie.error(StateWindow(jaco, reference)) == 0.0
 
 
 def test_the_motion_tie_is_the_joint_gp_of_the_deviation(jaco):
@@ -63,25 +82,53 @@ def test_the_motion_tie_is_the_joint_gp_of_the_deviation(jaco):
     assert tie.error(StateWindow(jaco, reference)) == pytest.approx(0.0, abs=1e-18)
 
 
-def test_the_motion_tie_smooths_the_detour(jaco):
-    """Fidelity-benchmark problem 45 (reach_from_above, Jaco, no goal): without the motion tie
-    the wrist swings out and back around the box (joint travel ~5x the free plan's); with it the
-    detour is smooth: less joint travel, smaller velocity changes, still collision-free and
-    with the skill."""
+def _benchmark_problem(index: int) -> dict:
+    """plan() arguments of scene-benchmark problem ``index`` (Jaco, the default config)."""
     from pathlib import Path
 
     from clamp.batch import resolve
     from clamp.problem_sets import scene_benchmark
-    problem = scene_benchmark(46, "jaco", 0, skills=["box_closing", "reach_from_above",
-                                                      "pick_place", "two_target_press"],
-                              impossible_share=0.0, start_offset=0.08)[45]
+    problem = scene_benchmark(index + 1, "jaco", 0, skills=["box_closing", "reach_from_above",
+                                                             "pick_place", "two_target_press"],
+                              impossible_share=0.0, start_offset=0.08)[index]
     kwargs = resolve(problem, Path("."))
     kwargs.pop("config", None)
+    return kwargs
+
+
+def test_the_motion_ties_smooth_the_detour(jaco):
+    """Fidelity-benchmark problem 45 (reach_from_above, Jaco, no goal): without the motion and
+    velocity ties the wrist swings out and back around the box (joint travel ~5x the free
+    plan's); with them the detour is smooth: less joint travel, smaller velocity changes, still
+    collision-free and with the skill."""
+    kwargs = _benchmark_problem(45)
     smooth = plan(**kwargs, covariance=False)
-    swing = plan(**kwargs, covariance=False, config=PlannerConfig().with_(posture_Qc=0.0))
+    swing = plan(**kwargs, covariance=False,
+                 config=PlannerConfig().with_(posture_Qc=0.0, posture_velocity_sigma=0.0))
     assert smooth.success, smooth.reasons
     jerk = lambda r: float(np.abs(np.diff(r.qdot, axis=0)).max())   # rad/s per step
     print(f"joint travel {_travel(smooth.q):.2f} vs {_travel(swing.q):.2f} rad, largest velocity "
           f"change per step {jerk(smooth):.3f} vs {jerk(swing):.3f} rad/s")
     assert _travel(smooth.q) < 0.75 * _travel(swing.q)
     assert jerk(smooth) < jerk(swing)
+
+
+def test_a_hand_pushed_out_of_the_skill_gets_the_tube_as_a_constraint(jaco):
+    """Fidelity-benchmark problem 27 (two_target_press, Jaco): the posture tie sends the hand,
+    not the arm, around the box, out of the skill's tube where the demonstrations agree; the
+    tube's hinges join the constrained solve (no restart) and the plan keeps within it, measured
+    by the skill checks on the plan's own end-effector path."""
+    from clamp.pipeline import model
+    from clamp.request import make_request
+    from clamp.skill import TUBE_RATIO, skill_checks
+    kwargs = {**_benchmark_problem(27), "goal": None, "via_points": ()}  # the skill's own end
+    result = plan(**kwargs, covariance=False)
+    assert result.success, result.reasons
+    first = result.attempts[0]
+    assert first["candidate"] == "configured" and first["violated"] == ("skill_tube",)
+    assert all(a["candidate"] == "configured" for a in result.attempts)
+    assert "skill_tube" in [f.name for f in result.problem.families]
+    built = model(kwargs["prior"], jaco, kwargs["scene"],
+                  make_request(kwargs["prior"], jaco, kwargs["start"]), PlannerConfig())
+    check = skill_checks(kwargs["prior"], built.reference, jaco.fk(result.q), False, score=False)
+    assert check.max_ratio <= TUBE_RATIO

@@ -17,7 +17,9 @@ from .obstacle import DistanceQuery, ObstacleFamily
 from .orientation import OrientationFamily
 from .posture import PostureFamily
 from .posture_motion import PostureMotionFamily
+from .posture_velocity import PostureVelocityFamily
 from .self_collision import SelfCollisionFamily
+from .skill_tube import SkillTubeFamily
 from .states import StateWindow
 from .workspace_gp import WorkspaceGPFamily
 from .workspace_start import WorkspaceStartFamily, shifted_start_mean
@@ -27,5 +29,6 @@ __all__ = [
     "WorkspaceGPFamily", "WorkspaceStartFamily", "shifted_start_mean",
     "JointGPFamily", "joint_gp_transition", "joint_gp_covariance",
     "JointTargetFamily", "EEPositionFamily", "ObstacleFamily", "DistanceQuery",
-    "JointLimitFamily", "OrientationFamily", "PostureFamily", "PostureMotionFamily", "SelfCollisionFamily",
+    "JointLimitFamily", "OrientationFamily", "PostureFamily", "PostureMotionFamily", "PostureVelocityFamily", "SelfCollisionFamily",
+    "SkillTubeFamily",
 ]

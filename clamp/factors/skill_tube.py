@@ -1,0 +1,69 @@
+"""Skill tube: the end effector kept where the demonstrations agree. One unary factor per
+support state, a constraint hinge on the distance from where the skill goes:
+
+e_i = max(0, |p_i - r_i| - (limit_i - margin_i) + s_i) (1,) [m], p_i = fk(q_i),
+
+with r (T, 3) the reference (the prior's mean conditioned on the plan's targets,
+:func:`clamp.conditioning.skill_reference`), limit (T,) [m] the verdict's
+(:data:`clamp.skill.TUBE_RATIO` tube radii, :func:`clamp.skill.skill_checks`), margin a
+fraction :data:`MARGIN` of it (the factor pulls from inside the limit, so that the optimum
+keeps within it) and s the augmented Lagrangian's shift. d e / d theta_i = [u^T J(q_i), 0],
+u = (p_i - r_i) / |p_i - r_i|. Inactive factors are left out.
+
+The planner adds it when a collision-free optimum leaves the skill's tube (a lazy constraint of
+:func:`clamp.pipeline.solve`): the tie to the free plan's posture let the hand go around an
+obstacle where the demonstrations agree, when the arm could have gone around it instead. Its
+violation is the verdict's skill check (:func:`clamp.skill.skill_checks`, which names the part
+of the skill and the obstacle), so the family reports none of its own.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from clamp.errors import InvalidParameterError
+from clamp.validation import as_array, as_scalar
+
+from .family import Family, Linearization
+from .states import StateWindow
+
+#: the hinge starts this fraction of the limit inside it
+MARGIN = 0.1
+#: [m] below this distance the direction of the deviation is undefined (the hinge is inactive)
+_NEAR = 1e-12
+
+
+class SkillTubeFamily(Family):
+    """One factor per support state: reference (T, 3) [m], limit (T,) [m] on the distance from
+    it, hinge noise sigma [m]."""
+
+    name = "skill_tube"
+    arity = 1
+    cost = 1
+    role = "constraint"
+
+    def __init__(self, reference: Any, limit: Any, sigma: float):
+        self.reference = as_array(reference, "reference", (None, 3))
+        T = len(self.reference)
+        self.limit = as_array(limit, "limit", (T,))
+        if np.any(self.limit <= 0.0):
+            raise InvalidParameterError(f"limit: expected positive distances ({T},), got a minimum of "
+                             f"{float(self.limit.min())}")
+        super().__init__(np.arange(T), 1, sigma=as_scalar(sigma, "sigma",
+                                                          strictly_positive=True))
+
+    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+        x, dx = window.workspace()
+        i = window.local(self.first[rows])
+        offset = x[i, :3] - self.reference[self.first[rows]]
+        distance = np.linalg.norm(offset, axis=1)
+        hinge = (distance - (1.0 - MARGIN) * self.limit[self.first[rows]]
+                 + np.reshape(self.offset(rows), -1))
+        active = np.flatnonzero((hinge > 0.0) & (distance > _NEAR))
+        error = hinge[active, None]
+        if not jacobians:
+            return Linearization(rows[active], error, None)
+        u = offset[active] / distance[active, None]
+        jac = np.einsum("kj,kjc->kc", u, dx[i[active], :3])[:, None, :]
+        return Linearization(rows[active], error, jac)
