@@ -121,8 +121,9 @@ class OptimizerConfig:
     #: constraints inside the solve (:mod:`clamp.constrained`, an augmented Lagrangian): while
     #: the optimum fails a check (collision on the robot's geometry, self-collision, limits, a
     #: constraint family such as orientation), at most this many multiplier / penalty updates
-    #: per candidate start (the problem as built, then detours, a straight line, the untied
-    #: problem); 0: the weighted solve only. 2 rather than 3: a candidate still infeasible after
+    #: per candidate start (the problem as built, or with obstacles the untied problem,
+    #: detours and a straight line after the tied problem's one solve); 0: the weighted solve
+    #: only. 2 rather than 3: a candidate still infeasible after
     #: two updates rarely became feasible at the third, the next start did (Jaco, 80 problems:
     #: the same 80 completed, planning time p95 13.6x -> 8.9x the free plan's)
     constraint_rounds: int = 2

@@ -241,7 +241,9 @@ def solve(model: Model, warm_start: WarmStart | None = None) -> Solution:
                 np.asarray(model.reference.mean)[:, :3],
                 TUBE_RATIO * SkillRegion.of(model.prior).tube, m.sigma_obs)}
     restarts = _restarts(model) if problem.has(ObstacleFamily.name) else (lambda _: ())
-    solved = solve_constrained(problem, model.config, _judge(model), restarts, lazy, warm_start)
+    # the tied problem: one solve, its rounds go to the untied restart (clamp.constrained)
+    solved = solve_constrained(problem, model.config, _judge(model), restarts, lazy, warm_start,
+                               first_rounds=0 if problem.has(PostureFamily.name) else None)
     reports = solved.feasibility.reports
     own = reports.get(SelfCollisionFamily.name)
     if own is None:             # the chosen optimum collides with an obstacle: not yet checked
