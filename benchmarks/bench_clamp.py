@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 import warnings
 
 import numpy as np
@@ -155,11 +154,9 @@ def main() -> None:
         for label, sc in (("empty", None), ("box", box())):
             fast = plan(prior, jaco, sc, start)
             for name in ("gtsam", "gtsam_dogleg"):
-                t0 = time.perf_counter()
                 r = plan(prior, jaco, sc, start, config=PlannerConfig().with_(optimizer=name))
                 gap = 1e3 * np.max(np.linalg.norm(r.ee_path - fast.ee_path, axis=1))
                 print(row(f"{label} {name}", r, r.timings, CPP[label]) + f"  {gap:.2f}")
-                del t0
 
 
 if __name__ == "__main__":

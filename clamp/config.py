@@ -6,7 +6,7 @@ variants. Units: metres, radians, seconds; errors in nats (negative log posterio
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from clamp.errors import InvalidParameterError

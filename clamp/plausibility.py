@@ -77,7 +77,7 @@ from scipy import linalg, stats
 
 from clamp.errors import InvalidParameterError, ShapeError
 from clamp.prior import LinearGaussianPrior, prefix_compose, transition_residuals
-from clamp.validation import as_array, as_count, as_scalar
+from clamp.validation import as_array, as_scalar
 
 __all__ = ["plausibility", "plausibility_details", "PlausibilityResult", "floored_prior",
            "conditional_mean", "sample_conditioned", "DEFAULT_FLOOR_STD"]

@@ -16,6 +16,7 @@ box of its own (for learning with obstacle weighting).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.interpolate import CubicSpline

@@ -29,7 +29,7 @@ from clamp.optimizers import optimize
 from clamp.plan_plots import (plot_clearance, plot_joint_angles, plot_orientation, plot_plan_3d,
                               plot_plan_uncertainty, plot_top_view)
 from clamp.plausibility import plausibility
-from clamp.prior import LinearGaussianPrior, WorkspacePrior
+from clamp.prior import WorkspacePrior
 from clamp.prior_plots import plot_prior_3d, plot_prior_time, plot_weighted_priors
 from clamp.problem_sets import across_robots, scene_benchmark, start_problems, start_region
 from clamp.problems import (Problem, ProblemFormatError, make_problem, read_problems,

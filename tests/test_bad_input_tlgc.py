@@ -14,10 +14,9 @@ from tlgc import (GeneralizedCylinder, fit_cylinder, random_starts, ratio_schedu
 from tlgc.boundary_factor import BoundaryFamily, boundary_distance, boundary_residuals, section_indices
 from tlgc.bounding_sphere import bounding_sphere, minimal_bounding_sphere
 from tlgc.cylinder import check_cylinder
-from tlgc.errors import (CylinderFileError, GeneralizationError, InvalidArgumentError,
-                         InvalidDemonstrationsError, ObstacleAvoidanceError, StartOffPlaneError,
-                         StartOutsideError, TLGCError, TooFewDemonstrationsError,
-                         UnknownCrossSectionError)
+from tlgc.errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
+                         StartOffPlaneError, StartOutsideError, TLGCError,
+                         TooFewDemonstrationsError, UnknownCrossSectionError)
 from tlgc.generalization import (fit_similarity, fit_tps, landmark_constraints, lte_deform,
                                  lte_generalize, shape_distortion, tps_generalize)
 from tlgc.obstacles import (adaptive_ratio_parameters, avoid_with_adaptive_ratio,

@@ -15,7 +15,7 @@ import pytest
 
 from clamp.constrained import PROGRESS, STIFFEN, augmented
 from clamp.errors import InvalidParameterError
-from clamp.factors import PostureFamily, SelfCollisionFamily, StateWindow
+from clamp.factors import PostureFamily, SelfCollisionFamily
 from clamp.problem import PlanningProblem
 from tests.test_families import (assert_jacobians_match_finite_differences, dense_residual,
                                  make_families, random_theta, whitened_rows)

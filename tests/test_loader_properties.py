@@ -7,7 +7,6 @@ planning problems (JSON Lines) and batch results (JSON Lines, then summarized).
 from __future__ import annotations
 
 import json
-import math
 import shutil
 import tempfile
 import warnings

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from scenes import make_demonstrations
 from tlgc import GeneralizedCylinder

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import gtsam
 import numpy as np
 
-from clamp.errors import InvalidParameterError, ShapeError
+from clamp.errors import InvalidParameterError
 from clamp.validation import as_array, as_count, as_covariance, as_indices, cholesky
 
 from .states import StateWindow
