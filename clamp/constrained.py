@@ -73,9 +73,9 @@ SOFT_START_TOLERANCE = 3e-2
 @dataclass(frozen=True)
 class Feasibility:
     """What the verdict's checks say of one optimum: the constraint families found violated
-    (by name, e.g. "obstacle", "joint_limits", "self_collision"), whether the skill checks
-    accept it, and the check reports to reuse (``reports``: e.g. "obstacle" -> the collision
-    report, "self_collision" -> the self-collision report)."""
+    (by name, e.g. "obstacle", "joint_limits", "self_collision", "skill_tube"), whether the
+    skill checks accept it (the skill completed), and the check reports to reuse (``reports``:
+    e.g. "obstacle" -> the collision report, "self_collision" -> the self-collision report)."""
 
     violated: tuple[str, ...]
     accepted: bool = True
