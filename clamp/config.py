@@ -78,9 +78,9 @@ class ModelConfig:
     posture_Qc: float = 1e-4
     #: [rad/s] with obstacles (and posture_sigma > 0), every state's joint velocity is also
     #: held this near the free plan's (``clamp.factors.posture_velocity``): no joint keeps
-    #: turning after a detour. Measured on 100 scene-benchmark problems (Jaco), joint path
-    #: median / p90 against the free plan: off 1.58x / 4.08x, 0.03 1.35x / 2.1x (0.02:
-    #: 1.27x / 1.9x but 57 of 60 completed against 60) (0 = off)
+    #: turning after a detour. Measured on 60 fidelity-benchmark problems (Jaco), completed and
+    #: joint path median / p90 against the free plan: off 60 / 60, 1.43x / 4.15x; 0.03 59,
+    #: 1.33x / 2.13x; 0.02 57, 1.27x / 1.87x; 0.01 50, 1.18x / 1.53x (0 = off)
     posture_velocity_sigma: float = 0.03
     #: [m] safety distance of the self-collision hinges the planner adds when a plan collides
     #: with itself (``clamp.factors.self_collision``; capped per sphere pair at the gap the

@@ -193,8 +193,6 @@ def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[st
 
 def _scaled(families: list[Family], name: str, factor: float) -> list[Family]:
     """``families`` with the one called ``name`` reweighted by ``factor`` (noise / factor)."""
-    if factor == 1.0:
-        return families
     return [f.reweighted(factor) if f.name == name else f for f in families]
 
 

@@ -21,8 +21,9 @@ constraint g(theta) <= 0 (a sphere's reach into an obstacle, a joint beyond its 
 shift s >= 0 (:attr:`Family.shift`, zero unless set), which the augmented-Lagrangian solve of
 :mod:`clamp.constrained` sets to lambda / mu (the multiplier over the penalty weight mu, the
 squared whitening). Such a family is also judged by the verdict (its own check: the real
-collision geometry, the limits, ``violation(robot, q)``), which decides when its constraint holds. A kernel may leave out factors whose residual and Jacobian are exactly zero
-(inactive hinges): :class:`Linearization` lists the rows it describes.
+collision geometry, the limits, ``violation(robot, q)``), which decides when its constraint
+holds. A kernel may leave out factors whose residual and Jacobian are exactly zero (inactive
+hinges): :class:`Linearization` lists the rows it describes.
 """
 from __future__ import annotations
 

@@ -6,10 +6,10 @@ The obstacle plan's third tie to the free plan (with :class:`~clamp.factors.Post
 acceleration, so a deviation that keeps a constant velocity costs nothing: once an obstacle
 set a joint moving (the Jaco's last joint, which does not move the end-effector point), it
 kept turning to the end of the plan (6 rad of wrist spin) wherever the posture tie was loose
-or absent (the untied restarts). Summed over the states this is the squared
-excess joint speed, the quantity behind the joint path's excess over the free plan: measured
-on 100 scene-benchmark problems (Jaco), joint path median / p90 1.58x / 4.08x -> 1.35x / 2.1x
-the free plan's, added hand rotation p90 74 -> 45 deg, at 0.03 rad/s.
+or absent (the untied restarts). Summed over the states this is the squared excess joint
+speed, the quantity behind the joint path's excess over the free plan: on the fidelity
+benchmark (200 problems, Jaco) joint path median / p90 1.54x / 4.16x -> 1.36x / 2.22x the free
+plan's with it at 0.03 rad/s (and the skill tube constraint, which changed 1 of 100 plans).
 """
 from __future__ import annotations
 
@@ -18,18 +18,15 @@ import numpy as np
 from clamp.errors import ShapeError
 from clamp.validation import as_array, as_scalar
 
-from .family import Family, Linearization
-from .states import StateWindow
+from .joint_target import JointTargetFamily
 
 
-class PostureVelocityFamily(Family):
+class PostureVelocityFamily(JointTargetFamily):
     """One factor per state of the reference joint states (T, 2n): its velocity within sigma
     [rad/s]."""
 
     name = "posture_velocity"
-    arity = 1
-    cost = 0
-    linear = True
+    velocities = True
 
     def __init__(self, reference: np.ndarray, sigma: float):
         reference = as_array(reference, "reference", (None, None))
@@ -37,16 +34,5 @@ class PostureVelocityFamily(Family):
         if d % 2:
             raise ShapeError(f"reference: expected joint states (T, 2n), got shape "
                              f"{reference.shape}")
-        n = d // 2
-        #: the reference's joint velocities (T, n) [rad/s]
-        self.velocities = reference[:, n:].copy()
-        super().__init__(np.arange(T), n, sigma=as_scalar(sigma, "sigma",
-                                                          strictly_positive=True))
-        self._jacobian = np.hstack([np.zeros((n, n)), np.eye(n)])
-
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
-        i = window.local(self.first[rows])
-        error = window.qdot[i] - self.velocities[self.first[rows]]
-        jac = np.broadcast_to(self._jacobian, (len(rows),) + self._jacobian.shape) \
-            if jacobians else None
-        return Linearization(rows, error, jac)
+        sigma = as_scalar(sigma, "sigma", strictly_positive=True)
+        super().__init__(np.arange(T), reference[:, d // 2:], np.full(T, sigma))
