@@ -1,4 +1,4 @@
-"""Many plans: throughput of clamp.batch.plan_many in this process and in 1 / 2 local workers,
+"""Many plans: throughput of clamp.batch.runner.plan_many in this process and in 1 / 2 local workers,
 worker start-up cost, and the resident memory of a long in-process batch.
 
 Problems: box_closing (synthetic, 6 demonstrations, T = 250) on the Jaco from ``--count``
@@ -79,7 +79,7 @@ class Run:
 
 def _batch(problems, executor, pids=(), startup: float = 0.0) -> Run:
     """Plan ``problems`` with ``executor``; what it cost and what the machine did meanwhile."""
-    from clamp.batch import plan_many
+    from clamp.batch.runner import plan_many
     load0, busy0, cpu0 = os.getloadavg()[0], _machine_jiffies(), time.process_time()
     workers0 = sum(_process_cpu(pid) for pid in pids)
     t0 = time.perf_counter()
@@ -95,9 +95,9 @@ def _batch(problems, executor, pids=(), startup: float = 0.0) -> Run:
 
 
 def _memory(count: int, seed: int) -> None:
-    from clamp.batch import load_prior, plan_many
-    from clamp.problem_sets import start_problems
-    from clamp.problems import make_problem
+    from clamp.batch.runner import load_prior, plan_many
+    from clamp.batch.problem_sets import start_problems
+    from clamp.batch.problems import make_problem
     from scenes import Box, Scene
     base = make_problem("memory", {"skill": "box_closing"}, "jaco", [0.2054, -0.4722, 0.2625])
     rng = np.random.default_rng(seed)
@@ -125,9 +125,9 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     print_environment()
-    from clamp.batch import LocalPool
-    from clamp.problem_sets import start_problems
-    from clamp.problems import make_problem
+    from clamp.batch.runner import LocalPool
+    from clamp.batch.problem_sets import start_problems
+    from clamp.batch.problems import make_problem
     from scenes import Box, Scene
 
     box = Scene([Box.from_reference([0.32, -0.32, 0.13, 0.09, 0.06, 0.28])])

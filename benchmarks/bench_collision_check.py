@@ -11,7 +11,7 @@ distance the checker uses is a coal query: num_hull on convex hulls (of whole me
 their pieces; GJK, a few microseconds), num_exact on the geometry itself (primitives, mesh
 leaves of at most PIECE_TRIANGLES triangles).
 
-Then the verdict inside plan() on scene-benchmark problems (clamp.problem_sets.scene_benchmark,
+Then the verdict inside plan() on scene-benchmark problems (clamp.batch.problem_sets.scene_benchmark,
 200 problems, seed 21, 1-4 obstacles; the two named problems 11 and 155 of the Jaco, which took
 24 s and 5.8 s with 20.9 s and 5.7 s in the check before pieces, and --problems more per arm,
 evenly spread), twice (first pass: mesh pieces built as they are first needed; again: built):
@@ -53,8 +53,8 @@ def extra_obstacles(path: np.ndarray, seed: int = 0) -> list:
 
 def verdict_share(count: int) -> None:
     """Check time per plan() on scene-benchmark problems (see the module docstring)."""
-    from clamp import problem_sets
-    from clamp.batch import resolve
+    from clamp.batch import problem_sets
+    from clamp.batch.runner import resolve
     from robots import collision_check
     checks: list[float] = []
     record = collision_check.CollisionChecker.check

@@ -1,6 +1,6 @@
 """Skill-fidelity benchmark (issue 19): does a plan around obstacles still perform the skill?
 
-Per arm, ``--problems`` seeded problems of :func:`clamp.problem_sets.scene_benchmark` (all
+Per arm, ``--problems`` seeded problems of :func:`clamp.batch.problem_sets.scene_benchmark` (all
 feasible: 1-3 boxes / spheres / cylinders near the skill's path; start up to
 ``--start-offset`` m per axis off the demonstrations' start; goal = the prior's last mean
 position), each planned by whatever ``clamp.plan`` is importable, at its defaults, with its
@@ -224,7 +224,7 @@ def _perturbed_path(path: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 def oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str, Any]]:
     """Up to ORACLE_RESTARTS (label, make) pairs; make() -> (q_start (n,), initial (T, 2n) or
     None, config changes). Built lazily: each IK runs only when its restart is tried."""
-    from clamp.initialisation import (prior_mean_initialisation, shifted_mean_path,
+    from clamp.planning.initialisation import (prior_mean_initialisation, shifted_mean_path,
                                       straight_line_initialisation)
     from scenes import Scene
     spec = data["prior"]
@@ -289,7 +289,7 @@ def run_problem(data: dict[str, Any], free: dict | None, known: dict | None) -> 
     """Obstacle plan, free plan (``free`` if cached) and completability (``known`` oracle
     outcome if cached; the oracle runs only when the default plan fails the checks)."""
     logging.getLogger("clamp").setLevel(logging.ERROR)
-    from scenes.threads import single_blas_thread
+    from skillplan.threads import single_blas_thread
     with single_blas_thread():
         obstacle = plan_and_judge(data, True)
         free = free if free is not None else plan_and_judge(data, False)
@@ -401,7 +401,7 @@ def report(arm: str, s: dict) -> None:
           f"{q(s['end_free_mm'], '')}")
     print(f"leaves the skill (>{checks.TIGHT_SIGMA:.0f} spreads)         obstacle "
           f"{s['leaves_skill']} / {s['scored']}, free {s['free_leaves_skill']} / {s['scored']}")
-    print("plans by start (clamp.constrained)       " + "; ".join(
+    print("plans by start (clamp.optim.constrained)       " + "; ".join(
         f"{name} {n} (joint {joint:.2f}x, time {time_:.1f}x)"
         for name, (n, joint, time_) in sorted(s["by_candidate"].items(), key=lambda kv: -kv[1][0])))
     for text, holds in targets(s):
@@ -421,14 +421,14 @@ def load_cache(name: str, enabled: bool) -> dict:
 
 
 def save_cache(name: str, data: dict, enabled: bool) -> None:
-    from scenes.command_line import atomic_write_text
+    from skillplan.command_line import atomic_write_text
     if enabled:
         CACHE.mkdir(exist_ok=True)
         atomic_write_text(CACHE / name, json.dumps(data), overwrite=True)
 
 
 def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
-    from clamp.problem_sets import scene_benchmark
+    from clamp.batch.problem_sets import scene_benchmark
     problems = scene_benchmark(args.problems, arm, args.seed, skills=args.skills,
                                impossible_share=0.0, start_offset=args.start_offset)
     datas = [p.to_dict() for p in problems]
@@ -445,7 +445,7 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
         futures = [executor.submit(run_problem, *job) for job in jobs]
         outcomes = (f.result() for f in as_completed(futures))
     by_id = {}
-    from scenes.progress import progress
+    from skillplan.progress import progress
     for record in progress(outcomes, description=arm, total=len(jobs), unit="problem"):
         by_id[record["id"]] = record
     records = [by_id[d["id"]] for d in datas]
@@ -456,7 +456,7 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
     save_cache("fidelity_free.json", free_cache, args.cache)
     save_cache("fidelity_oracle.json", oracle_cache, args.cache)
     if args.records is not None:
-        from scenes.command_line import atomic_write_text
+        from skillplan.command_line import atomic_write_text
         path = args.records.with_name(f"{args.records.stem}_{arm}{args.records.suffix}")
         atomic_write_text(path, "".join(json.dumps(r) + "\n" for r in records), overwrite=args.force)
     summary = summarize(records)
@@ -467,7 +467,7 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
 
 def benchmark(args: argparse.Namespace) -> int:
     """Run the benchmark for the parsed options; exit code 0."""
-    from scenes.command_line import output_file
+    from skillplan.command_line import output_file
     if args.records is not None:
         for arm in args.arms:
             output_file(args.records.with_name(f"{args.records.stem}_{arm}{args.records.suffix}"),
@@ -487,8 +487,8 @@ def benchmark(args: argparse.Namespace) -> int:
 
 
 def parser() -> argparse.ArgumentParser:
-    from clamp.problem_sets import BENCHMARK_SKILLS
-    from scenes.command_line import CommandLineParser, integer_at_least, number
+    from clamp.batch.problem_sets import BENCHMARK_SKILLS
+    from skillplan.command_line import CommandLineParser, integer_at_least, number
     from scenes.synthetic import SKILLS
     out = CommandLineParser(prog="bench_fidelity.py", description=__doc__.splitlines()[0])
     out.add_argument("--problems", type=integer_at_least(1), default=200,
@@ -513,7 +513,7 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from scenes.command_line import run
+    from skillplan.command_line import run
     return run(parser(), argv)
 
 

@@ -2,7 +2,7 @@
 
 Problem: box_closing's learned prior, Jaco, REFERENCE_START, empty scene and REFERENCE_BOX (as
 in bench_clamp.py). Reference optimum: the fast solver run to convergence (relative and
-absolute tolerance 1e-10, patience 10). Each GTSAM optimizer of :mod:`clamp.optimizers` (its
+absolute tolerance 1e-10, patience 10). Each GTSAM optimizer of :mod:`clamp.optim.optimizers` (its
 settings, tolerances 1e-12) runs from the problem's initial trajectory, as
 ``optimize(problem, PlannerConfig(optimizer=...))`` does (the optimizer's Values held so
 linearizations do not copy them), until it stops or ``--budget`` seconds pass. Table 1: the
@@ -34,9 +34,9 @@ MILESTONES = (("rel 1e-2", "rel", 1e-2), ("rel 1e-4", "rel", 1e-4), ("rel 1e-6",
 
 
 def run_to_budget(problem, config, reference, robot, budget: float) -> dict:
-    """Run GTSAM's optimizer of ``config`` as clamp.optimizers.optimize does; milestones."""
-    from clamp.keys import values_to_states
-    from clamp.optimizers import _CurrentValues, _gtsam_optimizer
+    """Run GTSAM's optimizer of ``config`` as clamp.optim.optimizers.optimize does; milestones."""
+    from clamp.graph.keys import values_to_states
+    from clamp.optim.optimizers import _CurrentValues, _gtsam_optimizer
 
     best = problem.graph().error(problem.values(reference))
     ref_ee = robot.fk(reference[:, :robot.n])
@@ -75,8 +75,8 @@ def run_to_budget(problem, config, reference, robot, budget: float) -> dict:
 def cost_breakdown(problem, hold: bool, iterations: int = 30) -> dict:
     """ms per LM iteration, factor calls and Python time in the adapters per iteration."""
     from clamp import PlannerConfig
-    from clamp.factors import gtsam_adapter
-    from clamp.optimizers import _CurrentValues, _gtsam_optimizer
+    from clamp.graph import gtsam_adapter
+    from clamp.optim.optimizers import _CurrentValues, _gtsam_optimizer
 
     stats = {"linearize": 0, "error": 0, "python": 0.0}
     original = gtsam_adapter._error
@@ -114,7 +114,7 @@ def cost_breakdown(problem, hold: bool, iterations: int = 30) -> dict:
 def pure_cpp_iteration(problem, values) -> float:
     """ms of one GTSAM LM iteration on the graph linearized at ``values`` (C++ factors only)."""
     from clamp import PlannerConfig
-    from clamp.optimizers import _gtsam_params
+    from clamp.optim.optimizers import _gtsam_params
 
     linear = problem.graph().linearize(values)
     graph = gtsam.NonlinearFactorGraph()

@@ -1,4 +1,4 @@
-"""Benchmark of clamp.plausibility: median wall time of one plausibility score.
+"""Benchmark of clamp.prior.plausibility: median wall time of one plausibility score.
 
 Priors learned from the synthetic box-closing skill (6 demonstrations) at T = 250 and
 T = 2000 (same duration), plus box_closing.mat (T = 250) when ../shared/datasets is present.
@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from clamp import learn_prior
-from clamp.plausibility import conditional_mean, floored_prior, plausibility
+from clamp.prior.plausibility import conditional_mean, floored_prior, plausibility
 from harness import median_seconds, print_environment, shared_demonstrations
 from scenes import make_demonstrations
 

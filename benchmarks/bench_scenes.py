@@ -1,9 +1,9 @@
 """Scene benchmark: CLAMP in new scenes on the Jaco and the Sawyer, at the default settings.
 
-Per arm, ``--count`` seeded problems of :func:`clamp.problem_sets.scene_benchmark` (4 skills,
+Per arm, ``--count`` seeded problems of :func:`clamp.batch.problem_sets.scene_benchmark` (4 skills,
 start near the demonstrations' start, goal at the skill's end, 1-3 random boxes / spheres /
 cylinders near the skill's path; 20 % made impossible: an obstacle over the start or the
-goal), planned with ``clamp.batch.plan_many`` and judged independently of the planner's
+goal), planned with ``clamp.batch.runner.plan_many`` and judged independently of the planner's
 verdict: every plan the planner calls a success is checked on the robot's URDF collision
 geometry (``robots.collision_check.CollisionChecker`` with ``scenes.coal_shapes``, at and
 between the support states, margin 0, 5 mm motion steps); a collision there is a false
@@ -44,10 +44,10 @@ def judge(record: dict, problem, robot, checkers: dict) -> float | None:
 
 
 def run_arm(name: str, count: int, seed: int, executor, out: Path | None) -> None:
-    from clamp.batch import load_robot, plan_many
-    from clamp.batch_report import summarize, summary_table
-    from clamp.problem_sets import scene_benchmark
-    from clamp.problems import write_problems
+    from clamp.batch.runner import load_robot, plan_many
+    from clamp.batch.report import summarize, summary_table
+    from clamp.batch.problem_sets import scene_benchmark
+    from clamp.batch.problems import write_problems
     robot = load_robot({"name": name}, Path("."))
     t0 = time.perf_counter()
     problems = scene_benchmark(count, name, seed)
@@ -106,7 +106,7 @@ def main() -> None:
                         help="folder to write the problem files to (scenes_<robot>.jsonl)")
     args = parser.parse_args()
     print_environment()
-    from clamp.batch import LocalPool
+    from clamp.batch.runner import LocalPool
     count = 40 if args.quick else args.count
     pool = LocalPool(args.workers) if args.workers else None
     try:

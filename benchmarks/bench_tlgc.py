@@ -16,7 +16,7 @@ read when OpenBLAS loads): OPENBLAS_NUM_THREADS / OMP_NUM_THREADS / MKL_NUM_THRE
 (OpenBLAS's default, one thread per core), all set to 1, and all set to 4 x the core count
 (oversubscribed, standing in for a many-core machine's default on a small one). Before issue 11
 a threaded BLAS made reproduction 20x slower (2.0-2.4 s instead of 0.10-0.12 s); tlgc now runs
-its hot loops under ``scenes.threads.single_blas_thread``, so every column should be within
+its hot loops under ``skillplan.threads.single_blas_thread``, so every column should be within
 10 % of the 1-thread one. Prints the best over interleaved rounds of the median [ms] and the
 ratios to the 1-thread time. Timings on a shared machine are noisy.
 """

@@ -1,7 +1,7 @@
 """Independent checks of a plan for the skill-fidelity benchmark (issue 19).
 
-These checks judge a joint trajectory without the planner's verdict code (``clamp.verdict``,
-``clamp.clearance``, ``robots.collision_check``): the geometry goes straight to Pinocchio's
+These checks judge a joint trajectory without the planner's verdict code (``clamp.planning.verdict``,
+``clamp.planning.clearance``, ``robots.collision_check``): the geometry goes straight to Pinocchio's
 collision model of the URDF and coal, at a dense subdivision of the path.
 
 - **Obstacles** (:class:`GeometryCheck`): every collision object of the URDF that moves with
@@ -21,7 +21,7 @@ collision model of the URDF and coal, at a dense subdivision of the path.
 - **Completion** (:func:`end_error`): the plan's last end-effector point lies within
   ``END_SPREAD_FACTOR`` x the demonstrations' end spread (the largest distance of their end
   points from their mean, at least ``END_SPREAD_FLOOR``) of the demonstrations' mean end
-  point (issue 19's definition as ``clamp.skill`` documents it; coded again here).
+  point (issue 19's definition as ``clamp.prior.skill`` documents it; coded again here).
 - **Stays with the skill** (:func:`skill_deviation`): at each state, the end-effector distance
   from the prior mean conditioned on the plan's start (the skill carried to this start), in
   units of the demonstrations' spread at that state (the largest distance of a demonstration

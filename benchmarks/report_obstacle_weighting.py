@@ -16,8 +16,8 @@ import argparse
 import numpy as np
 
 from clamp import ObstacleWeighting, learn_prior
-from clamp.obstacle_weighting import demonstration_weights
-from clamp.prior_plots import plot_weighted_priors
+from clamp.prior.obstacle_weighting import demonstration_weights
+from clamp.viz.prior_plots import plot_weighted_priors
 from scenes import make_cluttered_demonstrations, make_demonstrations
 
 SETTINGS = (("reference eps 0.3, sigma 1e-3", ObstacleWeighting()),

@@ -3,7 +3,7 @@
 box_closing (synthetic, seed 0), README start, Jaco and Sawyer: the goal moved 5 cm in each of
 6 directions (empty scene), and a via point 3 cm off the prior mean (+x) at mid-trajectory;
 each miss is measured with our own forward kinematics, with the plausibility of the plan
-(clamp.plausibility, conditioned on start / goal / via: it scores the motion given the
+(clamp.prior.plausibility, conditioned on start / goal / via: it scores the motion given the
 targets, not the targets themselves; how far the goal lies from the prior's end is printed in
 standard deviations of the end marginal) and, for comparison, the miss of the
 soft goal factor alone (condition_on_targets=False). Then the tool z within 5 deg of straight
@@ -21,7 +21,7 @@ import numpy as np
 
 from clamp import PlannerConfig, learn_prior, plan
 from clamp.factors import OrientationFamily
-from clamp.plan_plots import plot_orientation
+from clamp.viz.plan_plots import plot_orientation
 from robots import load_robot
 from scenes import Box, Scene, make_demonstrations
 

@@ -1,6 +1,6 @@
-"""``python -m clamp`` runs the command line (see :mod:`clamp.cli`)."""
+"""``python -m clamp`` runs the command line (see :mod:`clamp.cli.main`)."""
 import sys
 
-from clamp.cli import main
+from clamp.cli.main import main
 
 sys.exit(main())

@@ -9,11 +9,17 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
-from clamp.errors import InvalidParameterError
-from clamp.initialisation import INITIALISATIONS
+from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_bool, as_count, as_scalar
 from scenes.sdf import DEFAULT_CELL_SIZE
 
+
+
+#: the optimizers a config may name ("fast": our Levenberg-Marquardt on the state array; the
+#: others GTSAM's on ``problem.graph()``, :mod:`clamp.optim.optimizers`)
+OPTIMIZERS = ("fast", "gtsam", "gtsam_dogleg", "gtsam_gauss_newton")
+#: the initialisations a config may name (:mod:`clamp.planning.initialisation`)
+INITIALISATIONS = ("prior_mean", "straight_line")
 
 
 @dataclass(frozen=True)
@@ -45,7 +51,7 @@ class ModelConfig:
     #: [m or rad] via-point factors
     via_sigma: float = 1e-3
     #: plan with the learned prior conditioned exactly on the start, goal and via positions
-    #: (:mod:`clamp.conditioning`) when a goal or via points are given
+    #: (:mod:`clamp.prior.conditioning`) when a goal or via points are given
     condition_on_targets: bool = True
     #: [m] observation noise of that conditioning (the conditioned mean meets them to ~this)
     conditioning_sigma: float = 1e-5
@@ -94,9 +100,9 @@ class ModelConfig:
 
 @dataclass(frozen=True)
 class OptimizerConfig:
-    """How the graph is optimised (see :mod:`clamp.solver` for the fast solver's rules)."""
+    """How the graph is optimised (see :mod:`clamp.optim.solver` for the fast solver's rules)."""
 
-    #: one of :data:`clamp.optimizers.OPTIMIZERS` ("fast": our Levenberg-Marquardt on the
+    #: one of :data:`clamp.optim.optimizers.OPTIMIZERS` ("fast": our Levenberg-Marquardt on the
     #: state array; the others GTSAM's optimizers on ``problem.graph()``)
     optimizer: str = "fast"
     #: "prior_mean" (IK of the prior mean moved to the start) or "straight_line" (joint space)
@@ -118,7 +124,7 @@ class OptimizerConfig:
     absolute_error_tol: float = 1e-2
     #: ... for this many consecutive accepted steps
     convergence_patience: int = 2
-    #: constraints inside the solve (:mod:`clamp.constrained`, an augmented Lagrangian): while
+    #: constraints inside the solve (:mod:`clamp.optim.constrained`, an augmented Lagrangian): while
     #: the optimum fails a check (collision on the robot's geometry, self-collision, limits, a
     #: constraint family such as orientation), at most this many multiplier / penalty updates
     #: per candidate start (the problem as built, or with obstacles the untied problem,
@@ -129,7 +135,7 @@ class OptimizerConfig:
     constraint_rounds: int = 2
     #: a fresh plan whose initial trajectory runs through an obstacle first solves with the
     #: obstacle hinge noise multiplied by this, loosely
-    #: (:data:`clamp.constrained.SOFT_START_TOLERANCE`): the first penalty of the schedule, soft
+    #: (:data:`clamp.optim.constrained.SOFT_START_TOLERANCE`): the first penalty of the schedule, soft
     #: hinges letting the path slide around the obstacles before stiff ones pin it (box_closing +
     #: box, Jaco: 43 -> 8 iterations); 1: the configured weight directly.
     soft_start: float = 4.0
@@ -245,7 +251,6 @@ class PlannerConfig:
         as_count(o.workspace_correction, "config.optimizer.workspace_correction", minimum=0)
         as_count(o.constraint_rounds, "config.optimizer.constraint_rounds", minimum=0)
         as_count(o.convergence_patience, "config.optimizer.convergence_patience", minimum=1)
-        from clamp.optimizers import OPTIMIZERS
         for name, valid in (("optimizer", OPTIMIZERS), ("initialisation", INITIALISATIONS)):
             if getattr(o, name) not in valid:
                 raise InvalidParameterError(f"config.optimizer.{name}: unknown "
@@ -258,3 +263,15 @@ class PlannerConfig:
 
 
 _GROUPS = {"model": ModelConfig, "optimizer": OptimizerConfig, "checks": CheckConfig}
+
+
+def as_config(config: Any) -> PlannerConfig:
+    """``config``, or the default config for None. A PlannerConfig is validated when it is built
+    (:meth:`PlannerConfig.with_` and the constructor), so it is only checked for its type here."""
+    if config is None:
+        return PlannerConfig()
+    if not isinstance(config, PlannerConfig):
+        raise ClampTypeError(f"config: expected a clamp.PlannerConfig (e.g. "
+                                f"PlannerConfig().with_(sigma_obs=0.005)), got "
+                                f"{type(config).__name__}")
+    return config

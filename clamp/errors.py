@@ -1,17 +1,22 @@
 """Error hierarchy of the ``clamp`` package.
 
 Every error raised on bad user input derives from :class:`ClampError`, itself derived from
-the project's root input error ``scenes.errors.InvalidArgumentError`` (a ``ValueError``), so
+the project's root input error ``skillplan.errors.InvalidArgumentError`` (a ``ValueError``), so
 callers can catch one class. Messages name the offending argument and
 state what was expected. Add new classes here (additively); do not rename existing ones.
 """
 from __future__ import annotations
 
-from scenes.errors import InvalidArgumentError
+from skillplan.errors import ArgumentTypeError, InvalidArgumentError
 
 
 class ClampError(InvalidArgumentError):
     """Base class of every error the ``clamp`` package raises on bad input."""
+
+
+class ClampTypeError(ClampError, ArgumentTypeError):
+    """An argument of the wrong kind altogether (e.g. a list where a name is expected): a
+    ClampError and the project's :class:`skillplan.errors.ArgumentTypeError` (a TypeError)."""
 
 
 class ShapeError(ClampError):
@@ -33,11 +38,6 @@ class InsufficientDemonstrationsError(ClampError):
 class DegenerateDemonstrationsError(InsufficientDemonstrationsError):
     """The demonstrations do not vary at some step (identical demonstrations): a prior learned
     from them would claim certainty it does not have."""
-
-
-class ArgumentTypeError(ClampError, TypeError):
-    """An argument of the wrong kind altogether (e.g. a dict where a PlannerConfig is
-    expected, a str where a signed distance field is expected); also a TypeError."""
 
 
 class PriorFileError(ClampError):

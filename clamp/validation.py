@@ -1,4 +1,4 @@
-"""Input checks of the ``clamp`` modules: the project's checks (:mod:`scenes.validation`)
+"""Input checks of the ``clamp`` modules: the project's checks (:mod:`skillplan.validation`)
 raising :mod:`clamp.errors` classes (ShapeError, NonFiniteError, InvalidParameterError)."""
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from clamp.errors import InvalidParameterError, NonFiniteError, ShapeError
-from scenes import validation as _checks
+from skillplan import validation as _checks
 
-#: the clamp error classes, for calling :mod:`scenes.validation` checks without a wrapper here
+#: the clamp error classes, for calling :mod:`skillplan.validation` checks without a wrapper here
 ERRORS = _checks.ErrorKinds(ShapeError, NonFiniteError, InvalidParameterError)
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from scenes.command_line import native_stderr_logged
+from skillplan.command_line import native_stderr_logged
 
 from .errors import CollisionGeometryError, UnknownFrameError, URDFParseError
 from .kinematics import frame_names

@@ -1,19 +1,19 @@
 """Errors raised by the robots package; every one derives from the project's root input error
-``scenes.errors.InvalidArgumentError`` (a ValueError)."""
+``skillplan.errors.InvalidArgumentError`` (a ValueError)."""
 from __future__ import annotations
 
 from collections.abc import Iterable
 
-from scenes.errors import InvalidArgumentError
+from skillplan.errors import ArgumentTypeError, InvalidArgumentError
 
 
 class RobotError(InvalidArgumentError):
     """Base class for bad input to the robots package."""
 
 
-class ArgumentTypeError(RobotError, TypeError):
-    """An argument of the wrong kind altogether (e.g. a list where a robot name is expected);
-    also a TypeError."""
+class RobotTypeError(RobotError, ArgumentTypeError):
+    """An argument of the wrong kind altogether (e.g. a list where a name is expected): a
+    RobotError and the project's :class:`skillplan.errors.ArgumentTypeError` (a TypeError)."""
 
 
 class UnknownRobotError(RobotError):

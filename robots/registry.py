@@ -5,9 +5,9 @@ import importlib.metadata
 from collections.abc import Callable
 from pathlib import Path
 
-from scenes.validation import as_instance
+from skillplan.validation import as_instance
 
-from .errors import ArgumentTypeError, RobotError, UnknownRobotError
+from .errors import RobotTypeError, RobotError, UnknownRobotError
 from .robot import Robot
 
 _HERE = Path(__file__).resolve().parent
@@ -58,7 +58,7 @@ def load_robot(name: str) -> Robot:
     fitted from the URDF's collision geometry on first use.
     """
     as_instance(name, "name", str, f"a robot name (str), one of {', '.join(available_robots())}; "
-                "for another arm use Robot.from_urdf(path, end_effector=...)", ArgumentTypeError)
+                "for another arm use Robot.from_urdf(path, end_effector=...)", RobotTypeError)
     if name not in _BUILTIN:
         raise UnknownRobotError(name, available_robots())
     robot = _BUILTIN[name]()

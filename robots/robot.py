@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from scenes.command_line import native_stderr_logged
+from skillplan.command_line import native_stderr_logged
 
 from .collision_geometry import load_geometry, moves
 from .errors import InvalidArrayError, RobotError, UnknownFrameError, URDFParseError

@@ -63,7 +63,7 @@ from typing import Any
 import coal
 import numpy as np
 
-from scenes.validation import as_time
+from skillplan.validation import as_time
 
 from .collision_check import SLACK, CollisionChecker, motion_lower_bounds
 from .errors import CollisionCheckError

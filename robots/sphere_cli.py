@@ -3,7 +3,7 @@
 ``python -m robots.sphere_cli --robot NAME`` (written to robots/spheres/NAME.json unless
 --out is given) or ``python -m robots.sphere_cli --urdf PATH --out FILE``. An existing --out
 file is replaced only with --force; the file is written atomically. Bad input: one line on
-stderr, exit 2 (:mod:`scenes.command_line`). Kept apart from :mod:`robots.spheres` so the
+stderr, exit 2 (:mod:`skillplan.command_line`). Kept apart from :mod:`robots.spheres` so the
 fitting library does not import the registry (no import cycle).
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from scenes.command_line import (EXIT_OK, CommandLineParser, integer_at_least, native_stderr_logged,
+from skillplan.command_line import (EXIT_OK, CommandLineParser, integer_at_least, native_stderr_logged,
                                  number, output_file, quiet, run)
 
 from .errors import RobotError, URDFParseError

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from scenes.command_line import atomic_write_text
+from skillplan.command_line import atomic_write_text
 
-from .errors import ArgumentTypeError, InvalidArrayError, SphereFileError
+from .errors import RobotTypeError, InvalidArrayError, SphereFileError
 
 FILE_FORMAT = "skillplan-spheres"
 FILE_VERSION = 1
@@ -84,7 +84,7 @@ class SphereModel:
     def for_link(self, link: str) -> tuple[np.ndarray, np.ndarray]:
         """Centres (k, 3) and radii (k,) of the spheres on `link` (k may be 0)."""
         if not isinstance(link, str):
-            raise ArgumentTypeError(f"link: expected a link name (str), got {type(link).__name__}")
+            raise RobotTypeError(f"link: expected a link name (str), got {type(link).__name__}")
         mask = np.array([name == link for name in self.link_names], dtype=bool)
         return self.centres[mask], self.radii[mask]
 

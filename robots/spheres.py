@@ -25,8 +25,8 @@ import pinocchio as pin
 from scipy.optimize import minimize
 from scipy.spatial import cKDTree
 
-from scenes import validation as _checks
-from scenes.progress import progress
+from skillplan import validation as _checks
+from skillplan.progress import progress
 
 from .collision_geometry import LinkSurface, link_surfaces
 from .errors import CollisionGeometryError, UnknownFrameError

@@ -40,10 +40,10 @@ from typing import Any
 
 import numpy as np
 
-from scenes import validation as _checks
-from scenes.command_line import atomic_write_text as _atomic_write_text
+from skillplan import validation as _checks
+from skillplan.command_line import atomic_write_text as _atomic_write_text
 
-from .errors import ArgumentTypeError, TrajectoryError, TrajectoryExistsError, TrajectoryFileError
+from .errors import RobotTypeError, TrajectoryError, TrajectoryExistsError, TrajectoryFileError
 
 #: ``format`` field of every trajectory file; files from a later major version are refused.
 FORMAT = "skillplan.joint_trajectory"
@@ -120,7 +120,7 @@ def joint_units(kinds: Sequence[str]) -> dict[str, str | list[str]]:
 
 def atomic_write_text(path: str | Path, text: str, overwrite: bool = False,
                       exists_error: Callable[[str], Exception] | None = None) -> Path:
-    """Write `text` (UTF-8) to `path` atomically (:func:`scenes.command_line.atomic_write`);
+    """Write `text` (UTF-8) to `path` atomically (:func:`skillplan.command_line.atomic_write`);
     ``exists_error(message)`` builds the error for an existing target (default
     TrajectoryExistsError), a missing folder raises TrajectoryFileError."""
     return _atomic_write_text(path, text, overwrite, exists_error or TrajectoryExistsError, TrajectoryFileError)
@@ -232,7 +232,7 @@ class JointTrajectory:
         the robot; verdict is a JSON-ready dict (e.g. {"success": ..., "reasons": [...]}).
         """
         if not all(hasattr(robot, a) for a in ("n", "joint_names", "name")):
-            raise ArgumentTypeError(f"robot: expected a robots.Robot (n, joint_names, name), got "
+            raise RobotTypeError(f"robot: expected a robots.Robot (n, joint_names, name), got "
                                     f"{type(robot).__name__} {robot!r:.40}")
         n = int(robot.n)
         time = _check_time(time, "time")
@@ -305,7 +305,7 @@ class JointTrajectory:
         accelerations, effort (empty: not commanded) and time_from_start {sec, nanosec}
         (rounded to 1 ns). Robot, URDF, units and verdict stay in the skillplan format."""
         if not isinstance(frame_id, str):
-            raise ArgumentTypeError(f"frame_id: expected a str, got {type(frame_id).__name__}")
+            raise RobotTypeError(f"frame_id: expected a str, got {type(frame_id).__name__}")
         points = [{"positions": p, "velocities": v, "accelerations": a, "effort": [],
                    "time_from_start": ros2_duration(t)}
                   for p, v, a, t in zip(self.positions.tolist(), self.velocities.tolist(),

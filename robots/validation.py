@@ -1,14 +1,14 @@
 """Input checks for the robots package (arrays of joint values and points, random generators):
-the project's checks (:mod:`scenes.validation`) raising robots errors."""
+the project's checks (:mod:`skillplan.validation`) raising robots errors."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
-from scenes import validation as _checks
+from skillplan import validation as _checks
 
-from .errors import ArgumentTypeError, InvalidArrayError, RobotError
+from .errors import RobotTypeError, InvalidArrayError, RobotError
 
 
 def as_array(value, name: str, last_dims: tuple[int, ...], max_leading: int | None = None) -> np.ndarray:
@@ -49,6 +49,6 @@ def as_scalar(x, name: str, minimum: float | None = None, error: type[RobotError
 
 
 def as_file(path, name: str, error: type[RobotError]) -> Path:
-    """An existing regular file (`error` for a missing path or a directory, ArgumentTypeError
+    """An existing regular file (`error` for a missing path or a directory, RobotTypeError
     for something that is not a path)."""
-    return _checks.as_file(path, name, error, ArgumentTypeError)
+    return _checks.as_file(path, name, error, RobotTypeError)

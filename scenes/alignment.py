@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.distance import cdist
 
-from .validation import as_points
+from skillplan.validation import as_points
 
 
 def dtw_cost(reference: np.ndarray, other: np.ndarray) -> np.ndarray:

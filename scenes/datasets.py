@@ -4,8 +4,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from .errors import ArgumentTypeError, InvalidArgumentError
-from .validation import as_instance
+from .errors import ScenesTypeError, InvalidArgumentError
+from skillplan.validation import as_instance
 
 #: Environment variable naming a folder that holds <name>.mat data sets.
 DATASETS_ENV = "SKILLPLAN_DATASETS"
@@ -17,7 +17,7 @@ def shared_dataset(name: str) -> Path | None:
     Looked up in $SKILLPLAN_DATASETS if set, else in ``shared/datasets`` beside the
     repository checkout (``Path(__file__).resolve().parents[2] / "shared" / "datasets"``).
     """
-    as_instance(name, "name", str, "a data set name such as 'box_closing' (str)", ArgumentTypeError)
+    as_instance(name, "name", str, "a data set name such as 'box_closing' (str)", ScenesTypeError)
     if not name or Path(name).name != name or name in (".", ".."):
         raise InvalidArgumentError(f"name: expected a plain data set name such as 'box_closing' "
                                    f"(no folders), got {name!r}")

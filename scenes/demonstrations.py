@@ -11,10 +11,10 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .alignment import dtw_warp
-from .errors import (ArgumentTypeError, DemonstrationFileError, InvalidDemonstrationsError,
+from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrationsError,
                      InvalidObstacleError)
 from .obstacles import Obstacle, obstacle_from_dict
-from .validation import (MAX_COORDINATE, as_array, as_count, as_file, as_path, as_positive, as_sequence,
+from skillplan.validation import (MAX_COORDINATE, as_array, as_count, as_file, as_path, as_positive, as_sequence,
                          as_time, as_vector)
 
 #: Duration (s) given to demonstrations recorded without time stamps (e.g. TLGC smoothData).
@@ -212,7 +212,7 @@ class Demonstrations:
         joint_names (n,).
         """
         trajectories = as_sequence(trajectories, "trajectories", "a list of (T_m, 3) position "
-                                   "arrays", ArgumentTypeError)
+                                   "arrays", ScenesTypeError)
         if len(trajectories) < 2:
             raise _E(f"trajectories: expected at least 2 demonstrations, got {len(trajectories)}")
         paths = []
@@ -274,7 +274,7 @@ class Demonstrations:
             [[ob.to_dict() for ob in group] for group in self.obstacles])
         joints = {} if self.joint_positions is None else {
             "joint_positions": self.joint_positions, "joint_names": np.array(self.joint_names)}
-        np.savez_compressed(as_path(path, "path", ArgumentTypeError), positions=self.positions, velocities=self.velocities, time=self.time,
+        np.savez_compressed(as_path(path, "path", ScenesTypeError), positions=self.positions, velocities=self.velocities, time=self.time,
                             name=np.array(self.name), obstacles=np.array(obstacles), **joints)
 
     @classmethod
@@ -282,7 +282,7 @@ class Demonstrations:
         """Read a file written by :meth:`save_npz`: DemonstrationFileError naming the file when
         it is missing, a folder or not a readable .npz; InvalidDemonstrationsError (naming
         the file and the field) when its arrays are malformed."""
-        path = as_file(path, "path", DemonstrationFileError, ArgumentTypeError)
+        path = as_file(path, "path", DemonstrationFileError, ScenesTypeError)
         try:
             return cls._read_npz(path)
         except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:

@@ -1,17 +1,12 @@
-"""Errors raised on bad input: the project's one hierarchy, rooted here.
-
-:class:`InvalidArgumentError` (a ValueError) is the root of every error the four packages
-raise on bad input; each package's base derives from it (``robots.errors.RobotError``,
-:class:`ScenesError`, ``clamp.errors.ClampError``, ``tlgc.errors.TLGCError``), so a caller
-can catch one class. ``scenes`` is the base the other packages build on, hence the root
-lives here.
-"""
+"""Errors of :mod:`scenes` (obstacles, scene files, demonstrations, skills); they derive from
+the project's root input error :class:`skillplan.errors.InvalidArgumentError`."""
 from __future__ import annotations
 
+from skillplan.errors import ArgumentTypeError, InvalidArgumentError, OutputPathError, OutputWriteError
 
-class InvalidArgumentError(ValueError):
-    """Root of every input error of the project: an argument has the wrong type, shape or
-    value (the message names the argument, what was expected and what was given)."""
+__all__ = ["ScenesTypeError", "InvalidArgumentError", "OutputPathError", "OutputWriteError",
+           "ScenesError", "InvalidObstacleError", "SceneFileError", "InvalidDemonstrationsError",
+           "DemonstrationFileError", "UnknownSkillError"]
 
 
 class ScenesError(InvalidArgumentError):
@@ -19,9 +14,9 @@ class ScenesError(InvalidArgumentError):
     demonstrations, skills)."""
 
 
-class ArgumentTypeError(ScenesError, TypeError):
-    """An argument is of the wrong kind altogether (e.g. a number where a list of obstacles or a
-    file path is expected); also a TypeError."""
+class ScenesTypeError(ScenesError, ArgumentTypeError):
+    """An argument of the wrong kind altogether (e.g. a list where a name is expected): a
+    ScenesError and the project's :class:`skillplan.errors.ArgumentTypeError` (a TypeError)."""
 
 
 class InvalidObstacleError(ScenesError):
@@ -42,14 +37,3 @@ class DemonstrationFileError(ScenesError):
 
 class UnknownSkillError(ScenesError):
     """A synthetic skill name is not one of :data:`scenes.SKILLS`."""
-
-
-class OutputPathError(ScenesError, FileExistsError):
-    """An output file or folder cannot be used: it exists (pass overwrite=True / --force), is
-    not empty, is a file where a folder is expected, or its folder is missing."""
-
-
-class OutputWriteError(OSError):
-    """Writing an output failed part-way (disk full, file too large, an I/O error): not bad
-    input, so not an :class:`InvalidArgumentError`; the message names the user's file and
-    what was kept. Command lines exit 1 on it."""

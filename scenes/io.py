@@ -41,13 +41,13 @@ import numpy as np
 import scipy.io
 
 from .demonstrations import NOMINAL_DURATION, Demonstrations
-from .errors import (ArgumentTypeError, DemonstrationFileError, InvalidDemonstrationsError,
+from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrationsError,
                      InvalidObstacleError)
 from .joint_demonstrations import check_robot, column_order, from_joint_trajectories
 from .obstacles import Box
 from .scene import Scene
 from .smoothing import as_smoothing, smooth_trajectory
-from .validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_sequence, as_time
+from skillplan.validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_sequence, as_time
 
 CSV_COLUMNS = ("demo", "t", "x", "y", "z")
 CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
@@ -66,7 +66,7 @@ def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None, *
     without a robot, a scene count that is not the demonstration count) naming the file and
     what was expected; SceneFileError for a bad scene file.
     """
-    path = as_file(path, "path", DemonstrationFileError, ArgumentTypeError)
+    path = as_file(path, "path", DemonstrationFileError, ScenesTypeError)
     smoothing = as_smoothing(smoothing)
     if robot is not None:
         check_robot(robot)
@@ -81,7 +81,7 @@ def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None, *
     if scenes is None:
         return demos
     scenes = as_sequence(scenes, "scenes", "one scene (a scene JSON path or a scenes.Scene) per "
-                         "demonstration", ArgumentTypeError)
+                         "demonstration", ScenesTypeError)
     if len(scenes) != demos.M:
         raise DemonstrationFileError(f"scenes: expected one scene per demonstration of {path} "
                                      f"({demos.M}), got {len(scenes)}")
@@ -309,8 +309,8 @@ def save_csv(demos: Demonstrations, path: str | Path) -> list[Path]:
     ``<stem>.scene<m>.json`` beside the CSV; returns their paths (empty without obstacles),
     in the order :func:`load_demonstrations` takes them as ``scenes``.
     """
-    as_instance(demos, "demos", Demonstrations, "a scenes.Demonstrations", ArgumentTypeError)
-    path = as_path(path, "path", ArgumentTypeError)
+    as_instance(demos, "demos", Demonstrations, "a scenes.Demonstrations", ScenesTypeError)
+    path = as_path(path, "path", ScenesTypeError)
     scene_paths = []
     for m, group in enumerate(demos.obstacles or []):
         scene_paths.append(path.with_name(f"{path.stem}.scene{m}.json"))

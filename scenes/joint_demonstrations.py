@@ -18,17 +18,17 @@ from typing import Any
 import numpy as np
 
 from .demonstrations import Demonstrations
-from .errors import ArgumentTypeError, InvalidDemonstrationsError
+from .errors import ScenesTypeError, InvalidDemonstrationsError
 from .smoothing import smooth_trajectory
-from .validation import MAX_COORDINATE, as_array, as_sequence, as_time
+from skillplan.validation import MAX_COORDINATE, as_array, as_sequence, as_time
 
 _E = InvalidDemonstrationsError
 
 
 def check_robot(robot: Any) -> Any:
-    """``robot`` when it has joint_names and ee_kinematics (ArgumentTypeError otherwise)."""
+    """``robot`` when it has joint_names and ee_kinematics (ScenesTypeError otherwise)."""
     if not hasattr(robot, "joint_names") or not callable(getattr(robot, "ee_kinematics", None)):
-        raise ArgumentTypeError(f"robot: expected a robots.Robot (robots.load_robot('jaco') or "
+        raise ScenesTypeError(f"robot: expected a robots.Robot (robots.load_robot('jaco') or "
                                 f"robots.Robot.from_urdf(...)) to map joint-space "
                                 f"demonstrations, got {type(robot).__name__} {robot!r:.60}")
     return robot
@@ -55,8 +55,8 @@ def from_joint_trajectories(robot: Any, joint_trajectories: Sequence[Any],
     robot = check_robot(robot)
     n = len(robot.joint_names)
     joint_trajectories = as_sequence(joint_trajectories, "joint_trajectories",
-                                     f"a list of (T_m, {n}) joint arrays", ArgumentTypeError)
-    times = as_sequence(times, "times", "one (T_m,) time array per recording", ArgumentTypeError)
+                                     f"a list of (T_m, {n}) joint arrays", ScenesTypeError)
+    times = as_sequence(times, "times", "one (T_m,) time array per recording", ScenesTypeError)
     if len(times) != len(joint_trajectories):
         raise _E(f"times: expected {len(joint_trajectories)} arrays (one per recording), got "
                  f"{len(times)}")

@@ -31,7 +31,7 @@ from scipy.spatial import cKDTree
 from .errors import InvalidObstacleError
 from .nearest import ball_pairs
 from .obstacles import IndexedObstacle
-from .validation import MAX_COORDINATE, as_array, as_shaped
+from skillplan.validation import MAX_COORDINATE, as_array, as_shaped
 
 # regions of a triangle's closest point (Ericson's order of tests: A, B, AB, C, AC, BC, face)
 _A, _B, _C, _AB, _BC, _CA, _FACE = range(7)

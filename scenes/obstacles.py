@@ -38,7 +38,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .errors import InvalidObstacleError
-from .validation import MAX_COORDINATE, as_array, as_points, as_scalar, as_vector
+from skillplan.validation import MAX_COORDINATE, as_array, as_points, as_scalar, as_vector
 
 
 def _frozen(arr: np.ndarray) -> np.ndarray:

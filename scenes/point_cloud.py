@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 from .errors import InvalidObstacleError
 from .nearest import ball_pairs
 from .obstacles import IndexedObstacle
-from .validation import MAX_COORDINATE, as_array, as_scalar, as_shaped
+from skillplan.validation import MAX_COORDINATE, as_array, as_scalar, as_shaped
 
 
 def _unit_from(offset: np.ndarray, length: np.ndarray) -> np.ndarray:

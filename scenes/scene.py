@@ -34,15 +34,15 @@ from typing import Any
 
 import numpy as np
 
-from .command_line import atomic_write, atomic_write_text
-from .errors import (ArgumentTypeError, InvalidArgumentError, InvalidObstacleError, OutputPathError,
+from skillplan.command_line import atomic_write, atomic_write_text
+from .errors import (ScenesTypeError, InvalidArgumentError, InvalidObstacleError, OutputPathError,
                      SceneFileError)
 from .mesh import TriangleMesh
 from .nearest import Nearest
 from .obstacles import OBSTACLE_TYPES, Obstacle, as_coords, obstacle_from_dict
 from .point_cloud import PointCloud
 from .sdf import DEFAULT_CELL_SIZE, SignedDistanceField, check_cell_size
-from .validation import MAX_COORDINATE, as_bounds, as_instance, as_path, as_scalar, as_sequence
+from skillplan.validation import MAX_COORDINATE, as_bounds, as_instance, as_path, as_scalar, as_sequence
 
 #: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3))
 DistanceQuery = Callable[[Any], tuple[np.ndarray, np.ndarray]]
@@ -68,7 +68,7 @@ class Scene:
         if isinstance(obstacles, Obstacle):
             obstacles = (obstacles,)
         obstacles = tuple(as_sequence(obstacles, "obstacles", "a list of scenes obstacles (Box, "
-                                      "Sphere, Cylinder, Capsule) or one obstacle", ArgumentTypeError))
+                                      "Sphere, Cylinder, Capsule) or one obstacle", ScenesTypeError))
         for i, ob in enumerate(obstacles):
             if not isinstance(ob, Obstacle):
                 raise InvalidObstacleError(f"obstacles[{i}]: expected a scenes Obstacle (Box, Sphere, "
@@ -181,7 +181,7 @@ class Scene:
         raw = data.get("obstacles", [])
         if not isinstance(raw, list):
             raise SceneFileError(f"{source}: field 'obstacles' must be a list, got {type(raw).__name__}")
-        folder = Path(".") if folder is None else as_path(folder, "folder", ArgumentTypeError)
+        folder = Path(".") if folder is None else as_path(folder, "folder", ScenesTypeError)
         obstacles = []
         for i, item in enumerate(raw):
             where = f"obstacles[{i}]"
@@ -206,7 +206,7 @@ class Scene:
     def load(cls, path: str | Path) -> "Scene":
         """Read a JSON scene file (and the .npz files it names, beside it); SceneFileError on
         unreadable or malformed content."""
-        path = as_path(path, "path", ArgumentTypeError)
+        path = as_path(path, "path", ScenesTypeError)
         if path.is_dir():
             raise SceneFileError(f"{path}: is a directory, expected a scene JSON file")
         try:
@@ -226,7 +226,7 @@ class Scene:
         (``{"type": "mesh", "file": ...}``; written first, so the JSON never names a missing
         file). A scene with inline arrays is written unindented (a cloud's points would take
         a line per number)."""
-        path = as_path(path, "path", ArgumentTypeError)
+        path = as_path(path, "path", ScenesTypeError)
         if arrays not in ("inline", "npz"):
             raise InvalidArgumentError(f"arrays: expected 'inline' or 'npz', got {arrays!r}")
         sidecars = {i: path.with_name(f"{path.stem}.obstacle{i}.npz") for i, ob in enumerate(self._obstacles)
@@ -324,7 +324,7 @@ def available_scenes() -> tuple[str, ...]:
 
 def builtin_scene(name: str) -> Scene:
     """A scene shipped with the package (see :func:`available_scenes`), e.g. ``"box_closing"``."""
-    as_instance(name, "name", str, "a scene name (str)", ArgumentTypeError)
+    as_instance(name, "name", str, "a scene name (str)", ScenesTypeError)
     names = available_scenes()
     if name not in names:
         raise SceneFileError(f"scene name: unknown {name!r}; expected one of {list(names)}")

@@ -26,7 +26,7 @@ from scipy.ndimage import distance_transform_edt
 from .errors import InvalidArgumentError, InvalidObstacleError
 from .nearest import Nearest
 from .obstacles import Obstacle
-from .validation import as_bounds, as_points, as_positive
+from skillplan.validation import as_bounds, as_points, as_positive
 
 #: Largest allowed (and default) cell size in metres.
 DEFAULT_CELL_SIZE = 0.01

@@ -43,7 +43,7 @@ from scipy.interpolate import CubicSpline, make_smoothing_spline
 from scipy.signal import savgol_coeffs, savgol_filter
 
 from .errors import InvalidArgumentError
-from .validation import as_array, as_time
+from skillplan.validation import as_array, as_time
 
 log = logging.getLogger(__name__)
 

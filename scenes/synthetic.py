@@ -24,7 +24,7 @@ from scipy.interpolate import CubicSpline
 from .demonstrations import Demonstrations
 from .errors import InvalidArgumentError, UnknownSkillError
 from .obstacles import Box, Obstacle
-from .validation import as_count, as_positive, as_seed
+from skillplan.validation import as_count, as_positive, as_seed
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""3-D animation (clamp.animation): one offline HTML file; headless Chromium sees the arm move."""
+"""3-D animation (clamp.viz.animation): one offline HTML file; headless Chromium sees the arm move."""
 from __future__ import annotations
 
 import re
@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("meshcat", reason="the animation needs meshcat (pip install meshcat)")
 
 from chromium import CHROMIUM, MISSING, screenshot  # noqa: E402
-from clamp.animation import AnimationError, surface_from_grid, write_animation  # noqa: E402
+from clamp.viz.animation import AnimationError, surface_from_grid, write_animation  # noqa: E402
 from clamp.errors import ClampError  # noqa: E402
 from scenes import Box, Capsule, Cylinder, Scene, Sphere  # noqa: E402
 
@@ -77,7 +77,7 @@ def test_capsule_is_drawn_as_its_surface():
     """The capsule mesh's vertices lie on the capsule: radius from its segment (z in
     [-height/2, height/2]), both caps and the side present."""
     import meshcat.geometry as mg
-    from clamp.animation import _capsule_mesh
+    from clamp.viz.animation import _capsule_mesh
     radius, height = 0.04, 0.2
     mesh = _capsule_mesh(mg, radius, height)
     v = np.asarray(mesh.vertices)
@@ -91,7 +91,7 @@ def test_capsule_is_drawn_as_its_surface():
 
 def test_floor_lies_at_z_0_under_the_scene():
     import meshcat.geometry as mg
-    from clamp.animation import FLOOR_CELL, _floor
+    from clamp.viz.animation import FLOOR_CELL, _floor
     low, high = np.array([-0.33, -0.51, 0.2]), np.array([0.62, 0.4, 0.9])
     points = np.asarray(_floor(mg, low, high).geometry.position)
     points = points.T if points.shape[0] == 3 else points
@@ -103,7 +103,7 @@ def test_floor_lies_at_z_0_under_the_scene():
 def test_camera_distance_frames_every_point_tightly():
     """Projected with a look-at camera (z up), every point lies within CAMERA_FILL of the
     view's half extents and one reaches it."""
-    from clamp.animation import CAMERA_ASPECT, CAMERA_FILL, CAMERA_FOV, camera_distance
+    from clamp.viz.animation import CAMERA_ASPECT, CAMERA_FILL, CAMERA_FOV, camera_distance
     rng = np.random.default_rng(1)
     points = rng.uniform(-0.5, 0.8, size=(200, 3))
     centre, direction = points.mean(axis=0), np.array([1.0, 0.75, 0.6]) / np.linalg.norm([1.0, 0.75, 0.6])
@@ -179,7 +179,7 @@ def test_arm_is_drawn_in_the_planning_frame(name):
     drawn there must be where robot.fk (the planner's frame) puts it."""
     import pinocchio as pin
 
-    from clamp.animation import planning_frame_transform
+    from clamp.viz.animation import planning_frame_transform
     from robots import load_robot
 
     robot = load_robot(name)

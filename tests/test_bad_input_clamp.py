@@ -12,33 +12,34 @@ import pytest
 
 from bad_input import Case, cases, check
 from clamp import PlannerConfig, build, learn_prior, plan, replan
-from clamp.animation import write_animation
-from clamp.batch import LocalPool, plan_many, read_results
-from clamp.batch_report import reason_key, summarize, summary_table
-from clamp.conditioning import condition_prior, planning_prior
-from clamp.errors import (ArgumentTypeError, ClampError, DegenerateDemonstrationsError,
+from clamp.viz.animation import write_animation
+from clamp.batch.runner import LocalPool, plan_many, read_results
+from clamp.batch.report import reason_key, summarize, summary_table
+from clamp.prior.conditioning import condition_prior
+from clamp.planning.reference import planning_prior
+from clamp.errors import (ClampTypeError, ClampError, DegenerateDemonstrationsError,
                           InsufficientDemonstrationsError, InvalidParameterError, NonFiniteError,
                           PriorFileError, ShapeError)
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
                            ObstacleFamily, OrientationFamily, WorkspaceGPFamily,
                            WorkspaceStartFamily)
-from clamp.initialisation import prior_mean_initialisation, straight_line_initialisation
-from clamp.learning import check_spread, learn_joint_prior
-from clamp.obstacle_weighting import ObstacleWeighting, demonstration_weights
-from clamp.optimizers import optimize
-from clamp.plan_plots import (plot_clearance, plot_joint_angles, plot_orientation, plot_plan_3d,
+from clamp.planning.initialisation import prior_mean_initialisation, straight_line_initialisation
+from clamp.prior.learning import check_spread, learn_joint_prior
+from clamp.prior.obstacle_weighting import ObstacleWeighting, demonstration_weights
+from clamp.optim.optimizers import optimize
+from clamp.viz.plan_plots import (plot_clearance, plot_joint_angles, plot_orientation, plot_plan_3d,
                               plot_plan_uncertainty, plot_top_view)
-from clamp.plausibility import plausibility
-from clamp.prior import WorkspacePrior
-from clamp.prior_plots import plot_prior_3d, plot_prior_time, plot_weighted_priors
-from clamp.problem_sets import across_robots, scene_benchmark, start_problems, start_region
-from clamp.problems import (Problem, ProblemFormatError, make_problem, read_problems,
+from clamp.prior.plausibility import plausibility
+from clamp.prior.linear_gaussian import WorkspacePrior
+from clamp.viz.prior_plots import plot_prior_3d, plot_prior_time, plot_weighted_priors
+from clamp.batch.problem_sets import across_robots, scene_benchmark, start_problems, start_region
+from clamp.batch.problems import (Problem, ProblemFormatError, make_problem, read_problems,
                             write_problems)
-from clamp.request import make_request
-from clamp.uncertainty import block_tridiagonal_inverse
+from clamp.planning.request import make_request
+from clamp.optim.uncertainty import block_tridiagonal_inverse
 from clamp.validation import as_array, as_count, as_scalar, as_time
-from clamp.verdict import sphere_clearance
-from robots.errors import ArgumentTypeError as RobotTypeError
+from clamp.planning.verdict import sphere_clearance
+from robots.errors import RobotTypeError
 from robots.errors import RobotError, UnknownRobotError
 from scenes import Box, Demonstrations, Scene, make_demonstrations
 from scenes.errors import InvalidArgumentError, InvalidObstacleError, SceneFileError
@@ -99,7 +100,7 @@ def _prior_arrays(fx, **changes):
 
 
 PF = ProblemFormatError
-S, NF, P, T, I = ShapeError, NonFiniteError, InvalidParameterError, ArgumentTypeError, \
+S, NF, P, T, I = ShapeError, NonFiniteError, InvalidParameterError, ClampTypeError, \
     InsufficientDemonstrationsError
 
 CATALOGUE: list[Case] = [
@@ -287,7 +288,7 @@ CATALOGUE: list[Case] = [
     Case("replan-config-dict", lambda fx: replan(fx.result, config={"sigma_obs": 0.01}), T, "config"),
     Case("replan-covariance-text", lambda fx: replan(fx.result, goal=[0.3, -0.3, 0.2], covariance="no"),
          P, "covariance"),
-    # --- conditioning (clamp.conditioning)
+    # --- conditioning (clamp.prior.conditioning)
     Case("condition-prior-type", lambda fx: condition_prior("prior.npz", [(0, START)]), T, "prior"),
     Case("condition-index-range", lambda fx: condition_prior(fx.prior, [(99, START)]), P, "observations[0]"),
     Case("condition-index-float", lambda fx: condition_prior(fx.prior, [(1.5, START)]), P, "observations[0]"),
@@ -417,13 +418,13 @@ CATALOGUE: list[Case] = [
                                                                       -1.0), P, "epsilon"),
     Case("sphere-clearance-scene", lambda fx: sphere_clearance(fx.robot, 42, np.zeros((3, fx.robot.n))), T,
          "scene"),
-    # --- problem and configuration (clamp.problem, clamp.config)
+    # --- problem and configuration (clamp.graph.problem, clamp.config)
     Case("problem-values-shape", lambda fx: build(fx.prior, fx.robot, None, START).values(np.zeros((3, 3))),
          S, "theta"),
     Case("config-fast-unknown", lambda fx: PlannerConfig.fast(bogus=1), P, "bogus"),
     Case("config-fast-iterations", lambda fx: PlannerConfig.fast(max_iterations=-1), P, "max_iterations"),
     Case("check-spread-shape", lambda fx: check_spread(np.zeros((3, 2))), S, "states"),
-    # --- problems as data (clamp.problems)
+    # --- problems as data (clamp.batch.problems)
     Case("problem-id-number", lambda fx: make_problem(5, SKILL, "jaco", START), PF, "id"),
     Case("problem-id-empty", lambda fx: make_problem("", SKILL, "jaco", START), PF, "id"),
     Case("problem-start-text", lambda fx: make_problem("a", SKILL, "jaco", "abc"), PF, "start"),
@@ -489,7 +490,7 @@ CATALOGUE: list[Case] = [
          PF, "already exists"),
     Case("write-problems-overwrite", lambda fx: write_problems([_problem()], fx.tmp / "w.jsonl",
                                                                overwrite="yes"), P, "overwrite"),
-    # --- many plans (clamp.batch, clamp.problem_sets, clamp.batch_report)
+    # --- many plans (clamp.batch.runner, clamp.batch.problem_sets, clamp.batch.report)
     Case("plan-many-items", lambda fx: list(plan_many([1])), P, "problems[0]"),
     Case("plan-many-none", lambda fx: list(plan_many(None)), T, "problems"),
     Case("plan-many-duplicate", lambda fx: list(plan_many([_problem()] * 2)), PF, "problems[1]"),
@@ -611,7 +612,7 @@ def test_joint_start_outside_limits_names_joint_and_excess(fx) -> None:
 
 
 def test_plan_limit_reason_names_the_worst_joint(fx) -> None:
-    from clamp.limit_report import limit_violations
+    from clamp.planning.limit_report import limit_violations
     robot = fx.robot
     q = np.tile(robot.neutral_configuration(), (5, 1))
     qdot = np.zeros_like(q)

@@ -9,7 +9,7 @@ import pytest
 
 from bad_input import Case, cases, check
 from robots import Robot, load_robot
-from robots.errors import (ArgumentTypeError, InvalidArrayError, RetimingError, RobotError,
+from robots.errors import (RobotTypeError, InvalidArrayError, RetimingError, RobotError,
                            SphereFileError, TrajectoryError, TrajectoryFileError,
                            UnknownFrameError, UnknownRobotError, URDFParseError)
 from robots.retiming import check_limits, retime, uniform_scaling
@@ -37,7 +37,7 @@ def _write(fx, name: str, text: str | bytes):
     return path
 
 
-IA, E, F = InvalidArrayError, ArgumentTypeError, UnknownFrameError
+IA, E, F = InvalidArrayError, RobotTypeError, UnknownFrameError
 URDF = """<robot name="r"><link name="a"/><link name="b"/>
 <joint name="j" type="revolute"><parent link="a"/><child link="b"/>
 <limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>"""

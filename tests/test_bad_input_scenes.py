@@ -14,14 +14,14 @@ from bad_input import Case, cases, check
 from scenes import (Box, Capsule, Cylinder, Demonstrations, Scene, SignedDistanceField, Sphere,
                     builtin_scene, load_demonstrations, make_cluttered_demonstrations,
                     make_demonstrations, save_csv, shared_dataset)
-from scenes.command_line import (atomic_write, atomic_write_text, integer_at_least,
+from skillplan.command_line import (atomic_write, atomic_write_text, integer_at_least,
                                  output_directory, output_file)
-from scenes.errors import (ArgumentTypeError, DemonstrationFileError, InvalidArgumentError,
+from scenes.errors import (ScenesTypeError, DemonstrationFileError, InvalidArgumentError,
                            InvalidDemonstrationsError, InvalidObstacleError, OutputPathError,
                            SceneFileError, UnknownSkillError)
 from scenes.obstacles import obstacle_from_dict
-from scenes.progress import progress, set_progress
-from scenes.validation import as_array, as_file, as_indices, as_instance, as_path, as_seed, as_sequence
+from skillplan.progress import progress, set_progress
+from skillplan.validation import as_array, as_file, as_indices, as_instance, as_path, as_seed, as_sequence
 
 BOX = Box([0.3, -0.3, 0.2], [0.1, 0.1, 0.1])
 
@@ -100,7 +100,7 @@ def _csv_demo(label: int, count: int, step: float = 0.1, t0: float = 0.0) -> lis
             for k in range(count)]
 
 
-E, IA, O, SF, DF, DE = (ArgumentTypeError, InvalidArgumentError, InvalidObstacleError,
+E, IA, O, SF, DF, DE = (ScenesTypeError, InvalidArgumentError, InvalidObstacleError,
                          SceneFileError, DemonstrationFileError, InvalidDemonstrationsError)
 
 CATALOGUE: list[Case] = [
@@ -320,7 +320,7 @@ CATALOGUE: list[Case] = [
     Case("load-npz-directory", lambda fx: Demonstrations.load_npz(fx.tmp), DF, "directory"),
     Case("load-npz-junk", lambda fx: Demonstrations.load_npz(_write(fx, "junk.npz", b"junk")), DF,
          "junk.npz"),
-    # --- command-line helpers and progress bars (scenes.command_line, scenes.progress)
+    # --- command-line helpers and progress bars (skillplan.command_line, skillplan.progress)
     Case("output-directory-type", lambda fx: output_directory(42), E, "--out"),
     Case("output-directory-file", lambda fx: output_directory(_write(fx, "a.txt", "x")), OutputPathError,
          "--out"),
@@ -343,7 +343,7 @@ CATALOGUE: list[Case] = [
     Case("progress-description", lambda fx: progress([1], description=5), E, "description"),
     Case("progress-total", lambda fx: progress([1], description="x", total=-1), IA, "total"),
     Case("set-progress-text", lambda fx: set_progress("yes"), E, "enabled"),
-    # --- scenes.validation helpers (the one helper the packages wrap)
+    # --- skillplan.validation helpers (the one helper the packages wrap)
     Case("validation-seed-negative", lambda fx: as_seed(-1, "seed"), IA, "seed"),
     Case("validation-seed-float", lambda fx: as_seed(1.5, "seed"), IA, "seed"),
     Case("validation-instance", lambda fx: as_instance("x", "scene", Scene, "a Scene", E), E, "scene"),

@@ -14,7 +14,7 @@ from tlgc import (GeneralizedCylinder, fit_cylinder, random_starts, ratio_schedu
 from tlgc.boundary_factor import BoundaryFamily, boundary_distance, boundary_residuals, section_indices
 from tlgc.bounding_sphere import bounding_sphere, minimal_bounding_sphere
 from tlgc.cylinder import check_cylinder
-from tlgc.errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
+from tlgc.errors import (CylinderFileError, TLGCArgumentError, CylinderDemonstrationsError,
                          StartOffPlaneError, StartOutsideError, TLGCError,
                          TooFewDemonstrationsError, UnknownCrossSectionError)
 from tlgc.generalization import (fit_similarity, fit_tps, landmark_constraints, lte_deform,
@@ -42,7 +42,7 @@ def _write(fx, name: str, data: bytes):
     return path
 
 
-IA, ID = InvalidArgumentError, InvalidDemonstrationsError
+IA, ID = TLGCArgumentError, CylinderDemonstrationsError
 PATH = np.column_stack([np.linspace(0, 1, 20), np.zeros(20), np.zeros(20)])
 
 CATALOGUE: list[Case] = [

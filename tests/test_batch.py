@@ -1,4 +1,4 @@
-"""Many plans (clamp.batch, clamp batch): executors agree, a killed worker loses nothing, a
+"""Many plans (clamp.batch.runner, clamp batch): executors agree, a killed worker loses nothing, a
 stopped batch resumes, bad problems are recorded, the command line works."""
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clamp.batch import LocalPool, plan_many, read_results
-from clamp.problem_sets import start_problems
-from clamp.problems import make_problem, write_problems
+from clamp.batch.runner import LocalPool, plan_many, read_results
+from clamp.batch.problem_sets import start_problems
+from clamp.batch.problems import make_problem, write_problems
 from scenes import Box, Scene
 
 SHORT = {"skill": "box_closing", "seed": 0, "num_demos": 6, "num_points": 40}

@@ -1,4 +1,4 @@
-"""Batch runs that never duplicate or lose work (clamp.batch, clamp batch): one run per results
+"""Batch runs that never duplicate or lose work (clamp.batch.runner, clamp batch): one run per results
 file, no worker outliving its batch, a dead worker costing only its own problem, strict JSON
 lines, output trouble refused before any work, one-line messages naming the user's path."""
 from __future__ import annotations
@@ -16,10 +16,10 @@ from pathlib import Path
 
 import pytest
 
-from clamp.batch import LocalPool, ResultsFile, pending_problems, plan_many, read_results
-from clamp.batch_report import reason_key, summarize
+from clamp.batch.runner import LocalPool, ResultsFile, pending_problems, plan_many, read_results
+from clamp.batch.report import reason_key, summarize
 from clamp.errors import InvalidParameterError
-from clamp.problems import make_problem, write_problems
+from clamp.batch.problems import make_problem, write_problems
 from test_batch import SHORT, _problems
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -218,7 +218,7 @@ def read_only_folder(tmp_path) -> Iterator[Path]:
 
 
 def _main(args: list, capfd) -> tuple[int, str]:
-    from clamp.cli import main
+    from clamp.cli.main import main
     code = main([str(a) for a in args])
     return code, capfd.readouterr().err
 

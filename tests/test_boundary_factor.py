@@ -12,7 +12,7 @@ from clamp.factors import StateWindow
 from tlgc.boundary_factor import (BoundaryFamily, boundary_distance, boundary_residuals,
                                   section_indices)
 from tlgc.cylinder import fit_cylinder
-from tlgc.errors import InvalidArgumentError
+from tlgc.errors import TLGCArgumentError
 
 T = 12
 
@@ -37,9 +37,9 @@ def test_section_indices_match_normalised_index():
     np.testing.assert_array_equal(section_indices(np.arange(5), 5, 101), [0, 25, 50, 75, 100])
     np.testing.assert_array_equal(section_indices(np.arange(3), 3, 3), [0, 1, 2])
     assert section_indices(np.array(0), 1, 50) == 0
-    with pytest.raises(InvalidArgumentError, match="index"):
+    with pytest.raises(TLGCArgumentError, match="index"):
         section_indices(np.array([5]), 5, 10)
-    with pytest.raises(InvalidArgumentError, match="num_states"):
+    with pytest.raises(TLGCArgumentError, match="num_states"):
         section_indices(np.array([0]), 0, 10)
 
 
@@ -99,18 +99,18 @@ def test_family_restricts_states_and_checks_arguments():
     np.testing.assert_array_equal(family.first, [0, 5])
     np.testing.assert_array_equal(family.sections, section_indices(np.array([0, 5]), T,
                                                                   cyl.num_sections))
-    with pytest.raises(InvalidArgumentError, match="cylinder"):
+    with pytest.raises(TLGCArgumentError, match="cylinder"):
         BoundaryFamily("tube", T)
-    with pytest.raises(InvalidArgumentError, match="sigma"):
+    with pytest.raises(TLGCArgumentError, match="sigma"):
         BoundaryFamily(cyl, T, sigma=0.0)
-    with pytest.raises(InvalidArgumentError, match="num_states"):
+    with pytest.raises(TLGCArgumentError, match="num_states"):
         BoundaryFamily(cyl, 0)
-    with pytest.raises(InvalidArgumentError, match="states"):
+    with pytest.raises(TLGCArgumentError, match="states"):
         BoundaryFamily(cyl, T, states=["a"])
 
 
 def test_clamp_plan_stays_inside_cylinder_with_the_factor():
-    pytest.importorskip("clamp.planner", reason="needs the CLAMP planner")
+    pytest.importorskip("clamp.planning.planner", reason="needs the CLAMP planner")
     from tlgc.demo_clamp_cylinder import run_clamp_cylinder_demo
 
     demo = run_clamp_cylinder_demo("reach_from_above", "jaco", num_states=40, goal_offset=0.05)

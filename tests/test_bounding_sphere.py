@@ -7,7 +7,7 @@ from scipy.optimize import nnls
 
 from scenes import Box, Cylinder, Sphere
 from tlgc.bounding_sphere import BoundingSphere, bounding_sphere, minimal_bounding_sphere
-from tlgc.errors import InvalidArgumentError
+from tlgc.errors import TLGCArgumentError
 
 
 def _is_minimal(points: np.ndarray, sphere: BoundingSphere) -> bool:
@@ -56,11 +56,11 @@ def test_primitive_obstacles_match_their_sampled_points():
 
 
 def test_bad_obstacles_raise():
-    with pytest.raises(InvalidArgumentError, match="obstacle"):
+    with pytest.raises(TLGCArgumentError, match="obstacle"):
         bounding_sphere("rock")
-    with pytest.raises(InvalidArgumentError, match="points"):
+    with pytest.raises(TLGCArgumentError, match="points"):
         minimal_bounding_sphere(np.zeros((0, 3)))
-    with pytest.raises(InvalidArgumentError, match="NaN"):
+    with pytest.raises(TLGCArgumentError, match="NaN"):
         minimal_bounding_sphere([[0, 0, np.nan]])
-    with pytest.raises(InvalidArgumentError, match="radius"):
+    with pytest.raises(TLGCArgumentError, match="radius"):
         bounding_sphere(([0, 0, 0], -1.0))

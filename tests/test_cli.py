@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from clamp.cli import main
+from clamp.cli.main import main
 
 
 @pytest.fixture(scope="module")

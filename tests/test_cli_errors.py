@@ -46,7 +46,7 @@ def files(tmp_path_factory) -> Path:
     (work / "existing_file").write_text("keep me")
     (work / "full").mkdir()
     (work / "full" / "mine.txt").write_text("keep me too")
-    from clamp.problems import make_problem, write_problems
+    from clamp.batch.problems import make_problem, write_problems
     write_problems([make_problem("p", {"skill": "box_closing", "num_points": 30}, "jaco",
                                  [0.2, -0.47, 0.27])], work / "problems.jsonl")
     return work
@@ -160,7 +160,7 @@ CATALOGUE: list[tuple[list[str], str]] = [
 ]
 
 
-MAINS = {"clamp": "clamp.cli", "tlgc.cli": "tlgc.cli", "robots.sphere_cli": "robots.sphere_cli",
+MAINS = {"clamp": "clamp.cli.main", "tlgc.cli": "tlgc.cli", "robots.sphere_cli": "robots.sphere_cli",
          "tlgc.demo_clamp_cylinder": "tlgc.demo_clamp_cylinder"}
 
 
@@ -241,7 +241,7 @@ def test_version_prints_the_package_version(entry, capsys):
 
 
 def test_debug_shows_the_traceback(tmp_path):
-    from clamp.cli import main
+    from clamp.cli.main import main
     from clamp.errors import InvalidParameterError
     with pytest.raises(InvalidParameterError, match="epsilon"):
         main(["demo", "--epsilon", "-1", "--out", str(tmp_path / "o"), "--debug"])

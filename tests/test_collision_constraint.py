@@ -1,5 +1,5 @@
 """Plans judged on the real collision geometry and collision-free as a constraint (issue 9):
-clamp.clearance (the verdict's check) and clamp.constrained (the constrained solve).
+clamp.planning.clearance (the verdict's check) and clamp.optim.constrained (the constrained solve).
 
 Collision-freeness is checked independently of the planner's own search: coal on every
 link-obstacle pair (CollisionChecker.distances, brute force) at the support states and at four
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from clamp import PlannerConfig, build, learn_prior, plan
-from clamp.clearance import check_clearance, checker
-from clamp.detours import detour_paths
-from clamp.verdict import sphere_clearance
+from clamp.planning.clearance import check_clearance, checker
+from clamp.planning.detours import detour_paths
+from clamp.planning.verdict import sphere_clearance
 from robots import Robot
 from robots.collision_check import CollisionChecker
 from robots.registry import example_robot_data_share
@@ -195,8 +195,8 @@ def test_a_velocity_excess_is_tightened_away(jaco):
     velocities."""
     from pathlib import Path
 
-    from clamp.batch import resolve
-    from clamp.problem_sets import scene_benchmark
+    from clamp.batch.runner import resolve
+    from clamp.batch.problem_sets import scene_benchmark
     problem = scene_benchmark(118, "jaco")[117]
     assert problem.expected == "feasible"
     kwargs = resolve(problem, Path("."))
@@ -223,7 +223,7 @@ def test_soft_start_ends_at_an_optimum_of_the_configured_problem(prior, jaco):
     solve at the configured weight starts: the plan's error is the configured problem's at the
     plan, the cold solver started from the plan finds nothing better (to its tolerance), and
     the configured attempt reports the iterations of both stages."""
-    from clamp.solver import levenberg_marquardt
+    from clamp.optim.solver import levenberg_marquardt
     scene = Scene([README_BOX])
     soft = plan(prior, jaco, scene, START, covariance=False)
     direct = plan(prior, jaco, scene, START, covariance=False,

@@ -9,7 +9,7 @@ import logging
 import numpy as np
 import pytest
 
-from clamp.clearance import collision_reason
+from clamp.planning.clearance import collision_reason
 from robots import Robot, RobotError, collision_check
 from robots.collision_check import CollisionChecker
 from robots.errors import URDFParseError

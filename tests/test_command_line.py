@@ -1,11 +1,11 @@
-"""scenes.command_line: atomic writes, output folders, one-line usage errors, logging restored."""
+"""skillplan.command_line: atomic writes, output folders, one-line usage errors, logging restored."""
 from __future__ import annotations
 
 import logging
 
 import pytest
 
-from scenes.command_line import (CommandLineParser, atomic_write, atomic_write_text, output_directory,
+from skillplan.command_line import (CommandLineParser, atomic_write, atomic_write_text, output_directory,
                                  output_file, run)
 from scenes.errors import InvalidArgumentError, OutputPathError
 
@@ -95,7 +95,7 @@ def test_logging_is_restored_after_a_run(capfd):
 
 
 def test_progress_bars_follow_the_setting(capfd):
-    from scenes.progress import progress, set_progress
+    from skillplan.progress import progress, set_progress
     previous = set_progress(True)
     try:
         for _ in progress(range(3), description="counting"):

@@ -1,12 +1,12 @@
 """Goals and via points met exactly: the prior conditioned on target positions
-(clamp.conditioning) and the planner's target checks (clamp.targets)."""
+(clamp.prior.conditioning) and the planner's target checks (clamp.planning.targets)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from clamp import PlannerConfig, learn_prior, plan
-from clamp.conditioning import condition_prior
+from clamp.prior.conditioning import condition_prior
 from scenes import make_demonstrations
 
 START = np.array([0.2054, -0.4722, 0.2625])      # the README's start

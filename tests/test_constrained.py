@@ -1,9 +1,9 @@
-"""The augmented-Lagrangian solve of clamp.constrained, on both arms at random points:
+"""The augmented-Lagrangian solve of clamp.optim.constrained, on both arms at random points:
 
 - a constraint family's shifts move its hinges: e = max(0, g + s) for the unshifted hinge g
   (measured from the unshifted kernel wherever it is active), Jacobians still those of g
   (central differences), the GTSAM adapters the same kernel; cost families have no shifts;
-- one multiplier update (:func:`clamp.constrained.augmented`): the shift of a violated family
+- one multiplier update (:func:`clamp.optim.constrained.augmented`): the shift of a violated family
   becomes its current residual, its noise is divided by STIFFEN at its first update (and its
   shifts by STIFFEN^2, so lambda = mu s is the same multiplier), a family the checks did not
   name is left as it is, a lazy family joins unshifted at its configured noise.
@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clamp.constrained import PROGRESS, STIFFEN, augmented
+from clamp.optim.constrained import PROGRESS, STIFFEN, augmented
 from clamp.errors import InvalidParameterError
 from clamp.factors import PostureFamily, SelfCollisionFamily
-from clamp.problem import PlanningProblem
+from clamp.graph.problem import PlanningProblem
 from tests.test_families import (assert_jacobians_match_finite_differences, dense_residual,
                                  make_families, random_theta, whitened_rows)
 

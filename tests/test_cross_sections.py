@@ -6,7 +6,7 @@ import pytest
 
 from tlgc.cross_sections import (CROSS_SECTION_TYPES, MIN_RADIUS, CircleSections, EllipseSections,
                                  SplineSections, cross_section_type, fit_cross_sections, polar)
-from tlgc.errors import InvalidArgumentError, UnknownCrossSectionError
+from tlgc.errors import TLGCArgumentError, UnknownCrossSectionError
 
 KINDS = sorted(CROSS_SECTION_TYPES)
 
@@ -204,15 +204,15 @@ def test_errors_name_the_argument():
     with pytest.raises(UnknownCrossSectionError, match="circle, ellipse, spline"):
         cross_section_type("square")
     sections = CircleSections(np.ones(3))
-    with pytest.raises(InvalidArgumentError, match=r"index.*\[0, 3\)"):
+    with pytest.raises(TLGCArgumentError, match=r"index.*\[0, 3\)"):
         sections.radius(3, 0.0)
-    with pytest.raises(InvalidArgumentError, match="index: expected integers"):
+    with pytest.raises(TLGCArgumentError, match="index: expected integers"):
         sections.radius(0.5, 0.0)
-    with pytest.raises(InvalidArgumentError, match=r"index.*\[0, 3\)"):
+    with pytest.raises(TLGCArgumentError, match=r"index.*\[0, 3\)"):
         sections.radius_derivative(np.array([0, 3]), 0.0)
-    with pytest.raises(InvalidArgumentError, match="radii"):
+    with pytest.raises(TLGCArgumentError, match="radii"):
         CircleSections(np.array([1.0, -1.0]))
-    with pytest.raises(InvalidArgumentError, match="breaks"):
+    with pytest.raises(TLGCArgumentError, match="breaks"):
         SplineSections(np.zeros((2, 3)), np.zeros((2, 2, 4)))
 
 

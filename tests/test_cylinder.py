@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from scenes import load_demonstrations, make_demonstrations
-from tlgc import (CROSS_SECTION_TYPES, GeneralizedCylinder, InvalidArgumentError,
-                  InvalidDemonstrationsError, TooFewDemonstrationsError, UnknownCrossSectionError,
+from tlgc import (CROSS_SECTION_TYPES, GeneralizedCylinder, TLGCArgumentError,
+                  CylinderDemonstrationsError, TooFewDemonstrationsError, UnknownCrossSectionError,
                   fit_cylinder)
 from tlgc.errors import CylinderFileError
 
@@ -180,7 +180,7 @@ def test_with_directrix_moves_rigidly_and_keeps_the_sections(synthetic):
     axis /= np.linalg.norm(axis)
     np.testing.assert_allclose(default.normals[0] @ axis, cyl.normals[0] @ axis, atol=1e-12)
     np.testing.assert_allclose(default.normals[0] @ t_new, 0.0, atol=1e-12)
-    with pytest.raises(InvalidArgumentError, match="directrix"):
+    with pytest.raises(TLGCArgumentError, match="directrix"):
         cyl.with_directrix(cyl.directrix[:10])
 
 
@@ -225,7 +225,7 @@ def test_identical_demonstrations_are_refused(kind):
     guess a radius)."""
     t = np.linspace(0.0, 1.0, 100)
     demo = np.stack([t, np.sin(t), t**2], axis=1)
-    with pytest.raises(InvalidDemonstrationsError, match="coincide at every section"):
+    with pytest.raises(CylinderDemonstrationsError, match="coincide at every section"):
         fit_cylinder(np.stack([demo, demo, demo]), kind)
 
 
@@ -234,20 +234,20 @@ def test_error_catalogue(synthetic):
         fit_cylinder(synthetic[:1])
     bad = synthetic.copy()
     bad[1, 5, 2] = np.nan
-    with pytest.raises(InvalidDemonstrationsError, match="NaN"):
+    with pytest.raises(CylinderDemonstrationsError, match="NaN"):
         fit_cylinder(bad)
-    with pytest.raises(InvalidDemonstrationsError, match=r"\(M, T, 3\)"):
+    with pytest.raises(CylinderDemonstrationsError, match=r"\(M, T, 3\)"):
         fit_cylinder(synthetic[None])
-    with pytest.raises(InvalidDemonstrationsError, match="demos"):
+    with pytest.raises(CylinderDemonstrationsError, match="demos"):
         fit_cylinder(synthetic[:, :, :2])
     with pytest.raises(UnknownCrossSectionError, match="circle, ellipse, spline"):
         fit_cylinder(synthetic, "hexagon")
-    with pytest.raises(InvalidDemonstrationsError, match="degenerate"):
+    with pytest.raises(CylinderDemonstrationsError, match="degenerate"):
         fit_cylinder(np.ones((3, 10, 3)))
-    with pytest.raises(InvalidDemonstrationsError, match="num_points"):
+    with pytest.raises(CylinderDemonstrationsError, match="num_points"):
         fit_cylinder(synthetic, num_points=1)
     cyl = fit_cylinder(synthetic, "circle")
-    with pytest.raises(InvalidArgumentError, match=r"points: expected shape \(P, 3\)"):
+    with pytest.raises(TLGCArgumentError, match=r"points: expected shape \(P, 3\)"):
         cyl.containment(np.zeros(3))
 
 

@@ -13,7 +13,7 @@ from scenes.errors import InvalidArgumentError
 
 
 @pytest.mark.parametrize("base", [robots.RobotError, scenes.errors.ScenesError, clamp.ClampError,
-                                  tlgc.TLGCError, tlgc.InvalidArgumentError])
+                                  tlgc.TLGCError, tlgc.TLGCArgumentError])
 def test_every_package_base_derives_from_the_root(base):
     assert issubclass(base, InvalidArgumentError) and issubclass(base, ValueError)
 

@@ -98,7 +98,7 @@ def _blocks(kind: str) -> list[str]:
 
 
 def test_readme_file_formats_load(tmp_path):
-    from clamp.result import PlanResult
+    from clamp.planning.result import PlanResult
     from robots import JointTrajectory
     from robots.trajectory import load_schema
     from scenes import Scene, load_demonstrations

@@ -21,8 +21,8 @@ from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, Jo
                            PostureVelocityFamily, SelfCollisionFamily, SkillTubeFamily,
                            StateWindow, WorkspaceGPFamily, WorkspaceStartFamily)
 from clamp.errors import InvalidParameterError
-from clamp.keys import state_key
-from clamp.problem import PlanningProblem
+from clamp.graph.keys import state_key
+from clamp.graph.problem import PlanningProblem
 from tlgc.boundary_factor import BoundaryFamily
 from tlgc.cylinder import fit_cylinder
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tlgc.errors import InvalidArgumentError
+from tlgc.errors import TLGCArgumentError
 from tlgc.frames import bishop_frames, unit_tangents
 
 
@@ -70,13 +70,13 @@ def test_initial_normal_is_respected_and_projected():
 
 
 def test_bad_input_raises_clear_errors():
-    with pytest.raises(InvalidArgumentError, match="points"):
+    with pytest.raises(TLGCArgumentError, match="points"):
         bishop_frames(np.zeros((10, 2)))
-    with pytest.raises(InvalidArgumentError, match="NaN"):
+    with pytest.raises(TLGCArgumentError, match="NaN"):
         bishop_frames(np.array([[0.0, 0, 0], [np.nan, 0, 0]]))
-    with pytest.raises(InvalidArgumentError, match="does not move"):
+    with pytest.raises(TLGCArgumentError, match="does not move"):
         bishop_frames(np.ones((5, 3)))
-    with pytest.raises(InvalidArgumentError, match="parallel"):
+    with pytest.raises(TLGCArgumentError, match="parallel"):
         bishop_frames(np.c_[np.linspace(0, 1, 5), np.zeros(5), np.zeros(5)], initial_normal=[2.0, 0, 0])
 
 

@@ -6,7 +6,7 @@ import pytest
 
 from scenes import load_demonstrations, make_demonstrations
 from tlgc.cylinder import fit_cylinder
-from tlgc.errors import InvalidArgumentError
+from tlgc.errors import TLGCArgumentError
 from tlgc.generalization import (fit_similarity, fit_tps, landmark_constraints, laplacian_matrix,
                                  lte_deform, lte_generalize, shape_distortion, tps_generalize)
 from tlgc.reproduction import random_starts, reproduce
@@ -91,17 +91,17 @@ def test_lte_meets_constraints_and_is_exact_for_similarities():
 
 
 def test_bad_inputs_raise_clear_errors(synthetic_cylinder):
-    with pytest.raises(InvalidArgumentError, match="source_landmarks, target_landmarks"):
+    with pytest.raises(TLGCArgumentError, match="source_landmarks, target_landmarks"):
         fit_tps(np.zeros((2, 3)), np.zeros((3, 3)))
-    with pytest.raises(InvalidArgumentError, match="coincide"):
+    with pytest.raises(TLGCArgumentError, match="coincide"):
         fit_tps(np.zeros((2, 3)), np.ones((2, 3)))
-    with pytest.raises(InvalidArgumentError, match="NaN"):
+    with pytest.raises(TLGCArgumentError, match="NaN"):
         fit_tps(np.full((1, 3), np.nan), np.zeros((1, 3)))
-    with pytest.raises(InvalidArgumentError, match="constraints"):
+    with pytest.raises(TLGCArgumentError, match="constraints"):
         lte_deform(synthetic_cylinder.directrix, {})
-    with pytest.raises(InvalidArgumentError, match="index 999"):
+    with pytest.raises(TLGCArgumentError, match="index 999"):
         lte_deform(synthetic_cylinder.directrix, {999: np.zeros(3)})
-    with pytest.raises(InvalidArgumentError, match="cyl"):
+    with pytest.raises(TLGCArgumentError, match="cyl"):
         tps_generalize("cylinder", np.zeros((1, 3)), np.ones((1, 3)))
 
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from clamp import PlannerConfig, build, learn_prior, optimize, plan
-from clamp.keys import state_key, values_to_states
+from clamp.graph.keys import state_key, values_to_states
 from tests.regression.cases import REFERENCE_BOX, REFERENCE_START
 from tests.test_families import user_factor
 
@@ -68,7 +68,7 @@ def soft_prior():
 
 def test_gtsam_levenberg_marquardt_converges_to_the_fast_optimum(jaco, soft_prior):
     """Run to convergence from the initial trajectory, optimizer="gtsam" (GTSAM's own LM with
-    clamp.optimizers' settings) ends at the fast solver's optimum: the same error (1e-6
+    clamp.optim.optimizers' settings) ends at the fast solver's optimum: the same error (1e-6
     relative) and end-effector path (1 mm). A small problem: on box_closing it takes GTSAM's
     LM ~2700 iterations (benchmarks/bench_gtsam_parity.py)."""
     problem = build(soft_prior, jaco, None, soft_prior.mean[0, :3], config=TIGHT)
@@ -125,7 +125,7 @@ def test_posterior_covariance_equals_gtsam_marginals(jaco, soft_prior, case):
 def test_unconstrained_direction_gets_the_information_floor(jaco, soft_prior):
     """The Jaco's continuous wrist can spin at any constant speed at no cost in an empty scene
     without a joint goal: GTSAM calls the graph underconstrained; the plan reports the floor."""
-    from clamp.uncertainty import INFORMATION_FLOOR
+    from clamp.optim.uncertainty import INFORMATION_FLOOR
     start = soft_prior.mean[0, :3]
     result = plan(soft_prior, jaco, None, start)
     problem = build(soft_prior, jaco, None, start)

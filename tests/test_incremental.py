@@ -1,4 +1,4 @@
-"""Incremental (conjugate Bayesian) learning of the workspace prior (clamp.conjugate)."""
+"""Incremental (conjugate Bayesian) learning of the workspace prior (clamp.prior.conjugate)."""
 from __future__ import annotations
 
 import types
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from clamp import WorkspacePrior, errors, learn_prior
-from clamp.conjugate import K0_SCALE, N0_SCALE
+from clamp.prior.conjugate import K0_SCALE, N0_SCALE
 from scenes import Demonstrations, make_demonstrations
 
 

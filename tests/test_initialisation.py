@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clamp.initialisation import (blend_weights, joint_velocities, prior_mean_initialisation,
+from clamp.planning.initialisation import (blend_weights, joint_velocities, prior_mean_initialisation,
                                   shifted_mean_path, straight_line_initialisation)
 
 

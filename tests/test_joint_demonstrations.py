@@ -1,15 +1,15 @@
 """Joint-space demonstrations (kinesthetic teaching): loaded with the robot's forward
 kinematics (scenes.joint_demonstrations), kept for the planner's initialisation
-(clamp.initialisation.demonstration_initialisation)."""
+(clamp.planning.initialisation.demonstration_initialisation)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from clamp import learn_prior, plan
-from clamp.initialisation import demonstration_initialisation
+from clamp.planning.initialisation import demonstration_initialisation
 from scenes import DemonstrationFileError, Demonstrations, load_demonstrations, make_demonstrations
-from scenes.errors import ArgumentTypeError
+from scenes.errors import ScenesTypeError
 
 START = [0.2054, -0.4722, 0.2625]
 
@@ -121,7 +121,7 @@ def test_joint_files_need_a_robot(tmp_path):
              joint_names=np.array([f"j{k}" for k in range(6)]))
     with pytest.raises(DemonstrationFileError, match="pass robot="):
         load_demonstrations(path)
-    with pytest.raises(ArgumentTypeError, match="robot: expected a robots.Robot"):
+    with pytest.raises(ScenesTypeError, match="robot: expected a robots.Robot"):
         load_demonstrations(path, robot="jaco")
 
 
@@ -146,7 +146,7 @@ def test_clamp_plan_takes_joint_space_demonstrations(jaco, tmp_path):
     CSV through the arm's forward kinematics."""
     import json
 
-    from clamp.cli import main
+    from clamp.cli.main import main
     demos = make_demonstrations("box_closing", num_demos=6, seed=0, num_points=60)
     path = write_joint_csv(tmp_path / "joints.csv", jaco, demos.time, joint_recordings(jaco, demos))
     out = tmp_path / "out"

@@ -1,4 +1,4 @@
-"""Tests of clamp.learning: per-step ridge regression of the workspace / joint-space prior."""
+"""Tests of clamp.prior.learning: per-step ridge regression of the workspace / joint-space prior."""
 from __future__ import annotations
 
 import types
@@ -9,8 +9,8 @@ import pytest
 import scipy.io
 
 from clamp import errors
-from clamp.learning import fit_transitions, learn_joint_prior, learn_prior, state_groups
-from clamp.prior import LinearGaussianPrior, WorkspacePrior
+from clamp.prior.learning import fit_transitions, learn_joint_prior, learn_prior, state_groups
+from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
 
 
 def synthetic_states(num_demos: int = 8, num_points: int = 60, axes: int = 3, dt: float = 0.1,
@@ -185,7 +185,7 @@ def test_per_axis_structure_is_block_diagonal(synthetic):
     assert np.all(np.abs(per_axis.Phi[:, 0, 3]) > 0)
     coupled = learn_prior(positions=positions, velocities=velocities, time=time, coupled=True)
     assert np.abs(coupled.Phi[:, ~mask]).max() > 1e-3
-    region = per_axis.info.pop("skill_region")       # where the demonstrations go (clamp.skill)
+    region = per_axis.info.pop("skill_region")       # where the demonstrations go (clamp.prior.skill)
     assert np.allclose(region["end_mean"], positions[:, -1].mean(axis=0))
     assert per_axis.info == {"method": "batch", "coupled": False, "ridge": 1e-6, "jitter": 1e-12,
                              "num_demos": 8, "obstacle_weighting": None}
@@ -304,7 +304,7 @@ def common_goal_at_rest(K: int = 40, blend: int = 60):
 @pytest.mark.parametrize("method", ["batch", "incremental"])
 def test_common_goal_at_rest_is_learned_and_planned(jaco, method):
     from clamp import plan
-    from clamp.learning import SPREAD_FLOOR
+    from clamp.prior.learning import SPREAD_FLOOR
     demos, goal = common_goal_at_rest()
     assert np.all(demos.states[:, -40:].std(axis=0) == 0.0)
     prior = learn_prior(demos, method=method)
@@ -321,7 +321,7 @@ def test_common_goal_at_rest_is_learned_and_planned(jaco, method):
 
 
 def test_common_start_floors_only_the_initial_covariance():
-    from clamp.learning import SPREAD_FLOOR
+    from clamp.prior.learning import SPREAD_FLOOR
     positions, velocities, time = synthetic_states(num_demos=6)
     positions = positions - positions[:, :1] + positions[0, 0]     # one common start position
     velocities[:, 0] = velocities[0, 0]                             # ... and start velocity

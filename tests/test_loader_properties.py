@@ -20,10 +20,10 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, event, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from clamp.batch import read_results  # noqa: E402
-from clamp.batch_report import summarize  # noqa: E402
-from clamp.prior import LinearGaussianPrior, WorkspacePrior  # noqa: E402
-from clamp.problems import Problem, make_problem, read_problems  # noqa: E402
+from clamp.batch.runner import read_results  # noqa: E402
+from clamp.batch.report import summarize  # noqa: E402
+from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior  # noqa: E402
+from clamp.batch.problems import Problem, make_problem, read_problems  # noqa: E402
 from robots import Robot, load_robot  # noqa: E402
 from scenes import Demonstrations, Scene, load_demonstrations  # noqa: E402
 from scenes.errors import InvalidArgumentError  # noqa: E402

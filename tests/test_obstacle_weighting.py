@@ -1,4 +1,4 @@
-"""Obstacle-weighted learning from cluttered demonstrations (clamp.obstacle_weighting) and the
+"""Obstacle-weighted learning from cluttered demonstrations (clamp.prior.obstacle_weighting) and the
 per-demonstration obstacles it needs (loaders, synthetic cluttered generator)."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import pytest
 import scipy.io
 
 from clamp import ClampWarning, errors, learn_prior, plan
-from clamp.obstacle_weighting import ObstacleWeighting, demonstration_weights
-from clamp.prior_plots import plot_weighted_priors
+from clamp.prior.obstacle_weighting import ObstacleWeighting, demonstration_weights
+from clamp.viz.prior_plots import plot_weighted_priors
 from scenes import (Box, Demonstrations, Scene, load_demonstrations,
                     make_cluttered_demonstrations, make_demonstrations, save_csv)
 

@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 
 from clamp import PlannerConfig, build, learn_prior
-from clamp import optimizers
-from clamp.keys import values_to_states
+from clamp.config import OPTIMIZERS
+from clamp.optim import optimizers
+from clamp.graph.keys import values_to_states
 from robots import load_robot
 from scenes import Box, Scene, make_demonstrations
-from scenes.progress import set_progress
+from skillplan.progress import set_progress
 
-GTSAM_OPTIMIZERS = [name for name in optimizers.OPTIMIZERS if name.startswith("gtsam")]
+GTSAM_OPTIMIZERS = [name for name in OPTIMIZERS if name.startswith("gtsam")]
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +35,7 @@ def test_reported_run_equals_gtsam_optimize(problem_and_config, name, caplog):
     plain = optimizers._gtsam_optimizer(problem, config)         # no hook: GTSAM alone
     initial = plain.error()
     reference = plain.optimize()
-    with caplog.at_level(logging.DEBUG, logger="clamp.optimizers"):
+    with caplog.at_level(logging.DEBUG, logger="clamp.optim.optimizers"):
         out = optimizers.optimize(problem, config)
     np.testing.assert_array_equal(out.theta, values_to_states(reference, problem.keys))
     assert out.iterations == plain.iterations() >= (1 if name == "gtsam_gauss_newton" else 2)

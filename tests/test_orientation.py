@@ -9,7 +9,7 @@ import pytest
 
 from clamp import PlannerConfig, errors, learn_prior, plan
 from clamp.factors import OrientationFamily, StateWindow
-from clamp.plan_plots import plot_orientation
+from clamp.viz.plan_plots import plot_orientation
 from robots.kinematics import frame_index
 from scenes import Box, Scene, make_demonstrations
 from tests.test_families import STEP, dense_residual, random_theta

@@ -1,4 +1,4 @@
-"""The stages of a plan (clamp.pipeline): immutable records, plan() and replan() equal to the
+"""The stages of a plan (clamp.planning.pipeline): immutable records, plan() and replan() equal to the
 stages run by hand, the model's graph inspectable before solving, bad input named."""
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ import pytest
 
 from clamp import (PlannerConfig, evaluate, make_request, model, plan, plan_model, posterior,
                    replan, solve)
-from clamp.conditioning import planning_prior
-from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
-from clamp.pipeline import Posterior
-from clamp.replanning import shifted_plan
-from clamp.solver import WarmStart
+from clamp.planning.reference import planning_prior
+from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
+from clamp.planning.pipeline import Posterior
+from clamp.planning.replanning import shifted_plan
+from clamp.optim.solver import WarmStart
 from scenes import Box, Scene
 
 START = [0.2054, -0.4722, 0.2625]
@@ -128,15 +128,15 @@ def test_the_solution_is_the_plan_model_of_plan(prior, jaco):
 
 
 @pytest.mark.parametrize("call, error, name", [
-    (lambda p, r, m, s: model(p, r, None, "request", None), ArgumentTypeError, "request"),
+    (lambda p, r, m, s: model(p, r, None, "request", None), ClampTypeError, "request"),
     (lambda p, r, m, s: model(p, r, None, m.request, None, model_prior=object()), ShapeError,
      "model_prior"),
-    (lambda p, r, m, s: solve("model"), ArgumentTypeError, "model"),
-    (lambda p, r, m, s: solve(m, warm_start=0.1), ArgumentTypeError, "warm_start"),
-    (lambda p, r, m, s: posterior(m, "solution"), ArgumentTypeError, "solution"),
+    (lambda p, r, m, s: solve("model"), ClampTypeError, "model"),
+    (lambda p, r, m, s: solve(m, warm_start=0.1), ClampTypeError, "warm_start"),
+    (lambda p, r, m, s: posterior(m, "solution"), ClampTypeError, "solution"),
     (lambda p, r, m, s: posterior(m, s, covariance="yes"), InvalidParameterError, "covariance"),
-    (lambda p, r, m, s: evaluate(m, s, None, {}, 0.0), ArgumentTypeError, "posterior"),
-    (lambda p, r, m, s: evaluate(m, s, Posterior(), [], 0.0), ArgumentTypeError, "timings"),
+    (lambda p, r, m, s: evaluate(m, s, None, {}, 0.0), ClampTypeError, "posterior"),
+    (lambda p, r, m, s: evaluate(m, s, Posterior(), [], 0.0), ClampTypeError, "timings"),
     (lambda p, r, m, s: evaluate(m, s, Posterior(), None, "now"), InvalidParameterError,
      "started"),
 ])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clamp.plan_plots import plot_plan_3d
+from clamp.viz.plan_plots import plot_plan_3d
 
 
 class FakeResult:
@@ -37,8 +37,8 @@ def test_clearance_figure_draws_the_collision_geometry_distance(jaco):
     """The arm's line of the clearance figure is the distance of the URDF collision geometry to
     the obstacle at every support state (below its cap), checked against coal on every
     geometry-obstacle pair (brute force, no pruning); the spheres' line is drawn beside it."""
-    from clamp.clearance import checker
-    from clamp.plan_plots import plot_clearance
+    from clamp.planning.clearance import checker
+    from clamp.viz.plan_plots import plot_clearance
     from scenes import Box, Scene
     robot = jaco
     rng = np.random.default_rng(3)

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from clamp.errors import ClampError
-from clamp.learning import learn_prior
+from clamp.prior.learning import learn_prior
 from clamp import PlannerConfig, build, plan
-from clamp.verdict import sphere_clearance
+from clamp.planning.verdict import sphere_clearance
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
@@ -89,7 +89,7 @@ def test_box_closing_with_obstacle(jaco, box_closing, obstacle_scene, empty_plan
     # on the same problem from the same start (the reference's graph: no posture tie, from the
     # prior mean), plain LM (the reference's method: no workspace correction, lambda0 1e3) gets
     # far less far in as many iterations (it crawls for ~500)
-    from clamp.solver import levenberg_marquardt
+    from clamp.optim.solver import levenberg_marquardt
     built = build(prior, jaco, scene, REFERENCE_START, sdf=sdf,
                   config=OBSTACLE_CONFIG.with_(posture_sigma=0.0))
     ours = levenberg_marquardt(built, built.initial, max_iterations=5)
@@ -240,7 +240,7 @@ def test_unknown_config_field_lists_the_valid_ones():
 
 
 def test_prior_robot_mismatch_raises(jaco):
-    from clamp.learning import learn_joint_prior
+    from clamp.prior.learning import learn_joint_prior
     rng = np.random.default_rng(0)
     q = rng.normal(size=(4, 20, 2))
     joint_prior = learn_joint_prior(q, np.gradient(q, axis=1), np.arange(20) * 0.1)

@@ -1,4 +1,4 @@
-"""Tests of clamp.plausibility: the conditioned chi-square tail score of a workspace path.
+"""Tests of clamp.prior.plausibility: the conditioned chi-square tail score of a workspace path.
 
 Self-contained checks use small random chains (against a dense Gaussian computation) and the
 synthetic box-closing skill; the leave-one-out, departure and planner checks on the recorded
@@ -12,10 +12,10 @@ import pytest
 from scipy import stats
 
 from clamp import errors, learn_prior
-from clamp.plausibility import (DEFAULT_FLOOR_STD, PlausibilityResult, conditional_mean,
+from clamp.prior.plausibility import (DEFAULT_FLOOR_STD, PlausibilityResult, conditional_mean,
                                 floored_prior, plausibility, plausibility_details,
                                 sample_conditioned)
-from clamp.prior import LinearGaussianPrior
+from clamp.prior.linear_gaussian import LinearGaussianPrior
 from scenes import Demonstrations, load_demonstrations, make_demonstrations
 
 PLAN_START = np.array([0.2054, -0.4722, 0.2625])
@@ -287,7 +287,7 @@ def test_plan_forced_around_an_obstacle_on_the_path_scores_lower(synthetic_prior
     print(f"\nempty plan: {empty.plausibility:.3g} (tube {empty.skill['max_tube_ratio']:.2f}); "
           f"around the box: {forced.plausibility:.3g} "
           f"(tube {forced.skill['max_tube_ratio']:.2f})")
-    # the plan's score (clamp.skill) does not saturate: the detour scores strictly lower
+    # the plan's score (clamp.prior.skill) does not saturate: the detour scores strictly lower
     assert forced.skill["max_tube_ratio"] > empty.skill["max_tube_ratio"]
     assert forced.plausibility < empty.plausibility
 

@@ -86,8 +86,8 @@ def _benchmark_problem(index: int) -> dict:
     """plan() arguments of scene-benchmark problem ``index`` (Jaco, the default config)."""
     from pathlib import Path
 
-    from clamp.batch import resolve
-    from clamp.problem_sets import scene_benchmark
+    from clamp.batch.runner import resolve
+    from clamp.batch.problem_sets import scene_benchmark
     problem = scene_benchmark(index + 1, "jaco", 0, skills=["box_closing", "reach_from_above",
                                                              "pick_place", "two_target_press"],
                               impossible_share=0.0, start_offset=0.08)[index]
@@ -119,9 +119,9 @@ def test_a_hand_pushed_out_of_the_skill_gets_the_tube_as_a_constraint(jaco):
     demonstrations agree; the tube's hinges join that candidate's constrained solve and its
     next optimum keeps within the tube, measured by the skill checks on the plan's own
     end-effector path."""
-    from clamp.pipeline import model
-    from clamp.request import make_request
-    from clamp.skill import TUBE_RATIO, skill_checks
+    from clamp.planning.pipeline import model
+    from clamp.planning.request import make_request
+    from clamp.prior.skill import TUBE_RATIO, skill_checks
     kwargs = {**_benchmark_problem(78), "goal": None, "via_points": ()}  # the skill's own end
     result = plan(**kwargs, covariance=False)
     assert result.success, result.reasons

@@ -1,4 +1,4 @@
-"""Tests of clamp.prior: marginals, densities, sampling and files of linear-Gaussian priors."""
+"""Tests of clamp.prior.linear_gaussian: marginals, densities, sampling and files of linear-Gaussian priors."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 from scipy import stats
 
 from clamp import errors
-from clamp.prior import (FILE_FORMAT, LinearGaussianPrior, WorkspacePrior, prefix_compose,
+from clamp.prior.linear_gaussian import (FILE_FORMAT, LinearGaussianPrior, WorkspacePrior, prefix_compose,
                          suffix_compose)
 
 

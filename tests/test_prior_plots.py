@@ -1,12 +1,12 @@
-"""Tests of clamp.prior_plots: envelope tube geometry and headless PNG output."""
+"""Tests of clamp.viz.prior_plots: envelope tube geometry and headless PNG output."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from clamp import errors
-from clamp.learning import learn_joint_prior, learn_prior
-from clamp.prior_plots import STATIONARY_FRACTION, envelope_tube, plot_prior_3d, plot_prior_time
+from clamp.prior.learning import learn_joint_prior, learn_prior
+from clamp.viz.prior_plots import STATIONARY_FRACTION, envelope_tube, plot_prior_3d, plot_prior_time
 from scenes import make_demonstrations
 
 

@@ -1,5 +1,5 @@
-"""Planning problems as plain data (clamp.problems), their generators (clamp.problem_sets) and
-the batch summary (clamp.batch_report)."""
+"""Planning problems as plain data (clamp.batch.problems), their generators (clamp.batch.problem_sets) and
+the batch summary (clamp.batch.report)."""
 from __future__ import annotations
 
 import json
@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clamp.batch import load_prior
-from clamp.batch_report import reason_key, summarize
+from clamp.batch.runner import load_prior
+from clamp.batch.report import reason_key, summarize
 from clamp.errors import InvalidParameterError
-from clamp.problem_sets import (CLEAR_POSITION, across_robots, scene_benchmark, start_problems,
+from clamp.batch.problem_sets import (CLEAR_POSITION, across_robots, scene_benchmark, start_problems,
                                 start_region)
-from clamp.problems import Problem, ProblemFormatError, make_problem, read_problems, write_problems
+from clamp.batch.problems import Problem, ProblemFormatError, make_problem, read_problems, write_problems
 from scenes import Box, Cylinder, Scene, Sphere
 
 SHORT = {"skill": "box_closing", "seed": 0, "num_demos": 6, "num_points": 40}

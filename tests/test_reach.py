@@ -1,11 +1,11 @@
-"""The unit check before planning (clamp.reach): skills far outside the arm's reach."""
+"""The unit check before planning (clamp.planning.reach): skills far outside the arm's reach."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from clamp import errors, learn_prior, plan
-from clamp.reach import REACH_FACTOR, check_reach, reach_radius
+from clamp.planning.reach import REACH_FACTOR, check_reach, reach_radius
 from scenes import Demonstrations, make_demonstrations
 
 START = [0.2054, -0.4722, 0.2625]

@@ -6,7 +6,7 @@ import pytest
 
 from scenes import make_demonstrations
 from tlgc.cylinder import fit_cylinder
-from tlgc.errors import InvalidArgumentError
+from tlgc.errors import TLGCArgumentError
 from tlgc.refinement import RefinementConstraint, RefinementSet, refine_incrementally
 from tlgc.reproduction import random_starts, reproduce
 
@@ -88,17 +88,17 @@ def test_constraints_combine_and_remove_without_refitting(skill):
 def test_refinement_errors(skill):
     _, cyl = skill
     path = cyl.directrix
-    with pytest.raises(InvalidArgumentError, match="no constraint"):
+    with pytest.raises(TLGCArgumentError, match="no constraint"):
         RefinementConstraint.from_correction(path, path)
-    with pytest.raises(InvalidArgumentError, match="mode"):
+    with pytest.raises(TLGCArgumentError, match="mode"):
         RefinementConstraint.from_correction(path, path + 0.1, mode="bend")
     c = RefinementConstraint.from_correction(path, path + [0, 0, 0.1])
-    with pytest.raises(InvalidArgumentError, match="reproductions"):
+    with pytest.raises(TLGCArgumentError, match="reproductions"):
         c.apply(np.zeros((3, 10, 3)))
     s = RefinementSet([c])
-    with pytest.raises(InvalidArgumentError, match="points"):
+    with pytest.raises(TLGCArgumentError, match="points"):
         s.add(RefinementConstraint.from_correction(path[:50], path[:50] + 0.1))
-    with pytest.raises(InvalidArgumentError, match="position"):
+    with pytest.raises(TLGCArgumentError, match="position"):
         s.remove(3)
 
 
@@ -118,5 +118,5 @@ def test_incremental_refinement_replaces_or_adds_a_demonstration(skill):
     added, refit2 = refine_incrementally(demos, corrected)
     assert added.shape == (len(demos) + 1,) + demos.shape[1:]
     np.testing.assert_allclose(refit2.directrix, added.mean(axis=0))
-    with pytest.raises(InvalidArgumentError, match="replace"):
+    with pytest.raises(TLGCArgumentError, match="replace"):
         refine_incrementally(demos, corrected, replace=9)

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from clamp import PlannerConfig, build, errors, plan, replan
-from clamp.result import PlanResult
-from clamp.solver import WarmStart, levenberg_marquardt
+from clamp.planning.result import PlanResult
+from clamp.optim.solver import WarmStart, levenberg_marquardt
 from scenes import Box, Scene
 
 START = [0.2054, -0.4722, 0.2625]

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from scenes import load_demonstrations, make_demonstrations
-from tlgc import (CROSS_SECTION_TYPES, InvalidArgumentError, StartOffPlaneError, StartOutsideError,
+from tlgc import (CROSS_SECTION_TYPES, TLGCArgumentError, StartOffPlaneError, StartOutsideError,
                   fit_cylinder, random_starts, ratio_schedule, reproduce, start_coordinates)
 
 KINDS = sorted(CROSS_SECTION_TYPES)
@@ -101,7 +101,7 @@ def test_single_start_and_starts_off_the_first_plane(cylinders):
     np.testing.assert_allclose(lifted, single, atol=1e-12)
     looser = reproduce(cyl, start + 0.05 * cyl.tangents[0], plane_tolerance=0.06)
     np.testing.assert_allclose(looser, single, atol=1e-12)
-    with pytest.raises(InvalidArgumentError, match="plane_tolerance"):
+    with pytest.raises(TLGCArgumentError, match="plane_tolerance"):
         reproduce(cyl, start, plane_tolerance=-1.0)
 
 
@@ -145,19 +145,19 @@ def test_random_starts_are_seeded_inside_and_uniform_in_area(cylinders):
 def test_bad_arguments_raise_clear_errors(cylinders):
     cyl = cylinders["circle"]
     start = cyl.directrix[0]
-    with pytest.raises(InvalidArgumentError, match="starts"):
+    with pytest.raises(TLGCArgumentError, match="starts"):
         reproduce(cyl, np.zeros((2, 2)))
-    with pytest.raises(InvalidArgumentError, match="NaN"):
+    with pytest.raises(TLGCArgumentError, match="NaN"):
         reproduce(cyl, np.array([np.nan, 0.0, 0.0]))
-    with pytest.raises(InvalidArgumentError, match="gamma"):
+    with pytest.raises(TLGCArgumentError, match="gamma"):
         reproduce(cyl, start, eta_final=0.0, gamma=-1.0)
-    with pytest.raises(InvalidArgumentError, match="eta_final"):
+    with pytest.raises(TLGCArgumentError, match="eta_final"):
         reproduce(cyl, start, eta_final=1.5)
-    with pytest.raises(InvalidArgumentError, match="cyl"):
+    with pytest.raises(TLGCArgumentError, match="cyl"):
         reproduce("cylinder", start)
-    with pytest.raises(InvalidArgumentError, match="rng"):
+    with pytest.raises(TLGCArgumentError, match="rng"):
         random_starts(cyl, 3, rng=None)
-    with pytest.raises(InvalidArgumentError, match="count"):
+    with pytest.raises(TLGCArgumentError, match="count"):
         random_starts(cyl, -1, rng=0)
-    with pytest.raises(InvalidArgumentError, match="index"):
+    with pytest.raises(TLGCArgumentError, match="index"):
         random_starts(cyl, 3, rng=0, index=cyl.num_sections)

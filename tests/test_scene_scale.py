@@ -300,7 +300,7 @@ def test_plan_avoids_a_table_mesh_and_a_point_cloud_checked_with_coal(jaco):
 def test_animation_draws_mesh_and_cloud(jaco, tmp_path):
     pytest.importorskip("meshcat", reason="the animation needs meshcat (pip install meshcat)")
     import meshcat.geometry as mg
-    from clamp.animation import _obstacle_geometry, write_animation
+    from clamp.viz.animation import _obstacle_geometry, write_animation
     table = table_mesh([0.38, -0.31, 0.40], [0.14, 0.14], 0.03, 0.04)
     geometry, placement = _obstacle_geometry(table, 0, mg, pin)
     np.testing.assert_allclose(geometry.vertices, table.vertices, atol=1e-6)   # scene frame (float32)

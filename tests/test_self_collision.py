@@ -21,7 +21,7 @@ import pinocchio as pin
 import pytest
 
 from clamp import PlannerConfig, plan
-from clamp.errors import ArgumentTypeError, InvalidParameterError
+from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.factors import SelfCollisionFamily, StateWindow
 from robots import Robot, SphereModel
 from robots.collision_check import CollisionChecker
@@ -243,7 +243,7 @@ def test_bad_input_names_the_argument(jaco):
         self_collision_report("jaco", q)
     with pytest.raises(InvalidParameterError, match="epsilon"):
         SelfCollisionFamily.for_robot(jaco, range(3), epsilon=2 * SPHERE_REACH, sigma=0.01)
-    with pytest.raises(ArgumentTypeError, match="spheres"):
+    with pytest.raises(ClampTypeError, match="spheres"):
         SelfCollisionFamily(range(3), jaco.spheres, epsilon=0.01, sigma=0.01)
     with pytest.raises(InvalidParameterError, match="between"):
         SelfCollisionFamily.for_robot(jaco, range(3), epsilon=0.01, sigma=0.01, between=-1)

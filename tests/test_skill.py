@@ -6,8 +6,8 @@ import pytest
 from scipy import stats
 
 from clamp import learn_prior, plan
-from clamp.conditioning import condition_prior
-from clamp.skill import (TUBE_RATIO, SkillRegion, sample_executions, skill_checks, statistic,
+from clamp.prior.conditioning import condition_prior
+from clamp.prior.skill import (TUBE_RATIO, SkillRegion, sample_executions, skill_checks, statistic,
                          skill_plausibility)
 from robots import load_robot
 from scenes import Box, Scene, load_demonstrations, make_demonstrations

@@ -7,7 +7,7 @@ import pytest
 from scenes import Box, Sphere, load_demonstrations, make_demonstrations
 from tlgc.bounding_sphere import BoundingSphere
 from tlgc.cylinder import fit_cylinder
-from tlgc.errors import InvalidArgumentError
+from tlgc.errors import TLGCArgumentError
 from tlgc.obstacles import (ObstacleAvoidanceError, adaptive_ratio_parameters,
                             avoid_with_adaptive_ratio, avoid_with_deformation, cylinder_clearance,
                             cylinder_intersects)
@@ -92,9 +92,9 @@ def test_adaptive_ratio_errors(straight_cylinder):
         adaptive_ratio_parameters(cyl, start, ([0.5, 0.0, 1.0], 0.05))
     with pytest.raises(ObstacleAvoidanceError, match="covers the cylinder"):
         adaptive_ratio_parameters(cyl, start, ([0.5, 0.0, 0.0], 0.15))
-    with pytest.raises(InvalidArgumentError, match="critical_fraction"):
+    with pytest.raises(TLGCArgumentError, match="critical_fraction"):
         adaptive_ratio_parameters(cyl, start, ([0.5, 0.0, 0.0], 0.01), critical_fraction=2.0)
-    with pytest.raises(InvalidArgumentError, match="obstacle"):
+    with pytest.raises(TLGCArgumentError, match="obstacle"):
         adaptive_ratio_parameters(cyl, start, "a rock")
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from clamp.errors import InvalidParameterError, NonFiniteError
-from clamp.uncertainty import block_tridiagonal_inverse
+from clamp.optim.uncertainty import block_tridiagonal_inverse
 
 
 def random_information(T: int, d: int, rng, spread: float, ridge: float = 1.0) -> np.ndarray:

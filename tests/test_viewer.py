@@ -1,4 +1,4 @@
-"""Live viewer (clamp.viewer): viser on 127.0.0.1, replanning when a box moves, clean shutdown,
+"""Live viewer (clamp.viz.viewer): viser on 127.0.0.1, replanning when a box moves, clean shutdown,
 headless Chromium sees the page change.
 
 Set SKILLPLAN_WRITE_DOCS=1 to save the first screenshot as docs/viewer.png (the README's).
@@ -19,9 +19,10 @@ import pytest
 pytest.importorskip("viser", reason="the live viewer needs viser (pip install 'skillplan[viewer]')")
 
 from chromium import CHROMIUM, MISSING, screenshot  # noqa: E402
+import clamp  # noqa: E402
 from clamp import learn_prior, plan  # noqa: E402
-from clamp.errors import ArgumentTypeError, InvalidParameterError  # noqa: E402
-from clamp.viewer import PlanViewer, tube_mesh  # noqa: E402
+from clamp.errors import ClampTypeError, InvalidParameterError  # noqa: E402
+from clamp.viz.viewer import PlanViewer, tube_mesh  # noqa: E402
 from scenes import Box, Scene, make_demonstrations  # noqa: E402
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -80,7 +81,7 @@ def test_bad_input(planned):
     _, result = planned
     with pytest.raises(InvalidParameterError, match="host: expected a loopback address"):
         PlanViewer(result, host="0.0.0.0")
-    with pytest.raises(ArgumentTypeError, match="result"):
+    with pytest.raises(ClampTypeError, match="result"):
         PlanViewer(result.to_dict())
     with pytest.raises(InvalidParameterError, match="port"):
         PlanViewer(result, port=70000)
@@ -89,7 +90,7 @@ def test_bad_input(planned):
 def test_api_replans_when_a_box_moves_and_shuts_down_cleanly(planned):
     demos, result = planned
     before = set(threading.enumerate())
-    viewer = result.show(demonstrations=demos)
+    viewer = clamp.show(result, demonstrations=demos)
     port = viewer.port
     try:
         assert viewer.url == f"http://127.0.0.1:{port}" and not port_is_closed(port)
@@ -125,7 +126,7 @@ def test_api_replans_when_a_box_moves_and_shuts_down_cleanly(planned):
 def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
     demos, result = planned
     before = set(threading.enumerate())
-    with result.show(demonstrations=demos) as viewer:
+    with clamp.show(result, demonstrations=demos) as viewer:
         port = viewer.port
         viewer.set_time(0.5 * viewer.duration)
         first = screenshot(viewer.url, tmp_path / "before.png", (1000, 700))
@@ -147,7 +148,7 @@ def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
 @pytest.fixture(scope="module")
 def plan_folder(tmp_path_factory):
     """The output folder of ``clamp plan`` (small problem: 60 states, a box off the path)."""
-    from clamp.cli import main
+    from clamp.cli.main import main
     folder = tmp_path_factory.mktemp("view")
     make_demonstrations("box_closing", num_demos=6, num_points=60, seed=0).save_npz(folder / "demos_in.npz")
     Scene([Box([-0.4, 0.4, 0.05], [0.08, 0.08, 0.08])]).save(folder / "scene_in.json")
@@ -163,7 +164,7 @@ def test_view_plans_the_recorded_problem_again(plan_folder):
     the viewer: plan.json's q), with the goal, the scene and the changed setting kept."""
     import json
 
-    from clamp.viewer_cli import load_view
+    from clamp.cli.viewer import load_view
     written = json.loads((plan_folder / "plan.json").read_text())
     result, demos = load_view(plan_folder)
     np.testing.assert_allclose(result.q, np.array(written["q"]), atol=1e-9)
@@ -204,7 +205,7 @@ def test_clamp_view_serves_until_interrupted(plan_folder, tmp_path):
     (["view", "{folder}", "--port", "-1"], "--port"),
 ])
 def test_clamp_view_bad_input_is_one_line_exit_2(plan_folder, tmp_path, capsys, argv, message):
-    from clamp.cli import main
+    from clamp.cli.main import main
     names = {"missing": tmp_path / "missing", "empty": tmp_path, "folder": plan_folder}
     assert main([a.format(**names) for a in argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -213,14 +214,14 @@ def test_clamp_view_bad_input_is_one_line_exit_2(plan_folder, tmp_path, capsys, 
 
 def test_mesh_and_point_cloud_obstacles_are_drawn_and_moved_by_their_box_centre(planned):
     from clamp import replan
-    from clamp.viewer import obstacle_anchor
+    from clamp.viz.viewer import obstacle_anchor
     from scenes import PointCloud, TriangleMesh
     from scenes.mesh import box_triangles
     _, result = planned
     cloud = PointCloud(np.random.default_rng(0).uniform([-0.5, 0.3, 0.0], [-0.4, 0.4, 0.1], (50, 3)), 0.01)
     mesh = TriangleMesh(*box_triangles([-0.4, -0.5, 0.05], [0.1, 0.1, 0.1]))
     start = replan(result, scene=Scene([mesh, cloud]))
-    with start.show() as viewer:
+    with clamp.show(start) as viewer:
         target = np.array([-0.35, -0.45, 0.1])
         viewer.move_obstacle(0, target)
         moved = viewer.scene.obstacles[0]

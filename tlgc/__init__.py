@@ -11,8 +11,8 @@ from .cross_sections import (CROSS_SECTION_TYPES, CircleSections, CrossSections,
                              SplineSections, fit_cross_sections)
 from .cylinder import (INSIDE_TOLERANCE, Containment, GeneralizedCylinder, fit_cylinder,
                        resample_demonstrations)
-from .errors import (CylinderFileError, GeneralizationError, InvalidArgumentError,
-                     InvalidDemonstrationsError, ObstacleAvoidanceError, StartOffPlaneError,
+from .errors import (CylinderFileError, GeneralizationError, TLGCArgumentError,
+                     CylinderDemonstrationsError, ObstacleAvoidanceError, StartOffPlaneError,
                      StartOutsideError, TLGCError, TooFewDemonstrationsError,
                      UnknownCrossSectionError)
 from .frames import bishop_frames
@@ -39,7 +39,7 @@ def __getattr__(name: str) -> Any:
 __all__ = [
     "CROSS_SECTION_TYPES", "CircleSections", "Containment", "CrossSections", "CylinderFileError",
     "EllipseSections", "GeneralizationError", "GeneralizedCylinder", "INSIDE_TOLERANCE",
-    "InvalidArgumentError", "InvalidDemonstrationsError", "SplineSections",
+    "TLGCArgumentError", "CylinderDemonstrationsError", "SplineSections",
     "StartOffPlaneError", "StartOutsideError", "TLGCError", "TooFewDemonstrationsError",
     "UnknownCrossSectionError", "bishop_frames", "check_starts", "fit_cross_sections",
     "fit_cylinder", "random_starts", "ratio_schedule", "reproduce", "resample_demonstrations",

@@ -29,7 +29,7 @@ import numpy as np
 
 from clamp.factors import Family, Linearization, StateWindow
 
-from .errors import InvalidArgumentError
+from .errors import TLGCArgumentError
 from .validation import as_count, as_indices, as_points, as_scalar
 
 ANGLE_STEP = 1e-6       # [rad] central-difference step for the boundary slope fallback
@@ -41,7 +41,7 @@ def section_indices(index: Any, num_states: int, num_sections: int) -> np.ndarra
     num_states = as_count(num_states, "num_states")
     i = np.asarray(index)
     if i.dtype.kind not in "iu" or (i.size and (i.min() < 0 or i.max() >= num_states)):
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             f"index: expected integers in [0, {num_states}), got {np.asarray(index)!r}")
     if num_states == 1:
         return np.zeros(i.shape, dtype=np.intp)
@@ -80,11 +80,11 @@ def boundary_distance(cylinder: Any, sections: Any, positions: Any) -> BoundaryD
         p = p[None]
     k = as_indices(sections, "sections")
     if p.ndim != 2 or k.shape != (len(p),):
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             f"sections, positions: expected shapes (T,) and (T, 3), got {k.shape} and {p.shape}")
     N = len(cylinder.directrix)
     if k.size and k.max() >= N:
-        raise InvalidArgumentError(f"sections: expected cross-section indices in [0, {N}), got "
+        raise TLGCArgumentError(f"sections: expected cross-section indices in [0, {N}), got "
                                    f"{int(k.max())}")
     return _distance(cylinder, k, p, gradient=True)
 
@@ -140,7 +140,7 @@ class BoundaryFamily(Family):
                  sigma: float = 0.01, states: Any = None) -> None:
         for attr in ("directrix", "frames", "radius"):
             if not hasattr(cylinder, attr):
-                raise InvalidArgumentError(
+                raise TLGCArgumentError(
                     f"cylinder: expected a GeneralizedCylinder (missing .{attr}), got "
                     f"{type(cylinder).__name__}")
         num_states = as_count(num_states, "num_states")
@@ -148,7 +148,7 @@ class BoundaryFamily(Family):
         if states is not None:
             chosen = np.unique(np.asarray(states))
             if chosen.dtype.kind not in "iu":
-                raise InvalidArgumentError(f"states: expected support-state indices, got {states!r}")
+                raise TLGCArgumentError(f"states: expected support-state indices, got {states!r}")
             indices = indices[np.isin(indices, chosen)]
         self.cylinder = cylinder
         self.sections = section_indices(indices, num_states, len(cylinder.directrix))

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InvalidArgumentError
+from .errors import TLGCArgumentError
 from .validation import as_points, as_scalar
 
 _REL_TOL = 1e-10
@@ -78,7 +78,7 @@ def minimal_bounding_sphere(points: np.ndarray, seed: int = 0) -> BoundingSphere
     p = as_points(points, "points")
     p = p.reshape(-1, 3)
     if len(p) == 0:
-        raise InvalidArgumentError("points: expected at least one point, got none")
+        raise TLGCArgumentError("points: expected at least one point, got none")
     p = np.unique(p, axis=0)
     p = p[np.random.default_rng(seed).permutation(len(p))]
     tol = _REL_TOL * max(float(np.ptp(p, axis=0).max()), 1.0)
@@ -107,7 +107,7 @@ def bounding_sphere(obstacle: Any) -> BoundingSphere:
     if isinstance(obstacle, tuple) and len(obstacle) == 2:
         center = as_points(obstacle[0], "obstacle center")
         if center.shape != (3,):
-            raise InvalidArgumentError(f"obstacle center: expected shape (3,), got {center.shape}")
+            raise TLGCArgumentError(f"obstacle center: expected shape (3,), got {center.shape}")
         return BoundingSphere(center, as_scalar(obstacle[1], "obstacle radius", minimum=0.0))
     try:
         pts = np.asarray(obstacle, dtype=float)
@@ -115,6 +115,6 @@ def bounding_sphere(obstacle: Any) -> BoundingSphere:
         pts = None
     if pts is not None and pts.ndim == 2 and pts.shape[1] == 3:
         return minimal_bounding_sphere(pts)
-    raise InvalidArgumentError(
+    raise TLGCArgumentError(
         "obstacle: expected a scenes Sphere/Box/Cylinder, a BoundingSphere, a (center, radius) "
         f"pair or points (P, 3), got {type(obstacle).__name__}")

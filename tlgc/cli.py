@@ -9,7 +9,7 @@ writes cylinder.npz, reproductions.npy (R, N, 3), cylinder.png (3-D) and cross_s
 and prints fit/reproduction times and the fraction of reproduced points inside the cylinder.
 ``--skill NAME`` uses the project's synthetic demonstrations instead of a file. The output
 folder must be new or empty unless ``--force``; files are written atomically. Bad input: one
-line on stderr, exit 2 (:mod:`scenes.command_line`).
+line on stderr, exit 2 (:mod:`skillplan.command_line`).
 """
 from __future__ import annotations
 
@@ -21,14 +21,14 @@ from typing import Sequence
 
 import numpy as np
 
-from scenes.command_line import (EXIT_OK, CommandLineParser, atomic_write, integer_at_least,
+from skillplan.command_line import (EXIT_OK, CommandLineParser, atomic_write, integer_at_least,
                                  number, output_directory, quiet, run)
 from scenes.errors import DemonstrationFileError
-from scenes.validation import as_file
+from skillplan.validation import as_file
 
 from .cross_sections import CROSS_SECTION_TYPES
 from .cylinder import fit_cylinder
-from .errors import InvalidArgumentError
+from .errors import TLGCArgumentError
 from .plots import plot_cross_sections, plot_cylinder, save_figure
 from .reproduction import DEFAULT_GAMMA, random_starts, reproduce
 
@@ -56,7 +56,7 @@ def fit_reproduce(args: argparse.Namespace) -> int:
     t_rep = time.perf_counter() - t0
     inside = cyl.ratio(reps, np.arange(cyl.num_sections)[None, :]) <= 1.0 + 1e-9
     if args.sections > cyl.num_sections:
-        raise InvalidArgumentError(f"--sections: expected at most the {cyl.num_sections} "
+        raise TLGCArgumentError(f"--sections: expected at most the {cyl.num_sections} "
                                    f"cross-sections of the cylinder, got {args.sections}")
 
     atomic_write(out / "cylinder.npz", cyl.save, overwrite=True)

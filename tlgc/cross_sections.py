@@ -24,7 +24,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .errors import InvalidArgumentError, UnknownCrossSectionError
+from .errors import TLGCArgumentError, UnknownCrossSectionError
 from .validation import as_array
 
 TWO_PI = 2.0 * np.pi
@@ -84,15 +84,15 @@ class CrossSections(ABC):
         """The sections at ``indices`` (1-D integer array), in that order."""
 
     def check_index(self, index: np.ndarray) -> np.ndarray:
-        """Integer array of section indices in [0, N); raise InvalidArgumentError otherwise."""
+        """Integer array of section indices in [0, N); raise TLGCArgumentError otherwise."""
         idx = np.asarray(index)
         if idx.dtype.kind not in "iu":
             if idx.dtype.kind == "f" and np.all(np.isfinite(idx)) and np.all(idx == np.round(idx)):
                 idx = idx.astype(np.intp)
             else:
-                raise InvalidArgumentError(f"index: expected integers, got dtype {idx.dtype}")
+                raise TLGCArgumentError(f"index: expected integers, got dtype {idx.dtype}")
         if idx.size and (idx.min() < 0 or idx.max() >= self.num_sections):
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"index: expected values in [0, {self.num_sections}), "
                 f"got range [{idx.min()}, {idx.max()}]")
         return idx
@@ -117,7 +117,7 @@ class CircleSections(CrossSections):
     def __init__(self, radii: np.ndarray) -> None:
         self.radii = as_array(radii, "radii")
         if self.radii.ndim != 1 or np.any(self.radii <= 0):
-            raise InvalidArgumentError(f"radii: expected positive values of shape (N,), got {self.radii.shape}")
+            raise TLGCArgumentError(f"radii: expected positive values of shape (N,), got {self.radii.shape}")
 
     @property
     def num_sections(self) -> int:
@@ -159,11 +159,11 @@ class EllipseSections(CrossSections):
         self.orientation = as_array(orientation, "orientation")
         n = self.major.shape
         if len(n) != 1 or self.minor.shape != n or self.orientation.shape != n:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"major, minor, orientation: expected equal shapes (N,), got "
                 f"{self.major.shape}, {self.minor.shape}, {self.orientation.shape}")
         if np.any(self.major <= 0) or np.any(self.minor <= 0):
-            raise InvalidArgumentError("major, minor: expected positive semi-axes")
+            raise TLGCArgumentError("major, minor: expected positive semi-axes")
         # 1 / r(angle)^2 = A cos^2 + B cos sin + C sin^2 (quadratic form of the ellipse).
         co, so = np.cos(self.orientation), np.sin(self.orientation)
         ia, ib = 1.0 / self.major**2, 1.0 / self.minor**2
@@ -325,12 +325,12 @@ class SplineSections(CrossSections):
         self.coefficients = as_array(coefficients, "coefficients")
         n, k1 = self.breaks.shape if self.breaks.ndim == 2 else (None, None)
         if n is None or k1 < 2 or self.coefficients.shape != (n, k1 - 1, 4):
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"breaks, coefficients: expected shapes (N, K+1) and (N, K, 4), got "
                 f"{self.breaks.shape} and {self.coefficients.shape}")
         widths = np.diff(self.breaks, axis=1)
         if np.any(widths < 0) or np.any(np.abs(self.breaks[:, -1] - self.breaks[:, 0] - TWO_PI) > 1e-9):
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 "breaks: expected non-decreasing rows whose last entry is the first plus 2 pi")
         self._build_tables(widths > 0)
 

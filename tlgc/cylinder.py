@@ -24,10 +24,10 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial import cKDTree
 
 from .cross_sections import CROSS_SECTION_TYPES, CrossSections, cross_section_type, polar
-from .errors import (CylinderFileError, InvalidArgumentError, InvalidDemonstrationsError,
+from .errors import (CylinderFileError, TLGCArgumentError, CylinderDemonstrationsError,
                      TooFewDemonstrationsError)
 from .frames import bishop_frames, unit_tangents
-from scenes.threads import single_blas_thread
+from skillplan.threads import single_blas_thread
 from .validation import as_array, as_count, as_file, as_path, as_points, as_trailing
 
 MIN_DEMONSTRATIONS = 2
@@ -46,7 +46,7 @@ def resample_demonstrations(trajectories: Sequence[np.ndarray] | np.ndarray,
     Trajectories are parameterised uniformly in [0, 1] over their samples (time-aligned
     resampling, as in the paper). Returns (M, num_points, 3) [m].
     """
-    num_points = as_count(num_points, "num_points", minimum=2, error=InvalidDemonstrationsError)
+    num_points = as_count(num_points, "num_points", minimum=2, error=CylinderDemonstrationsError)
     out = np.empty((len(trajectories), num_points, 3))
     target = np.linspace(0.0, 1.0, num_points)
     for m, traj in enumerate(trajectories):      # one spline per demonstration, not per point
@@ -67,16 +67,16 @@ def as_demonstration_array(demos: Any, num_points: int | None = None) -> np.ndar
     """
     source = getattr(demos, "positions", demos)
     if isinstance(source, np.ndarray) or not isinstance(source, (list, tuple)):
-        arr = as_points(source, "demos", error=InvalidDemonstrationsError)
+        arr = as_points(source, "demos", error=CylinderDemonstrationsError)
         if arr.ndim != 3:
-            raise InvalidDemonstrationsError(f"demos: expected shape (M, T, 3), got {arr.shape}")
+            raise CylinderDemonstrationsError(f"demos: expected shape (M, T, 3), got {arr.shape}")
         trajectories: list[np.ndarray] = list(arr)
     else:
         trajectories = []
         for m, traj in enumerate(source):
-            x = as_points(traj, f"demos[{m}]", error=InvalidDemonstrationsError)
+            x = as_points(traj, f"demos[{m}]", error=CylinderDemonstrationsError)
             if x.ndim != 2:
-                raise InvalidDemonstrationsError(f"demos[{m}]: expected shape (T, 3), got {x.shape}")
+                raise CylinderDemonstrationsError(f"demos[{m}]: expected shape (T, 3), got {x.shape}")
             trajectories.append(x)
     if len(trajectories) < MIN_DEMONSTRATIONS:
         raise TooFewDemonstrationsError(
@@ -84,7 +84,7 @@ def as_demonstration_array(demos: Any, num_points: int | None = None) -> np.ndar
             f"got {len(trajectories)}")
     lengths = [len(x) for x in trajectories]
     if min(lengths) < 2:
-        raise InvalidDemonstrationsError(
+        raise CylinderDemonstrationsError(
             f"demos: every demonstration needs at least 2 points, got lengths {lengths}")
     if num_points is None:
         num_points = max(lengths)
@@ -176,21 +176,21 @@ class GeneralizedCylinder:
         self.directrix = as_points(directrix, "directrix")
         n = len(self.directrix)
         if self.directrix.shape != (n, 3) or n < 2:
-            raise InvalidArgumentError(f"directrix: expected shape (N, 3), N >= 2, got {self.directrix.shape}")
+            raise TLGCArgumentError(f"directrix: expected shape (N, 3), N >= 2, got {self.directrix.shape}")
         self.frames = as_array(frames, "frames")
         if self.frames.shape != (n, 3, 3):
-            raise InvalidArgumentError(f"frames: expected shape ({n}, 3, 3), got {self.frames.shape}")
+            raise TLGCArgumentError(f"frames: expected shape ({n}, 3, 3), got {self.frames.shape}")
         if not isinstance(cross_sections, CrossSections) or cross_sections.num_sections != n:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"cross_sections: expected a CrossSections object with {n} sections")
         self.cross_sections = cross_sections
         self.effective_points = None if effective_points is None else as_array(effective_points, "effective_points")
         if self.effective_points is not None and self.effective_points.shape[1:] != (n, 2):
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"effective_points: expected shape (M, {n}, 2), got {self.effective_points.shape}")
         self.demonstrations = None if demonstrations is None else as_points(demonstrations, "demonstrations")
         if self.demonstrations is not None and self.demonstrations.shape[1:] != (n, 3):
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"demonstrations: expected shape (M, {n}, 3), got {self.demonstrations.shape}")
 
     # ------------------------------------------------------------------ basic geometry
@@ -295,7 +295,7 @@ class GeneralizedCylinder:
         """
         p = as_points(points, "points")
         if p.ndim != 2:
-            raise InvalidArgumentError(f"points: expected shape (P, 3), got {p.shape}")
+            raise TLGCArgumentError(f"points: expected shape (P, 3), got {p.shape}")
         with single_blas_thread():
             return self._containment(p)
 
@@ -437,7 +437,7 @@ class GeneralizedCylinder:
         """
         new = as_points(directrix, "directrix")
         if new.shape != self.directrix.shape:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"directrix: expected shape {self.directrix.shape} (same number of sections), got {new.shape}")
         if initial_normal is None:
             first_tangent = unit_tangents(new)[0]
@@ -489,9 +489,9 @@ class GeneralizedCylinder:
 
 
 def check_cylinder(cyl: object, name: str = "cyl") -> GeneralizedCylinder:
-    """``cyl`` itself when it is a GeneralizedCylinder (InvalidArgumentError naming it)."""
+    """``cyl`` itself when it is a GeneralizedCylinder (TLGCArgumentError naming it)."""
     if not isinstance(cyl, GeneralizedCylinder):
-        raise InvalidArgumentError(f"{name}: expected a GeneralizedCylinder (tlgc.fit_cylinder), "
+        raise TLGCArgumentError(f"{name}: expected a GeneralizedCylinder (tlgc.fit_cylinder), "
                                    f"got {type(cyl).__name__}")
     return cyl
 
@@ -521,15 +521,15 @@ def fit_cylinder(demos: Any, cross_section: str = "spline",
     directrix = x.mean(axis=0)
     try:
         frames = bishop_frames(directrix)
-    except InvalidArgumentError as exc:
-        raise InvalidDemonstrationsError(f"demos: the mean trajectory is degenerate ({exc})") from None
+    except TLGCArgumentError as exc:
+        raise CylinderDemonstrationsError(f"demos: the mean trajectory is degenerate ({exc})") from None
     d = x - directrix
     effective = np.stack([np.einsum("mni,ni->mn", d, frames[:, 1]),
                           np.einsum("mni,ni->mn", d, frames[:, 2])], axis=-1)
     spread = np.linalg.norm(effective, axis=-1).max(axis=0)          # (N,) [m]
     if spread[0] < MIN_SPREAD or np.all(spread < MIN_SPREAD):
         where = "every section" if np.all(spread < MIN_SPREAD) else "the first section"
-        raise InvalidDemonstrationsError(
+        raise CylinderDemonstrationsError(
             f"demos: the demonstrations coincide at {where} (largest distance from their mean "
             f"{spread[0]:.3g} m at section 0); a cylinder needs demonstrations that differ by at "
             f"least {MIN_SPREAD:g} m there (starts are taken in the first section)")

@@ -18,12 +18,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from scenes.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, integer_at_least, number,
+from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, integer_at_least, number,
                                  quiet, run)
 
 from .boundary_factor import BoundaryFamily, boundary_distance, section_indices
 from .cylinder import GeneralizedCylinder, fit_cylinder
-from .errors import InvalidArgumentError
+from .errors import TLGCArgumentError
 
 INSIDE_TOLERANCE = 1e-3      # [m] counted as inside when at most this far outside
 
@@ -74,7 +74,7 @@ def run_clamp_cylinder_demo(skill: str = "reach_from_above", robot_name: str = "
     from scenes import make_demonstrations
 
     if not 0.0 <= start_ratio < 1.0:
-        raise InvalidArgumentError(f"start_ratio: expected a number in [0, 1), got {start_ratio!r}")
+        raise TLGCArgumentError(f"start_ratio: expected a number in [0, 1), got {start_ratio!r}")
     demos = make_demonstrations(skill, num_demos=6, num_points=num_states,
                                 dt=0.16 * 250 / num_states, seed=seed)
     prior = learn_prior(demos, jitter=jitter)

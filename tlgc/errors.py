@@ -1,27 +1,27 @@
 """Errors raised by the tlgc package on bad input (all derive from the project's root input
-error ``scenes.errors.InvalidArgumentError``, a ValueError).
+error ``skillplan.errors.InvalidArgumentError``, a ValueError).
 
 Other tlgc modules may add subclasses here; every message names the offending argument and
 what was expected.
 """
 from __future__ import annotations
 
-from scenes import errors as _project
+from skillplan import errors as _project
 
 
 class TLGCError(_project.InvalidArgumentError):
     """Base class of every error raised by :mod:`tlgc` on bad input."""
 
 
-class InvalidArgumentError(TLGCError):
+class TLGCArgumentError(TLGCError):
     """An argument has the wrong type, shape or value, or contains NaN/inf."""
 
 
-class InvalidDemonstrationsError(TLGCError):
+class CylinderDemonstrationsError(TLGCError):
     """Demonstrations have the wrong shape, contain NaN/inf, or are degenerate."""
 
 
-class TooFewDemonstrationsError(InvalidDemonstrationsError):
+class TooFewDemonstrationsError(CylinderDemonstrationsError):
     """Fewer demonstrations than a generalized cylinder needs (at least 2)."""
 
 

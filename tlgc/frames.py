@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import InvalidArgumentError
+from .errors import TLGCArgumentError
 from .validation import as_points
 
 _TINY = 1e-12
@@ -19,11 +19,11 @@ def unit_tangents(points: np.ndarray) -> np.ndarray:
     """Unit tangents (N,3) of a polyline (N,3) by central differences.
 
     Where the polyline stalls (repeated points) the tangent of the nearest moving stretch is
-    used; a polyline that never moves raises InvalidArgumentError.
+    used; a polyline that never moves raises TLGCArgumentError.
     """
     x = as_points(points, "points")
     if x.ndim != 2 or x.shape[0] < 2:
-        raise InvalidArgumentError(f"points: expected shape (N, 3) with N >= 2, got {x.shape}")
+        raise TLGCArgumentError(f"points: expected shape (N, 3) with N >= 2, got {x.shape}")
     d = np.gradient(x, axis=0)
     if len(x) >= 3:
         # Second-order one-sided end differences where they agree with the end chords (they do
@@ -35,7 +35,7 @@ def unit_tangents(points: np.ndarray) -> np.ndarray:
     scale = max(float(np.ptp(x, axis=0).max()), 1.0) * _TINY
     moving = norm > scale
     if not moving.any():
-        raise InvalidArgumentError("points: the polyline does not move (all points coincide)")
+        raise TLGCArgumentError("points: the polyline does not move (all points coincide)")
     if not moving.all():
         # Fill stalled points with the tangent of the nearest moving point (forward, then back).
         idx = np.arange(len(x))
@@ -88,10 +88,10 @@ def bishop_frames(points: np.ndarray, initial_normal: np.ndarray | None = None) 
     else:
         v = as_points(initial_normal, "initial_normal")
         if v.shape != (3,):
-            raise InvalidArgumentError(f"initial_normal: expected shape (3,), got {v.shape}")
+            raise TLGCArgumentError(f"initial_normal: expected shape (3,), got {v.shape}")
         n0 = v - t[0] * (v @ t[0])
         if np.linalg.norm(n0) < 1e-9 * max(np.linalg.norm(v), 1e-300):
-            raise InvalidArgumentError("initial_normal: must not be parallel to the first tangent")
+            raise TLGCArgumentError("initial_normal: must not be parallel to the first tangent")
         n0 = n0 / np.linalg.norm(n0)
 
     chord = np.diff(x, axis=0)                                   # (N-1, 3)

@@ -71,7 +71,7 @@ from scipy.spatial.transform import Rotation
 
 from .cross_sections import fit_cross_sections
 from .cylinder import GeneralizedCylinder, check_cylinder
-from .errors import GeneralizationError, InvalidArgumentError
+from .errors import GeneralizationError, TLGCArgumentError
 from .validation import as_points, as_scalar, as_count
 
 #: landmarks closer than this (metres) to an anchor are considered the same point; a landmark
@@ -108,7 +108,7 @@ def fit_similarity(source: np.ndarray, target: np.ndarray, translation: bool = T
     src = as_points(source, "source")
     dst = as_points(target, "target")
     if src.ndim != 2 or src.shape != dst.shape:
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             f"source, target: expected equal shapes (K, 3), got {src.shape} and {dst.shape}")
     mu_s = src.mean(axis=0) if translation else np.zeros(3)
     mu_d = dst.mean(axis=0) if translation else np.zeros(3)
@@ -176,14 +176,14 @@ def fit_tps(source_landmarks: np.ndarray, target_landmarks: np.ndarray, smoothin
     if dst.ndim == 1:
         dst = dst[None]
     if src.ndim != 2 or src.shape != dst.shape or len(src) == 0:
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             "source_landmarks, target_landmarks: expected equal shapes (L, 3) with L >= 1, got "
             f"{np.shape(source_landmarks)} and {np.shape(target_landmarks)}")
     lam = as_scalar(smoothing, "smoothing", minimum=0.0)
     gap = np.linalg.norm(src[:, None] - src[None], axis=-1)
     np.fill_diagonal(gap, np.inf)
     if gap.min() < 1e-9:
-        raise InvalidArgumentError("source_landmarks: two landmarks coincide; expected distinct points")
+        raise TLGCArgumentError("source_landmarks: two landmarks coincide; expected distinct points")
     extra = np.zeros((0, 3))
     if anchors is not None:
         a = as_points(anchors, "anchors").reshape(-1, 3)
@@ -215,7 +215,7 @@ def laplacian_coordinates(path: np.ndarray) -> np.ndarray:
     """Laplacian coordinates delta (N,3) = L P of a path (N,3) (eq. 12)."""
     p = as_points(path, "path")
     if p.ndim != 2:
-        raise InvalidArgumentError(f"path: expected shape (N, 3), got {p.shape}")
+        raise TLGCArgumentError(f"path: expected shape (N, 3), got {p.shape}")
     return laplacian_matrix(len(p)) @ p
 
 
@@ -223,21 +223,21 @@ def _check_constraints(constraints: Mapping[int, np.ndarray], num_points: int
                        ) -> tuple[np.ndarray, np.ndarray]:
     """Sorted constraint indices (C,) and positions (C,3); negative indices count from the end."""
     if not isinstance(constraints, Mapping) or len(constraints) == 0:
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             "constraints: expected a non-empty mapping {directrix index: position (3,)}")
     idx, pos = [], []
     for k, v in constraints.items():
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not -num_points <= k < num_points:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"constraints: index {k!r} is not an integer in [-{num_points}, {num_points - 1}]")
         p = as_points(v, f"constraints[{k}]")
         if p.shape != (3,):
-            raise InvalidArgumentError(f"constraints[{k}]: expected shape (3,), got {p.shape}")
+            raise TLGCArgumentError(f"constraints[{k}]: expected shape (3,), got {p.shape}")
         idx.append(int(k) % num_points)
         pos.append(p)
     idx_arr = np.asarray(idx)
     if len(np.unique(idx_arr)) != len(idx_arr):
-        raise InvalidArgumentError("constraints: two keys name the same directrix index")
+        raise TLGCArgumentError("constraints: two keys name the same directrix index")
     order = np.argsort(idx_arr)
     return idx_arr[order], np.asarray(pos)[order]
 
@@ -274,7 +274,7 @@ def _arc_length(path: np.ndarray) -> np.ndarray:
 
 def _check_mode(mode: Any) -> str:
     if mode not in LTE_MODES:
-        raise InvalidArgumentError(f"mode: unknown LTE mode {mode!r}; expected one of {', '.join(LTE_MODES)}")
+        raise TLGCArgumentError(f"mode: unknown LTE mode {mode!r}; expected one of {', '.join(LTE_MODES)}")
     return mode
 
 
@@ -351,7 +351,7 @@ def lte_solve(path: np.ndarray, constraints: Mapping[int, np.ndarray], mode: str
     """
     p = as_points(path, "path")
     if p.ndim != 2 or len(p) < 3:
-        raise InvalidArgumentError(f"path: expected shape (N, 3) with N >= 3, got {p.shape}")
+        raise TLGCArgumentError(f"path: expected shape (N, 3) with N >= 3, got {p.shape}")
     mode = _check_mode(mode)
     bound = as_scalar(max_amplification, "max_amplification", minimum=1.0)
     n = len(p)
@@ -360,7 +360,7 @@ def lte_solve(path: np.ndarray, constraints: Mapping[int, np.ndarray], mode: str
     move = float(np.linalg.norm(pos - p[idx], axis=1).max())
     if anchor_start:
         if n <= ANCHORED_SECTIONS:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"path: anchoring the start keeps {ANCHORED_SECTIONS} points; expected N > "
                 f"{ANCHORED_SECTIONS}, got {n}")
         early = idx < ANCHORED_SECTIONS
@@ -454,11 +454,11 @@ def shape_distortion(original: np.ndarray, deformed: np.ndarray) -> float:
     a = laplacian_coordinates(original)
     b = laplacian_coordinates(deformed)
     if a.shape != b.shape:
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             f"original, deformed: expected equal shapes (N, 3), got {a.shape} and {b.shape}")
     norm = float(np.linalg.norm(a))
     if norm == 0.0:
-        raise InvalidArgumentError("original: a straight, evenly spaced path has no shape to compare")
+        raise TLGCArgumentError("original: a straight, evenly spaced path has no shape to compare")
     fit = fit_similarity(a, b, translation=False)
     return float(np.linalg.norm(b - fit(a))) / norm
 
@@ -567,12 +567,12 @@ def landmark_constraints(cyl: GeneralizedCylinder, source_landmarks: np.ndarray,
     src = as_points(source_landmarks, "source_landmarks").reshape(-1, 3)
     dst = as_points(target_landmarks, "target_landmarks").reshape(-1, 3)
     if src.shape != dst.shape or len(src) == 0:
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             "source_landmarks, target_landmarks: expected equal shapes (L, 3) with L >= 1, got "
             f"{np.shape(source_landmarks)} and {np.shape(target_landmarks)}")
     nearest = np.argmin(np.linalg.norm(cyl.directrix[None] - src[:, None], axis=-1), axis=1)
     if len(np.unique(nearest)) != len(nearest):
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             "source_landmarks: two landmarks are nearest to the same directrix point")
     constraints = {int(k): cyl.directrix[k] + (d - s) for k, s, d in zip(nearest, src, dst)}
     if keep_start and 0 not in constraints:
@@ -620,7 +620,7 @@ def lte_generalize(cyl: GeneralizedCylinder, constraints: Mapping[int, np.ndarra
         normal = result.transform.rotation @ cyl.normals[0]
         try:
             moved = cyl.with_directrix(result.path, normal)
-        except InvalidArgumentError:             # turned normal parallel to the new tangent
+        except TLGCArgumentError:             # turned normal parallel to the new tangent
             moved = cyl.with_directrix(result.path)
     scale = result.transform.scale if scale_cross_sections else 1.0
     if keep_start:

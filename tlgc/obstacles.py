@@ -37,7 +37,7 @@ import numpy as np
 
 from .bounding_sphere import BoundingSphere, bounding_sphere
 from .cylinder import GeneralizedCylinder, check_cylinder
-from .errors import InvalidArgumentError, ObstacleAvoidanceError
+from .errors import TLGCArgumentError, ObstacleAvoidanceError
 from .generalization import ANCHORED_SECTIONS, lte_generalize
 from .reproduction import PLANE_TOLERANCE, check_starts, reproduce
 from .validation import as_count, as_points, as_scalar
@@ -106,7 +106,7 @@ def path_clearance(paths: np.ndarray, sphere: BoundingSphere) -> np.ndarray | fl
     some part lies inside). Returns (R,) (or a float for one path)."""
     x = as_points(paths, "paths")
     if x.ndim not in (2, 3) or x.shape[-2] < 1:
-        raise InvalidArgumentError(f"paths: expected shape (R, N, 3) or (N, 3), got {x.shape}")
+        raise TLGCArgumentError(f"paths: expected shape (R, N, 3) or (N, 3), got {x.shape}")
     single = x.ndim == 2
     x = x[None] if single else x
     if x.shape[1] == 1:
@@ -213,7 +213,7 @@ def adaptive_ratio_parameters(cyl: GeneralizedCylinder, start: np.ndarray, obsta
     """
     p0 = as_points(start, "start")
     if p0.shape != (3,):
-        raise InvalidArgumentError(f"start: expected shape (3,), got {p0.shape}")
+        raise TLGCArgumentError(f"start: expected shape (3,), got {p0.shape}")
     frac = as_scalar(critical_fraction, "critical_fraction", minimum=1e-6, maximum=0.5)
     extra = as_scalar(margin, "margin", minimum=0.0)
     sphere = bounding_sphere(obstacle).inflated(extra)
@@ -299,7 +299,7 @@ def avoid_with_adaptive_ratio(cyl: GeneralizedCylinder, start: np.ndarray, obsta
     """
     p0 = as_points(start, "start")
     if p0.shape != (3,):
-        raise InvalidArgumentError(f"start: expected shape (3,), got {p0.shape}")
+        raise TLGCArgumentError(f"start: expected shape (3,), got {p0.shape}")
     margin = as_scalar(safety, "safety", minimum=0.0)
     rounds = as_count(max_rounds, "max_rounds")
     sphere = bounding_sphere(obstacle)

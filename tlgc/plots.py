@@ -16,11 +16,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from scenes.command_line import save_figure as _save_figure  # noqa: E402
+from skillplan.command_line import save_figure as _save_figure  # noqa: E402
 from scenes.plotting import set_equal_axes_3d  # noqa: E402
 
 from .cylinder import GeneralizedCylinder  # noqa: E402
-from .errors import InvalidArgumentError  # noqa: E402
+from .errors import TLGCArgumentError  # noqa: E402
 from .validation import as_count, as_points  # noqa: E402
 
 
@@ -30,7 +30,7 @@ def _as_reproductions(cyl: GeneralizedCylinder, reproductions: np.ndarray | None
     r = as_points(reproductions, "reproductions")
     r = r[None] if r.ndim == 2 else r
     if r.ndim != 3 or r.shape[1] != cyl.num_sections:
-        raise InvalidArgumentError(
+        raise TLGCArgumentError(
             f"reproductions: expected shape (R, {cyl.num_sections}, 3) or ({cyl.num_sections}, 3), got {r.shape}")
     return r
 
@@ -76,7 +76,7 @@ def plot_cross_sections(cyl: GeneralizedCylinder, indices: Sequence[int],
     directrix point, effective points and the matching points of reproductions (R, N, 3)."""
     idx = cyl.cross_sections.check_index(np.atleast_1d(np.asarray(indices)))
     if idx.ndim != 1 or len(idx) == 0:
-        raise InvalidArgumentError(f"indices: expected a non-empty list of section indices, got {indices!r}")
+        raise TLGCArgumentError(f"indices: expected a non-empty list of section indices, got {indices!r}")
     reps = _as_reproductions(cyl, reproductions)
     cols = min(len(idx), 4)
     rows = int(np.ceil(len(idx) / cols))

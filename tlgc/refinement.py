@@ -30,7 +30,7 @@ from typing import Any, Iterator, Sequence
 import numpy as np
 
 from .cylinder import GeneralizedCylinder, as_demonstration_array, fit_cylinder, resample_demonstrations
-from .errors import InvalidArgumentError
+from .errors import TLGCArgumentError
 from .validation import as_points, as_scalar
 
 CORRECTION_MODES = ("project", "translate")
@@ -39,7 +39,7 @@ CORRECTION_MODES = ("project", "translate")
 def _as_path(x: np.ndarray, name: str) -> np.ndarray:
     p = as_points(x, name)
     if p.ndim != 2 or len(p) < 2:
-        raise InvalidArgumentError(f"{name}: expected shape (N, 3) with N >= 2, got {p.shape}")
+        raise TLGCArgumentError(f"{name}: expected shape (N, 3) with N >= 2, got {p.shape}")
     return p
 
 
@@ -66,16 +66,16 @@ class RefinementConstraint:
         o = _as_path(original, "original")
         c = _as_path(corrected, "corrected")
         if o.shape != c.shape:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"original, corrected: expected equal shapes (N, 3), got {o.shape} and {c.shape}")
         tol = as_scalar(tolerance, "tolerance", minimum=0.0)
         if mode not in CORRECTION_MODES:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"mode: unknown correction mode {mode!r}; expected one of {', '.join(CORRECTION_MODES)}")
         v = c - o
         active = np.linalg.norm(v, axis=1) > tol
         if not active.any():
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"corrected: differs from original by at most {tol:g} m everywhere; no constraint")
         return cls(c, v, active, mode)
 
@@ -92,7 +92,7 @@ class RefinementConstraint:
     def _check(self, reproductions: np.ndarray) -> np.ndarray:
         r = as_points(reproductions, "reproductions")
         if r.ndim not in (2, 3) or r.shape[-2] != self.num_points:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"reproductions: expected shape ({self.num_points}, 3) or (R, {self.num_points}, 3) "
                 f"(one point per cross-section, like the correction), got {r.shape}")
         return r
@@ -142,10 +142,10 @@ class RefinementSet:
     def add(self, constraint: RefinementConstraint) -> int:
         """Append a constraint; returns its position (usable with :meth:`remove`)."""
         if not isinstance(constraint, RefinementConstraint):
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"constraint: expected a RefinementConstraint, got {type(constraint).__name__}")
         if self._constraints and constraint.num_points != self._constraints[0].num_points:
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"constraint: has {constraint.num_points} points, the set's constraints have "
                 f"{self._constraints[0].num_points}")
         self._constraints.append(constraint)
@@ -159,7 +159,7 @@ class RefinementSet:
     def remove(self, position: int) -> RefinementConstraint:
         """Remove and return the constraint at ``position``."""
         if not isinstance(position, (int, np.integer)) or not -len(self) <= position < len(self):
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"position: expected an integer in [0, {len(self)}), got {position!r}")
         return self._constraints.pop(position)
 
@@ -196,7 +196,7 @@ def refine_incrementally(demos: Any, corrected: np.ndarray, replace: int | None 
         x = np.concatenate([x, new])
     else:
         if isinstance(replace, bool) or not isinstance(replace, (int, np.integer)) or not -len(x) <= replace < len(x):
-            raise InvalidArgumentError(
+            raise TLGCArgumentError(
                 f"replace: expected None or a demonstration index in [0, {len(x)}), got {replace!r}")
         x = x.copy()
         x[replace] = new[0]

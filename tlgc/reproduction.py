@@ -10,7 +10,7 @@ u_i the normalised arc length of the directrix; eta_f = 0 convergent, 1 divergen
 All R reproductions are one broadcast over (R, N).
 
 Threads: the per-block products have inner dimension 2; they are written as element-wise
-operations (no BLAS call) and the whole call runs under :func:`scenes.threads.single_blas_thread`,
+operations (no BLAS call) and the whole call runs under :func:`skillplan.threads.single_blas_thread`,
 so the time does not depend on the caller's BLAS thread setting.
 """
 from __future__ import annotations
@@ -19,8 +19,8 @@ import numpy as np
 
 from .cross_sections import polar
 from .cylinder import GeneralizedCylinder, check_cylinder
-from .errors import InvalidArgumentError, StartOffPlaneError, StartOutsideError
-from scenes.threads import single_blas_thread
+from .errors import TLGCArgumentError, StartOffPlaneError, StartOutsideError
+from skillplan.threads import single_blas_thread
 from .validation import as_array, as_bool, as_count, as_generator, as_points, as_scalar
 
 DEFAULT_GAMMA = 10.0     # decay constant of eq. 10: exp(-10) = 4.5e-5 of the gap is left at the end
@@ -35,7 +35,7 @@ def start_coordinates(cyl: GeneralizedCylinder, starts: np.ndarray,
     (the in-plane part of each start; see :func:`check_starts` for the distance off it)."""
     p = as_points(starts, "starts")
     if p.ndim != 2:
-        raise InvalidArgumentError(f"starts: expected shape (R, 3) or (3,), got {p.shape}")
+        raise TLGCArgumentError(f"starts: expected shape (R, 3) or (3,), got {p.shape}")
     distance, angle = polar(cyl.to_local(p, np.full(len(p), index)))
     return angle, distance / cyl.radius(np.full(len(p), index), angle)
 
@@ -104,7 +104,7 @@ def reproduce(cyl: GeneralizedCylinder, starts: np.ndarray, eta_final: float | N
     p = as_points(starts, "starts")
     single = p.ndim == 1
     if p.ndim not in (1, 2):
-        raise InvalidArgumentError(f"starts: expected shape (R, 3) or (3,), got {p.shape}")
+        raise TLGCArgumentError(f"starts: expected shape (R, 3) or (3,), got {p.shape}")
     p = np.atleast_2d(p)
     gamma = as_scalar(gamma, "gamma", minimum=0.0)
     if eta_final is not None:

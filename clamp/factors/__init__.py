@@ -1,12 +1,12 @@
 """Factor families of the CLAMP planner, one module per family (see :mod:`clamp.factors.family`).
 
 A new family is one file with a :class:`Family` subclass; pass an instance in
-``clamp.plan(extra_factors=[...])`` (or add it to :func:`clamp.assembly.planner_families` for
+``clamp.plan(extra_factors=[...])`` (or add it to :func:`clamp.planning.assembly.planner_families` for
 a built-in one). A constraint family (``role = "constraint"``: a hinge max(0, g + shift), see
 :mod:`clamp.factors.family`) is handled by the augmented-Lagrangian solve of
-:mod:`clamp.constrained` when the verdict finds it violated (a ``violation(robot, q)`` method
+:mod:`clamp.optim.constrained` when the verdict finds it violated (a ``violation(robot, q)`` method
 says so); one that should join only once its check fails is one entry of the ``lazy`` mapping
-in :func:`clamp.pipeline.solve` (as self-collision does).
+in :func:`clamp.planning.pipeline.solve` (as self-collision does).
 """
 from .ee_position import EEPositionFamily
 from .family import Family, Linearization, square_root_information

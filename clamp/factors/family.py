@@ -7,8 +7,8 @@ error is 0.5 ||R_f e_f||^2 (GTSAM's convention). A subclass implements one vecto
 :meth:`Family.residual`, returning the residuals and analytic Jacobians of any set of its
 factors at a :class:`~clamp.factors.states.StateWindow`. From it come:
 
-- the fast solver's stacked whitened system (:mod:`clamp.problem`),
-- the per-factor GTSAM adapters (:mod:`clamp.factors.gtsam_adapter`), which call the same
+- the fast solver's stacked whitened system (:mod:`clamp.graph.problem`),
+- the per-factor GTSAM adapters (:mod:`clamp.graph.gtsam_adapter`), which call the same
   kernel for one factor,
 - the errors reported per family.
 
@@ -19,7 +19,7 @@ A family's ``role`` says how the solve treats it: ``"cost"`` (a term of the post
 ``"constraint"``: a hinge family whose residual components are e = max(0, g(theta) + s) for a
 constraint g(theta) <= 0 (a sphere's reach into an obstacle, a joint beyond its limit) and a
 shift s >= 0 (:attr:`Family.shift`, zero unless set), which the augmented-Lagrangian solve of
-:mod:`clamp.constrained` sets to lambda / mu (the multiplier over the penalty weight mu, the
+:mod:`clamp.optim.constrained` sets to lambda / mu (the multiplier over the penalty weight mu, the
 squared whitening). Such a family is also judged by the verdict (its own check: the real
 collision geometry, the limits, ``violation(robot, q)``), which decides when its constraint
 holds. A kernel may leave out factors whose residual and Jacobian are exactly zero (inactive

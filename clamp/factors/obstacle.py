@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from clamp.errors import ArgumentTypeError, InvalidParameterError
+from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_array, as_scalar
 
 from .family import Family, Linearization
@@ -39,7 +39,7 @@ class ObstacleFamily(Family):
             raise InvalidParameterError(f"radii: expected sphere radii >= 0 m, got "
                                         f"{float(self.radii.min())}")
         if not callable(query):
-            raise ArgumentTypeError(f"query: expected a function points (..., 3) -> (distance, "
+            raise ClampTypeError(f"query: expected a function points (..., 3) -> (distance, "
                                     f"gradient) (e.g. scene.query), got {type(query).__name__}")
         self.query = query
         self.epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)

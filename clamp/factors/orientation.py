@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from clamp.errors import ArgumentTypeError, InvalidParameterError, ShapeError
+from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.validation import as_array, as_count, as_indices, as_scalar
 
 from .family import Family, Linearization
@@ -114,7 +114,7 @@ class OrientationFamily(Family):
         """Angle (F,) [rad] from the target at every factor's state, for joint positions q
         (T, n) of the whole plan."""
         if not callable(getattr(robot, "ee_rotation", None)):
-            raise ArgumentTypeError(f"robot: expected a robots.Robot, got {type(robot).__name__}")
+            raise ClampTypeError(f"robot: expected a robots.Robot, got {type(robot).__name__}")
         q = as_array(q, "q", (None, robot.n))
         if len(q) <= self.first[-1]:
             raise ShapeError(f"q: expected the joint positions of every support state (at least "

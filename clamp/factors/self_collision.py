@@ -25,7 +25,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from clamp.errors import ArgumentTypeError, InvalidParameterError
+from clamp.errors import ClampTypeError, InvalidParameterError
 from robots.self_collision import SPHERE_REACH, SelfCollisionSpheres, self_collision_spheres
 from clamp.validation import as_count, as_scalar
 
@@ -51,7 +51,7 @@ class SelfCollisionFamily(Family):
     def __init__(self, indices: Sequence[int], spheres: SelfCollisionSpheres, epsilon: float, sigma: float,
                  between: int = 4):
         if not isinstance(spheres, SelfCollisionSpheres):
-            raise ArgumentTypeError(f"spheres: expected a robots.self_collision.SelfCollisionSpheres "
+            raise ClampTypeError(f"spheres: expected a robots.self_collision.SelfCollisionSpheres "
                                     f"(self_collision_spheres(robot)), got {type(spheres).__name__}")
         if not len(spheres.first):
             raise InvalidParameterError("spheres: the robot has no sphere pair that can come within reach")

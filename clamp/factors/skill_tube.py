@@ -4,16 +4,16 @@ support state, a constraint hinge on the distance from where the skill goes:
 e_i = max(0, |p_i - r_i| - (limit_i - margin_i) + s_i) (1,) [m], p_i = fk(q_i),
 
 with r (T, 3) the reference (the prior's mean conditioned on the plan's targets,
-:func:`clamp.conditioning.skill_reference`), limit (T,) [m] the verdict's
-(:data:`clamp.skill.TUBE_RATIO` tube radii, :func:`clamp.skill.skill_checks`), margin a
+:func:`clamp.planning.reference.skill_reference`), limit (T,) [m] the verdict's
+(:data:`clamp.prior.skill.TUBE_RATIO` tube radii, :func:`clamp.prior.skill.skill_checks`), margin a
 fraction :data:`MARGIN` of it (the factor pulls from inside the limit, so that the optimum
 keeps within it) and s the augmented Lagrangian's shift. d e / d theta_i = [u^T J(q_i), 0],
 u = (p_i - r_i) / |p_i - r_i|. Inactive factors are left out.
 
 The planner adds it when a collision-free optimum leaves the skill's tube (a lazy constraint of
-:func:`clamp.pipeline.solve`): the tie to the free plan's posture let the hand go around an
+:func:`clamp.planning.pipeline.solve`): the tie to the free plan's posture let the hand go around an
 obstacle where the demonstrations agree, when the arm could have gone around it instead. Its
-violation is the verdict's skill check (:func:`clamp.skill.skill_checks`, which names the part
+violation is the verdict's skill check (:func:`clamp.prior.skill.skill_checks`, which names the part
 of the skill and the obstacle), so the family reports none of its own.
 """
 from __future__ import annotations

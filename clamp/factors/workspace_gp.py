@@ -1,14 +1,14 @@
 """Learned workspace GP family: one factor per step (theta_i, theta_{i+1}), i = 0 .. T-2.
 
 e_i = x(theta_{i+1}) - Phi_i x(theta_i) - u_i, x(theta) = [fk(q), J(q) qdot], noise Q_i (paper
-eq. 16; the residual is the prior's own :func:`clamp.prior.transition_residuals`).
+eq. 16; the residual is the prior's own :func:`clamp.prior.linear_gaussian.transition_residuals`).
 Jacobians: d e / d theta_i = -Phi_i dx_i, d e / d theta_{i+1} = dx_{i+1}.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from clamp.prior import transition_residuals
+from clamp.prior.linear_gaussian import transition_residuals
 from clamp.validation import as_array
 
 from .family import Family, Linearization, covariance_root

@@ -1,0 +1,5 @@
+"""The command lines: ``clamp demo`` / ``clamp plan`` (:mod:`.main`), ``clamp view``
+(:mod:`.viewer`) and ``clamp batch`` (:mod:`.batch`)."""
+from clamp.cli.main import main
+
+__all__ = ["main"]

@@ -1,0 +1,416 @@
+"""Command line of CLAMP: clamp demo (built-in synthetic skill) and clamp plan (user files).
+
+Both learn the workspace prior from demonstrations, plan on a robot (a registered name or any
+URDF arm) and write to the output folder (new or empty, or ``--force``): prior figures, plan
+figures (3-D, top view, joint angles with limits, clearance, uncertainty), plans as JSON (q,
+qdot, end-effector path, metrics), browser animations, the scene and, for a successful plan,
+its executable joint trajectory: retimed within the arm's velocity limits and ``--acc-limit``
+(TOPP-RA, from rest to rest) as skillplan JSON (with the verdict) and as a ROS 2
+``trajectory_msgs/JointTrajectory`` message; a summary table is printed. Exit codes: 0 success,
+1 a plan was computed but failed (no trajectory is written for it), 2 bad input (nothing is
+left behind: a folder the run created is removed again). Shared plumbing (errors, output
+folder, atomic writes, logging): :mod:`skillplan.command_line`.
+
+A sub-command is registered in :func:`parser` by ``add_parser`` + ``set_defaults(run=...)``;
+:func:`robot_options` / :func:`planning_options` add the shared options.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from clamp.config import PlannerConfig
+from clamp.errors import InvalidParameterError
+from clamp.config import INITIALISATIONS, OPTIMIZERS
+from clamp.planning.planner import plan
+from clamp.planning.result import PlanResult
+from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
+from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
+                                 integer_at_least, number, output_directory, quiet, run,
+                                 save_figure)
+from skillplan.progress import progress
+
+log = logging.getLogger(__name__)
+
+DEMO_START_OFFSET = np.array([0.0, -0.03, 0.03])
+#: What ``clamp`` writes per plan NAME besides figures: the executable trajectory files.
+TRAJECTORY_FILES = ("trajectory_{}.json", "trajectory_{}_ros2.json")
+
+
+def _config(args: argparse.Namespace) -> PlannerConfig:
+    """PlannerConfig() (PlannerConfig.fast() with --fast) with the options given on the command
+    line; an option left out keeps the Python API's default."""
+    given = {"epsilon": args.epsilon, "initialisation": args.init,
+             "max_iterations": args.max_iterations, "optimizer": args.optimizer,
+             "sigma_obs": args.sigma_obs}
+    changes = {name: value for name, value in given.items() if value is not None}
+    config = PlannerConfig.fast(**changes) if args.fast else PlannerConfig().with_(**changes)
+    return config.validate()
+
+
+def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
+    """Plan and metrics as JSON (arrays as lists; +inf as null), written atomically."""
+    data = result.to_dict()
+    data.update(extra)
+    atomic_write_text(path, json.dumps(data, indent=1) + "\n", overwrite=True)
+
+
+def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
+    """Plain-text table: one row per plan."""
+    head = (f"{'plan':<22} {'ok':<4} {'iters':>5} {'build s':>8} {'opt s':>7} {'final err':>10} "
+            f"{'clear mm':>9} {'start mm':>9} {'log-lik':>10} {'plaus':>7}  reasons")
+    lines = [head, "-" * len(head)]
+    for name, r in rows:
+        clearance = "inf" if not np.isfinite(r.min_clearance) else f"{r.min_clearance * 1e3:.1f}"
+        lines.append(f"{name:<22} {'yes' if r.success else 'no':<4} {r.iterations:>5} "
+                     f"{r.timings['build']:>8.3f} {r.timings['optimize']:>7.3f} "
+                     f"{r.final_error:>10.4g} {clearance:>9} {r.start_error * 1e3:>9.3f} "
+                     f"{r.log_likelihood:>10.4g} {r.plausibility:>7.3f}  "
+                     f"{'; '.join(r.reasons)}")
+    return "\n".join(lines)
+
+
+def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
+             plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
+    """Prior figures; per plan: 3-D, top view, joint angles, clearance and uncertainty
+    figures and the browser animation (HTML)."""
+    from clamp.viz.animation import write_animation
+    from clamp.viz.plan_plots import (plot_clearance, plot_joint_angles, plot_plan_3d,
+                                  plot_plan_uncertainty, plot_top_view)
+    from clamp.viz.prior_plots import plot_prior_3d, plot_prior_time
+    save_figure(plot_prior_3d(prior, demos), out / "prior_3d.png")
+    save_figure(plot_prior_time(prior, demos), out / "prior_time.png")
+    for name, result, scene in progress(plans, description="figures and animations", unit="plan"):
+        save_figure(plot_plan_3d(result, robot, scene, prior=prior, demos=demos),
+                    out / f"plan_{name}.png")
+        save_figure(plot_top_view(result, robot, scene, prior=prior, demos=demos),
+                    out / f"plan_{name}_top.png")
+        save_figure(plot_joint_angles(result, robot), out / f"plan_{name}_joints.png")
+        if scene is not None and len(getattr(scene, "obstacles", ())):
+            save_figure(plot_clearance(result, robot, scene, epsilon=config.model.epsilon),
+                        out / f"plan_{name}_clearance.png")
+        if result.ee_covariance is not None:
+            save_figure(plot_plan_uncertainty(result), out / f"plan_{name}_uncertainty.png")
+        write_animation(out / f"animation_{name}.html", robot, result.time, result.q,
+                        obstacles=scene, demonstrations=demos.positions,
+                        mean_path=np.asarray(prior.mean)[:, :3],
+                        title=f"CLAMP plan {name} on {robot.name}")
+
+
+@contextmanager
+def created_output_directory(path: Any, force: bool) -> Iterator[Path]:
+    """:func:`skillplan.command_line.output_directory`, undone on error: when the run stops with
+    an exception, the folders it created are removed again if they are still empty."""
+    missing = [folder for folder in (Path(path), *Path(path).parents) if not folder.exists()]
+    out = output_directory(path, force)
+    try:
+        yield out
+    except BaseException:
+        for folder in missing:  # innermost first
+            if folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()
+        raise
+
+
+def acceleration_limits(args: argparse.Namespace, robot: Any) -> float | np.ndarray:
+    """The --acc-limit values [rad/s^2]: one for every joint or one per joint, positive
+    (default robots.retiming.DEFAULT_ACCELERATION_LIMIT)."""
+    from robots.retiming import DEFAULT_ACCELERATION_LIMIT
+    if args.acc_limit is None:
+        return DEFAULT_ACCELERATION_LIMIT
+    if args.no_retime:
+        raise InvalidParameterError("--acc-limit: not with --no-retime (the limit is what the "
+                                    "trajectory is retimed to)")
+    values = np.array(args.acc_limit, dtype=float)
+    if len(values) not in (1, robot.n) or np.any(values <= 0.0):
+        raise InvalidParameterError(f"--acc-limit: expected one positive limit [rad/s^2] or one per "
+                                    f"joint of {robot.name} ({robot.n}), got {args.acc_limit}")
+    return float(values[0]) if len(values) == 1 else values
+
+
+def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
+                     limits: float | np.ndarray, retime: bool) -> dict[str, Any]:
+    """The executable trajectory of a successful plan: ``trajectory_NAME.json`` (skillplan
+    format, verdict and retiming report in its header) and ``trajectory_NAME_ros2.json`` (the
+    ROS 2 JointTrajectory message), retimed within the arm's velocity limits and ``limits``
+    [rad/s^2] from rest to rest unless ``retime`` is False. A failed plan, or one the retimer
+    cannot parameterise, gets none (files of that name left by an earlier run are removed:
+    they would pass for this plan's). Returns what the plan JSON records as "trajectory":
+    files, retimed, acceleration_limits [rad/s^2] (None when not retimed), duration [s], error
+    (why there is none)."""
+    from robots.errors import RetimingError
+    paths = [out / pattern.format(name) for pattern in TRAJECTORY_FILES]
+    record: dict[str, Any] = {"files": [], "retimed": retime, "acceleration_limits": None,
+                              "duration": None, "error": None}
+    if retime:
+        record["acceleration_limits"] = np.broadcast_to(limits, (robot.n,)).tolist()
+    if result.success:
+        try:
+            trajectory = result.to_joint_trajectory(robot, retime=retime, acceleration_limits=limits)
+        except RetimingError as exc:
+            record["error"] = f"retiming failed: {exc}"
+        else:
+            trajectory.to_json(paths[0], overwrite=True)
+            trajectory.to_ros2_json(paths[1], overwrite=True)
+            record.update(files=[path.name for path in paths], duration=trajectory.duration)
+            return record
+    else:
+        record["error"] = "the plan failed: no executable trajectory"
+    for path in paths:
+        path.unlink(missing_ok=True)
+    log.warning("plan %r: %s", name, record["error"])
+    return record
+
+
+def load_robot_from_args(args: argparse.Namespace) -> Any:
+    """The robot of ``--robot NAME`` or ``--urdf FILE --end-effector FRAME``."""
+    from robots import Robot, available_robots, load_robot
+    if args.urdf is None:
+        if args.end_effector is not None:
+            raise InvalidParameterError("--end-effector: only with --urdf (a registered robot "
+                                        "has its own end effector)")
+        if args.robot not in available_robots():
+            raise InvalidParameterError(f"--robot: unknown robot {args.robot!r} (registered: "
+                                        f"{', '.join(available_robots())}); for any other arm pass "
+                                        f"--urdf FILE --end-effector FRAME [--package-dir DIR]")
+        return load_robot(args.robot)
+    if args.end_effector is None:
+        raise InvalidParameterError("--end-effector: required with --urdf (the frame to plan "
+                                    "for, e.g. the tool or the last link)")
+    return Robot.from_urdf(args.urdf, args.end_effector, package_dirs=args.package_dir,
+                           spheres=args.spheres, base_frame=args.base_frame)
+
+
+def _plan_all(prior: Any, robot: Any, start: np.ndarray,
+              requests: Sequence[tuple[str, Any, PlannerConfig, dict[str, Any]]]
+              ) -> list[PlanResult]:
+    """plan() for each (name, scene, config, options), one progress-bar step per plan."""
+    results = []
+    bar = progress(requests, description="planning", unit="plan")
+    for name, scene, config, options in bar:
+        bar.set_postfix_str(f"{name} ({config.optimizer.optimizer})")
+        log.info("planning %r with the %s optimizer", name, config.optimizer.optimizer)
+        results.append(plan(prior, robot, scene, start, config=config, **options))
+    return results
+
+
+def run_demo(args: argparse.Namespace) -> int:
+    with created_output_directory(args.out, args.force) as out:
+        return _demo(args, out)
+
+
+def _demo(args: argparse.Namespace, out: Path) -> int:
+    from clamp.prior.learning import learn_prior
+    from scenes import Scene, make_demonstrations
+    robot = load_robot_from_args(args)
+    limits = acceleration_limits(args, robot)
+    demos = make_demonstrations(args.skill, num_demos=6, num_points=args.num_points)
+    prior = learn_prior(demos)
+    start = prior.mean[0, :3] + DEMO_START_OFFSET
+    config = _config(args)
+    [empty] = _plan_all(prior, robot, start, [("empty scene", None, config, {})])
+    scene = Scene([obstacle_below_path(empty)])
+    scene.save(out / "scene_obstacle.json")
+    with_obstacle, unaware = _plan_all(prior, robot, start, [
+        ("obstacle", scene, config, {}),
+        ("obstacle, no factors", scene, config.with_(obstacle_factors=False), {})])
+    rows = [("empty scene", empty), ("obstacle", with_obstacle), ("obstacle, no factors", unaware)]
+    exported = {name: write_trajectory(out, name, result, robot, limits, not args.no_retime)
+                for name, result in (("empty", empty), ("obstacle", with_obstacle))}
+    write_plan(empty, out / "plan_empty.json", robot=robot.name, skill=args.skill,
+               trajectory=exported["empty"])
+    write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
+               scene=scene.to_dict(), trajectory=exported["obstacle"])
+    _figures(out, prior, demos, robot, config,
+             [("empty", empty, None), ("obstacle", with_obstacle, scene)])
+    save_view_inputs(out, {"empty": {"scene": None, "start": start},
+                           "obstacle": {"scene": scene, "start": start}}, prior, demos, robot_spec(args), config)
+    if not quiet(args):
+        print(f"CLAMP demo: skill {args.skill!r} ({demos.M} demonstrations, T = {demos.T}), "
+              f"robot {robot.name}, start {np.round(start, 4).tolist()}")
+        print(summary_table(rows))
+        print(trajectory_summary(exported))
+        print(f"wrote figures and plans to {out}")
+    return EXIT_OK if all(record["files"] for record in exported.values()) else EXIT_FAILED
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    from scenes.errors import DemonstrationFileError, SceneFileError
+    from skillplan.validation import as_file
+    as_file(args.demos, "--demos", DemonstrationFileError)     # named as the user typed them,
+    if args.scene:                                              # before the output folder is made
+        as_file(args.scene, "--scene", SceneFileError)
+    with created_output_directory(args.out, args.force) as out:
+        return _plan_from_files(args, out)
+
+
+def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
+    from clamp.prior.learning import learn_prior
+    from scenes import Scene, load_demonstrations
+    robot = load_robot_from_args(args)
+    limits = acceleration_limits(args, robot)
+    start = _start(args, robot)
+    demos = load_demonstrations(args.demos, robot=robot)   # a joint-space file needs the arm
+    if args.num_points is not None:
+        demos = demos.resample(args.num_points)
+    if args.translate is not None:
+        demos = demos.translated(np.array(args.translate, dtype=float))
+    prior = learn_prior(demos)
+    scene = Scene.load(args.scene) if args.scene else None
+    config = _config(args)
+    goal = None if args.goal is None else np.array(args.goal, dtype=float)
+    [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
+    exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime)}
+    write_plan(result, out / "plan.json", robot=robot.name, demos=str(args.demos),
+               urdf=None if args.urdf is None else str(args.urdf),
+               scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
+    _figures(out, prior, demos, robot, config, [("result", result, scene)])
+    save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
+                     robot_spec(args), config)
+    if not quiet(args):
+        print(summary_table([(Path(args.demos).stem, result)]))
+        print(trajectory_summary(exported))
+        print(f"wrote figures and plan to {out}")
+    return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
+
+
+def _start(args: argparse.Namespace, robot: Any) -> np.ndarray:
+    """--start x y z (or a configuration), or --start-joints q1 .. qn (the robot's measured
+    configuration: exactly one value per joint)."""
+    if args.start_joints is None:
+        return np.array(args.start, dtype=float)
+    if len(args.start_joints) != robot.n:
+        raise InvalidParameterError(f"--start-joints: expected {robot.n} joint values [rad] for "
+                                    f"{robot.name} ({', '.join(robot.joint_names)}), got "
+                                    f"{len(args.start_joints)}")
+    return np.array(args.start_joints, dtype=float)
+
+
+def trajectory_summary(exported: dict[str, dict[str, Any]]) -> str:
+    """One line per plan: the trajectory files written (duration, retimed or not) or why none."""
+    lines = []
+    for name, record in exported.items():
+        if record["files"]:
+            how = "retimed" if record["retimed"] else "plan timing, not retimed"
+            lines.append(f"trajectory {name}: {', '.join(record['files'])} ({record['duration']:.2f} s, {how})")
+        else:
+            lines.append(f"trajectory {name}: none ({record['error']})")
+    return "\n".join(lines)
+
+
+def obstacle_below_path(result: PlanResult, size: float = 0.08, overlap: float = 0.02) -> Any:
+    """A cube under the middle of a plan's end-effector path, reaching ``overlap`` m above it."""
+    from scenes import Box
+    middle = result.ee_path[len(result.ee_path) // 2]
+    centre = middle - np.array([0.0, 0.0, 0.5 * size - overlap])
+    return Box(centre, [size, size, size])
+
+
+def planning_options(p: argparse.ArgumentParser, out_default: str | None = "clamp_out") -> None:
+    """--out/--force and the planner settings; defaults are PlannerConfig()'s (clamp.config)."""
+    p.add_argument("--out", default=out_default, required=out_default is None,
+                   help="output folder: new or empty unless --force"
+                        + (f" (default: {out_default})" if out_default else ""))
+    p.add_argument("--force", action="store_true", help="replace files in a non-empty --out")
+    p.add_argument("--fast", action="store_true",
+                   help="PlannerConfig.fast(): stop at 5 %% relative decrease (about ten "
+                        "iterations; less polished plans)")
+    defaults = PlannerConfig()
+    p.add_argument("--sigma-obs", type=number, default=None, metavar="M",
+                   help=f"obstacle hinge noise [m] (default {defaults.model.sigma_obs})")
+    p.add_argument("--epsilon", type=number, default=None, metavar="M",
+                   help=f"obstacle safety distance [m] (default {defaults.model.epsilon})")
+    p.add_argument("--init", choices=INITIALISATIONS, default=None,
+                   help=f"initialisation (default {defaults.optimizer.initialisation})")
+    p.add_argument("--optimizer", choices=OPTIMIZERS, default=None,
+                   help=f"optimizer (default {defaults.optimizer.optimizer})")
+    p.add_argument("--max-iterations", type=integer_at_least(1), default=None, metavar="N",
+                   help=f"(default {defaults.optimizer.max_iterations})")
+
+
+def trajectory_options(p: argparse.ArgumentParser) -> None:
+    """--acc-limit and --no-retime: how the executable trajectory is timed."""
+    from robots.retiming import DEFAULT_ACCELERATION_LIMIT
+    p.add_argument("--acc-limit", type=number, nargs="+", default=None, metavar="RAD_S2",
+                   help="joint acceleration limit [rad/s^2] the trajectory is retimed to, one for all "
+                        f"joints or one per joint (default {DEFAULT_ACCELERATION_LIMIT}; URDFs carry none: "
+                        "use the arm's data sheet)")
+    p.add_argument("--no-retime", action="store_true",
+                   help="write the trajectory with the plan's own timing (not retimed: it may exceed "
+                        "the limits and start and end moving)")
+
+
+def robot_options(p: argparse.ArgumentParser, default_robot: str | None = None) -> None:
+    """--robot NAME or --urdf FILE --end-effector FRAME (plus URDF helpers)."""
+    group = p.add_mutually_exclusive_group(required=default_robot is None)
+    group.add_argument("--robot", default=default_robot,
+                       help="registered robot (jaco, sawyer)"
+                            + (f"; default {default_robot}" if default_robot else ""))
+    group.add_argument("--urdf", default=None, metavar="FILE", help="any URDF arm")
+    p.add_argument("--end-effector", default=None, metavar="FRAME",
+                   help="with --urdf: the frame to plan for")
+    p.add_argument("--package-dir", action="append", default=[], metavar="DIR",
+                   help="with --urdf: folder holding package:// meshes (repeatable)")
+    p.add_argument("--base-frame", default=None, metavar="FRAME",
+                   help="with --urdf: planning frame (default: the URDF root)")
+    p.add_argument("--spheres", default=None, metavar="FILE",
+                   help="with --urdf: collision sphere file (default: fitted from the URDF)")
+
+
+def parser() -> argparse.ArgumentParser:
+    """Argument parser of the ``clamp`` command."""
+    main = CommandLineParser(prog="clamp", description="CLAMP: learn a skill from demonstrations "
+                             "and plan it on a robot arm; executable trajectories out.")
+    sub = main.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    demo = sub.add_parser("demo", help="learn a built-in synthetic skill and plan it")
+    planning_options(demo)
+    robot_options(demo, default_robot="jaco")
+    trajectory_options(demo)
+    demo.add_argument("--skill", default="box_closing", help="built-in skill (scenes.SKILLS)")
+    demo.add_argument("--num-points", type=integer_at_least(2), default=250, help="support states T")
+    demo.set_defaults(run=run_demo)
+
+    user = sub.add_parser("plan", help="learn from a demonstration file and plan")
+    planning_options(user)
+    robot_options(user)
+    trajectory_options(user)
+    user.add_argument("--demos", required=True, help="demonstrations (.mat, .npz, .csv)")
+    user.add_argument("--num-points", type=integer_at_least(2), default=None, metavar="T",
+                      help="resample the demonstrations to T support states before learning "
+                           "(default: as recorded)")
+    starts = user.add_mutually_exclusive_group(required=True)
+    starts.add_argument("--start", type=number, nargs="+", default=None, metavar="X",
+                        help="start: end-effector position x y z [m] (or a joint configuration)")
+    starts.add_argument("--start-joints", type=number, nargs="+", default=None, metavar="Q",
+                        help="start: the robot's measured joint configuration q1 .. qn [rad], "
+                             "e.g. from /joint_states")
+    user.add_argument("--goal", type=number, nargs="+", default=None,
+                      help="goal: end-effector position x y z [m] or a joint configuration")
+    user.add_argument("--scene", default=None, help="scene JSON file (scenes.Scene.save)")
+    user.add_argument("--translate", type=number, nargs=3, default=None,
+                      help="move the demonstrations by dx dy dz [m] before learning")
+    user.set_defaults(run=run_plan)
+    from clamp.cli.batch import add_batch_parser
+    add_batch_parser(sub)
+    add_view_parser(sub)
+    return main
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``clamp``; returns the exit code (0 success, 1 plan failed, 2 bad input)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    return run(parser(), argv)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,98 @@
+"""The verdict's clearance: distances from the robot's own collision geometry to the scene.
+
+The optimiser plans with collision spheres; the verdict never trusts them. :func:`check_clearance`
+measures a joint trajectory on the robot's URDF collision geometry (coal, through
+:class:`robots.collision_check.CollisionChecker`) against the scene's exact obstacles, at every
+support state and in between (segments subdivided so that no link point moves more than
+:data:`MAX_MOTION` between checks, and the motion between checks certified to the checker's
+RESOLUTION, 0.2 mm: a clear verdict means no link comes more than 0.1 mm into an obstacle
+anywhere along the motion). A check that cannot be made (coal fails on a geometry) gives a
+report with a fault, which the verdict states as its reason. A robot without collision geometry falls back to its
+collision spheres (``report.geometry == "spheres"``, which the result repeats).
+
+One checker is built per (robot, scene) and kept while both live (a scene is immutable), so a
+planner that checks several candidate plans in one scene pays for the set-up once.
+"""
+from __future__ import annotations
+
+import logging
+import weakref
+from typing import Any
+
+import numpy as np
+
+from clamp.planning.request import has_obstacles
+from robots.collision_check import RESOLUTION, CollisionChecker, CollisionReport, Contact
+from robots.errors import CollisionCheckError
+from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
+
+log = logging.getLogger(__name__)
+
+#: [m] largest motion of any link point between two checked configurations of a segment
+MAX_MOTION = 0.005
+
+_CHECKERS: "weakref.WeakKeyDictionary[Any, weakref.WeakKeyDictionary]" = weakref.WeakKeyDictionary()
+
+
+def checker(robot: Any, scene: Any) -> CollisionChecker:
+    """The collision checker of ``robot`` against the obstacles of ``scene`` (cached per pair;
+    obstacles are named "<kind>_<index>" in the scene's order, e.g. "box_0")."""
+    per_robot = _CHECKERS.setdefault(scene, weakref.WeakKeyDictionary())
+    found = per_robot.get(robot)
+    if found is None:
+        found = per_robot[robot] = CollisionChecker(robot, coal_obstacles(scene))
+    return found
+
+
+def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | None = None
+                    ) -> CollisionReport | None:
+    """Real-geometry check of q (T, n) [rad] (linear in joint space between states) against the
+    scene; time (T,) [s] only dates the nearest contact. None when the scene has no obstacles."""
+    if not has_obstacles(scene):
+        return None
+    try:
+        found = checker(robot, scene)
+    except CollisionCheckError as error:          # a collision mesh coal cannot use
+        log.warning("collision check failed: %s", error)
+        return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q), str(error))
+    return found.check(q, time, margin=0.0, max_motion=MAX_MOTION, resolution=RESOLUTION)
+
+
+def state_clearance(robot: Any, scene: Any, q: np.ndarray, cap: float
+                    ) -> tuple[np.ndarray, str]:
+    """Least distance (T,) [m] of the robot's collision geometry to the scene at each support
+    state of q (T, n): exact below ``cap`` [m], ``cap`` at and above it (and everywhere without
+    obstacles); and the geometry measured ("urdf", or "spheres" for a robot without one)."""
+    if not has_obstacles(scene):
+        return np.full(len(q), cap), "urdf"
+    # margin = cap: every state closer than the cap gets its exact distance; a motion bound
+    # larger than any step checks the support states only
+    report = checker(robot, scene).check(q, margin=cap, max_motion=1e3, resolution=None)
+    return np.minimum(report.state_distance, cap), report.geometry
+
+
+def contact_obstacle(robot: Any, scene: Any, contact: Contact) -> Any:
+    """The scene obstacle a contact of :func:`check_clearance` names."""
+    triple = checker(robot, scene).obstacle_names.index(contact.obstacle)
+    return scene.obstacles[coal_obstacle_owners(scene)[triple]]
+
+
+def describe_contact(contact: Contact, geometry: str) -> str:
+    """One phrase naming link, obstacle, where and how far, e.g. "link j2s6s200_link_finger_tip_1
+    1.2 mm inside box_0 at state 12.25 (t = 3.10 s), on the URDF collision geometry"."""
+    depth = contact.distance * 1000.0
+    how = f"{-depth:.1f} mm inside" if depth < 0 else f"{depth:.1f} mm from"
+    index = f"{round(contact.index, 2):g}"
+    when = "" if contact.time is None else f" (t = {contact.time:.2f} s)"
+    source = ("the URDF collision geometry" if geometry == "urdf"
+              else "the collision spheres (the robot has no collision geometry)")
+    return f"link {contact.link} {how} {contact.obstacle} at state {index}{when}, on {source}"
+
+
+def collision_reason(report: CollisionReport | None) -> str | None:
+    """The verdict's reason when ``report`` found a collision, else None."""
+    if report is None or not report.collision:
+        return None
+    if report.fault is not None:
+        return f"collision check failed: {report.fault}"
+    return f"collision: {describe_contact(report.nearest, report.geometry)}"

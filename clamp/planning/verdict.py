@@ -1,0 +1,199 @@
+"""The verdict of a plan: what was asked of it (start, goal, via points, clearance, limits,
+constraint families such as orientation) checked on the optimised trajectory, with the figures
+behind every reason; and the early failures (start out of reach, inside an obstacle or in
+collision) that stop before planning. Clearance is measured on the
+robot's own collision geometry (:mod:`clamp.planning.clearance`), never on the optimiser's spheres.
+"""
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from clamp.planning.clearance import check_clearance, collision_reason, describe_contact
+from clamp.config import PlannerConfig
+from clamp.planning.limit_report import limit_violations
+from clamp.errors import ClampTypeError
+from clamp.planning.pipeline import Model, Posterior, Solution
+from clamp.prior.skill import skill_checks
+from clamp.planning.request import Request, as_scene, has_obstacles
+from clamp.planning.result import PlanInputs, PlanResult
+from clamp.planning.targets import constraint_violations, inside_obstacle
+from clamp.validation import as_scalar
+from robots.self_collision import self_collision_report
+from skillplan.validation import as_instance
+
+
+def sphere_clearance(robot: Any, scene: Any, q: np.ndarray) -> np.ndarray:
+    """Exact clearance (T, S) [m] of every collision sphere at q (T, n); +inf without obstacles
+    (``scene``: anything :func:`clamp.plan` accepts as one)."""
+    scene = as_scene(scene)
+    centres, _ = robot.sphere_centres(q)
+    if not has_obstacles(scene):
+        return np.full(centres.shape[:2], np.inf)
+    return scene.distance(centres) - np.asarray(robot.spheres.radii)
+
+
+def failed_result(prior: Any, robot: Any, q: np.ndarray, reasons: list[str], t0: float,
+            start_error: float, config: PlannerConfig) -> PlanResult:
+    kin = robot.ee_kinematics(q, np.zeros_like(q), jacobians=False)
+    return PlanResult(q=q, qdot=np.zeros_like(q), ee_path=kin.position,
+                      ee_velocity=kin.velocity, time=np.asarray(prior.time, dtype=float),
+                      timings={"build": 0.0, "optimize": 0.0, "marginals": 0.0,
+                               "total": time.perf_counter() - t0},
+                      iterations=0, initial_error=float("nan"), final_error=float("nan"),
+                      family_errors={}, collision_cost=float("nan"),
+                      min_clearance=float("nan"), start_error=start_error, goal_error=None,
+                      log_likelihood=float("nan"), plausibility=float("nan"),
+                      within_limits=bool(np.all(robot.within_limits(q))), success=False,
+                      reasons=reasons, initialisation=config.optimizer.initialisation,
+                      optimizer=config.optimizer.optimizer, stop_reason="not started")
+
+
+def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConfig) -> list[str]:
+    start = request.start
+    if start.kind == "position" and request.start_ik_error > config.checks.start_tolerance:
+        return [f"start position {np.round(start.value, 4).tolist()} is out of reach (IK "
+                f"error {request.start_ik_error * 1000:.1f} mm)"]
+    reasons = []
+    if start.kind == "joint":
+        reasons += limit_violations(robot, request.q_start[None], None,
+                                    config.checks.limit_tolerance, what="start configuration")
+    own = self_collision_report(robot, request.q_start[None])
+    if own.collision:
+        reasons.append("start configuration is in " + own.reason)
+    if has_obstacles(scene):
+        inside = inside_obstacle(scene, "start", start)
+        if inside:
+            reasons.append(inside)
+        report = check_clearance(robot, scene, request.q_start[None])
+        if report.fault is not None:
+            reasons.append(collision_reason(report))
+        elif report.collision:
+            reasons.append("start configuration is in collision: "
+                           + describe_contact(report.nearest, report.geometry))
+    return reasons
+
+
+def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
+    """describe(state) -> what pushed ``path`` (T, 3) away from ``reference`` (T, 3) at that
+    state: the obstacle nearest to where the skill goes, when it is within the plan's departure
+    plus the safety distance ``epsilon`` [m] ("box_0 (the skill's path runs 27 mm inside it
+    there)"), else that no obstacle is near; None without obstacles."""
+    if not has_obstacles(scene):
+        return None
+
+    def describe(state: int) -> str:
+        point = reference[state][None]
+        gaps = [float(o.distance(point)[0]) for o in scene.obstacles]
+        k = int(np.argmin(gaps))
+        name = f"{scene.obstacles[k].kind}_{k}"
+        if gaps[k] > np.linalg.norm(path[state] - reference[state]) + epsilon:
+            return (f"no obstacle (the nearest, {name}, is {1000 * gaps[k]:.0f} mm from the "
+                    "skill's path there): the plan's other factors")
+        where = (f"the skill's path runs {-1000 * gaps[k]:.0f} mm inside it there" if gaps[k] < 0
+                 else f"{1000 * gaps[k]:.0f} mm from the skill's path there")
+        return f"{name} ({where})"
+    return describe
+
+
+def plan_inputs(model: Model) -> PlanInputs:
+    """What ``model`` was asked, for ``PlanResult.inputs`` (:func:`clamp.replan` plans it again):
+    start, goal and via points as the request's validated values."""
+    request = model.request
+    return PlanInputs(model.prior, model.robot, model.scene, request.start.value,
+                      None if request.goal is None else request.goal.value,
+                      tuple((index, target.value) for index, target in request.vias),
+                      model.extra_factors, model.config, model.sdf, model.model_prior)
+
+
+def evaluate(model: Model, solution: Solution, posterior: Posterior,
+             timings: dict[str, float] | None = None, started: float | None = None
+             ) -> PlanResult:
+    """The complete :class:`~clamp.planning.result.PlanResult` of ``solution`` (metrics, success checks
+    with their reasons, ``posterior``'s covariances and faults, the model's initial trajectory
+    and inputs, the constraint loop's attempts) for ``model``, made in one go: timings [s] of
+    the stages before it (None: none) plus "total", from ``started`` (``time.perf_counter()``
+    when the plan began; None: when the verdict began) until the result is made."""
+    started = time.perf_counter() if started is None else as_scalar(started, "started")
+    timings = {} if timings is None else as_instance(
+        timings, "timings", dict, "a dict of stage name -> seconds, or None", ClampTypeError)
+    as_instance(model, "model", Model, "a clamp.planning.pipeline.Model", ClampTypeError)
+    as_instance(solution, "solution", Solution, "a clamp.planning.pipeline.Solution", ClampTypeError)
+    as_instance(posterior, "posterior", Posterior, "a clamp.planning.pipeline.Posterior",
+                ClampTypeError)
+    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
+                                            model.request, model.config)
+    problem, out, report = solution.problem, solution.optimum, solution.report
+    self_report, reference = solution.self_report, model.reference
+    n, checks = robot.n, config.checks
+    q, qdot = out.theta[:, :n], out.theta[:, n:]
+    x, _ = problem.window(out.theta).workspace()
+    position = x[:, :3]
+    families = problem.family_errors(out.theta)
+    if report is None:
+        report = check_clearance(robot, scene, q, np.asarray(prior.time, dtype=float))
+    clearance = math.inf if report is None else float(report.min_distance)
+    start = request.start
+    start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
+                                       - start.value))
+    goal_error = None
+    if request.goal is not None:
+        reached = position[-1] if request.goal.kind == "position" else q[-1]
+        goal_error = float(np.linalg.norm(reached - request.goal.value))
+    via_errors = [float(np.linalg.norm((position[i] if t.kind == "position" else q[i]) - t.value))
+                  for i, t in request.vias]
+    limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
+    log_likelihood = float(prior.log_likelihood(x, initial=False))
+    skill = skill_checks(prior, reference, position, goal_given=request.goal is not None,
+                         describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3], position,
+                                                config.model.epsilon))
+
+    reasons = list(posterior.faults)
+    if not np.isfinite(out.final_error):
+        reasons.append("optimisation diverged (non-finite error)")
+    if start_error > checks.start_tolerance:
+        reasons.append(f"start error {start_error:.4g} exceeds {checks.start_tolerance:.4g}")
+    if goal_error is not None and goal_error > checks.goal_tolerance:
+        reasons.append(f"goal error {goal_error:.4g} exceeds {checks.goal_tolerance:.4g}")
+    for (index, _), error in zip(request.vias, via_errors):
+        if error > checks.via_tolerance:
+            reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
+                           f"{checks.via_tolerance:.4g}")
+    collision = collision_reason(report)
+    if collision:
+        reasons.append(collision)
+    if self_report.collision:
+        reasons.append(self_report.reason)
+    reasons += limits
+    violations, broken = constraint_violations(problem.families, robot, q)
+    reasons += broken
+    reasons += skill.reasons
+    return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
+                      time=np.asarray(prior.time, dtype=float),
+                      iterations=out.iterations, initial_error=out.initial_error,
+                      final_error=out.final_error, family_errors=families,
+                      collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
+                      start_error=start_error, goal_error=goal_error,
+                      log_likelihood=log_likelihood, plausibility=skill.plausibility,
+                      skill=skill.to_dict(), self_clearance=float(self_report.min_distance),
+                      fixed_overlaps=[] if report is None else list(report.fixed_overlaps),
+                      self_contact=None if self_report.nearest is None
+                      else self_report.nearest.to_dict(),
+                      within_limits=not limits, success=not reasons, reasons=reasons,
+                      initialisation=config.optimizer.initialisation, trials=out.trials,
+                      optimizer=out.optimizer,
+                      # a plan that violates what it was asked to meet never reports convergence
+                      stop_reason="infeasible" if reasons and out.stop_reason == "converged"
+                      else out.stop_reason,
+                      via_errors=via_errors, violations=violations,
+                      collision_geometry=None if report is None else report.geometry,
+                      nearest_contact=None if report is None or report.nearest is None
+                      else report.nearest.to_dict(),
+                      initial_q=model.initialisation.q, attempts=[dict(a) for a in solution.attempts],
+                      state_covariance=posterior.state_covariance,
+                      ee_covariance=posterior.ee_covariance, covariance_floor=posterior.floor,
+                      inputs=plan_inputs(model), problem=problem,
+                      timings={**timings, "total": time.perf_counter() - started})

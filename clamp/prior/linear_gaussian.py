@@ -1,0 +1,439 @@
+"""Learned linear-Gaussian trajectory priors (CLAMP paper, section 4, eq. 8 and 11).
+
+A prior over T support states x_0 .. x_{T-1} (each a D-vector ``[positions, velocities]``):
+
+    x_0     ~ N(mean0, cov0)
+    x_{i+1} = Phi_i x_i + u_i + w_i,     w_i ~ N(0, Q_i),     i = 0 .. T-2
+
+is a Gaussian process over the support states with a block-tridiagonal precision. Its
+marginal means and covariances follow by the O(T) recursion
+
+    mean_{i+1} = Phi_i mean_i + u_i,     cov_{i+1} = Phi_i cov_i Phi_i^T + Q_i,
+
+which is eq. (8) evaluated block by block, never forming the dense (D T)^2 covariance.
+
+:class:`LinearGaussianPrior` is generic in the number of axes (a joint-space prior for an
+n-joint arm has D = 2n); :class:`WorkspacePrior` is the end-effector workspace prior of CLAMP
+with D = 6, state ``[px, py, pz, vx, vy, vz]`` (metres, metres per second).
+"""
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+from scipy import stats
+
+from clamp.prior.conjugate import POSTERIOR_KEYS, ConjugatePosterior
+from clamp.errors import ClampTypeError, InvalidParameterError, PriorFileError, ShapeError
+from clamp.validation import as_array, as_count, as_scalar, as_time, cholesky, is_symmetric
+from skillplan.validation import as_file, as_path
+
+FILE_FORMAT = "clamp-linear-gaussian-prior/1"
+_ARRAY_KEYS = ("time", "Phi", "u", "Q", "mean0", "cov0")
+_JITTER_HINT = " (learn with a larger jitter)"
+
+
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    """Read-only copy: a prior's parameters and cached marginals must stay consistent."""
+    out = np.array(arr, dtype=np.float64, copy=True)
+    out.flags.writeable = False
+    return out
+
+
+def _compose(late: tuple[np.ndarray, np.ndarray, np.ndarray],
+             early: tuple[np.ndarray, np.ndarray, np.ndarray]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Batched composition (A2, b2, B2) o (A1, b1, B1) = (A2 A1, A2 b1 + b2, A2 B1 A2^T + B2)
+    of affine Gaussian steps (A (S, D, D), b (S, D), B (S, D, D)): ``early`` applied first."""
+    (A2, b2, B2), (A1, b1, B1) = late, early
+    return (A2 @ A1, np.einsum("sij,sj->si", A2, b1) + b2,
+            A2 @ B1 @ np.swapaxes(A2, 1, 2) + B2)
+
+
+def prefix_compose(Phi: np.ndarray, u: np.ndarray,
+                   Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Running compositions of the steps x -> Phi_i x + u_i, C -> Phi_i C Phi_i^T + Q_i.
+
+    Phi (S, D, D), u (S, D), Q (S, D, D). Returns A (S, D, D), b (S, D), B (S, D, D) with
+    ``mean_{i+1} = A_i mean_0 + b_i`` and ``cov_{i+1} = A_i cov_0 A_i^T + B_i``, i.e.
+    A_i = Phi_i ... Phi_0. Hillis-Steele scan: ceil(log2 S) rounds of batched products,
+    using (A2, b2, B2) o (A1, b1, B1) = (A2 A1, A2 b1 + b2, A2 B1 A2^T + B2).
+    """
+    A, b, B = Phi.copy(), u.copy(), Q.copy()
+    shift = 1
+    while shift < len(A):
+        A[shift:], b[shift:], B[shift:] = _compose((A[shift:], b[shift:], B[shift:]),
+                                                   (A[:-shift], b[:-shift], B[:-shift]))
+        shift *= 2
+    return A, b, B
+
+
+def suffix_compose(Phi: np.ndarray, u: np.ndarray,
+                   Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Compositions of the steps i..S-1 (as :func:`prefix_compose`, from the other end).
+
+    Returns A (S, D, D), b (S, D), B (S, D, D) with x_S = A_i x_i + b_i + w, w ~ N(0, B_i)
+    for x_{k+1} = Phi_k x_k + u_k + N(0, Q_k), i.e. A_i = Phi_{S-1} ... Phi_i (log depth).
+    """
+    A, b, B = Phi.copy(), u.copy(), Q.copy()
+    shift = 1
+    while shift < len(A):
+        A[:-shift], b[:-shift], B[:-shift] = _compose((A[shift:], b[shift:], B[shift:]),
+                                                      (A[:-shift], b[:-shift], B[:-shift]))
+        shift *= 2
+    return A, b, B
+
+
+def envelope_quantile(level: float) -> float:
+    """Two-sided standard normal quantile z of a probability ``level`` in (0, 1) (1.96 for
+    0.95): a Gaussian coordinate lies within mean -+ z sigma with probability ``level``."""
+    level = as_scalar(level, "level", strictly_positive=True)
+    if level >= 1.0:
+        raise InvalidParameterError(f"level: expected a probability in (0, 1), got {level}")
+    return float(stats.norm.ppf(0.5 + 0.5 * level))
+
+
+
+def transition_residuals(Phi: np.ndarray, u: np.ndarray, x_prev: np.ndarray,
+                         x_next: np.ndarray) -> np.ndarray:
+    """Transition residuals x_{i+1} - Phi_i x_i - u_i (..., K, D) of the linear Gaussian prior.
+
+    Phi (K, D, D), u (K, D); x_prev, x_next (..., K, D) the states before and after each of the
+    K transitions. The one definition used by the prior's likelihood and by the planner's
+    workspace GP factors.
+    """
+    return x_next - np.einsum("kij,...kj->...ki", Phi, x_prev) - u
+
+class LinearGaussianPrior:
+    """Discrete linear-Gaussian (LTV-SDE) trajectory prior over T support states of size D.
+
+    Attributes (float64 arrays):
+        time (T,) s; dt float (median step, s: the nominal step of recordings with a few
+        irregular stamps, as scenes.Demonstrations.dt); T, D ints; num_axes = D // 2;
+        Phi (T-1, D, D) transition matrices; u (T-1, D) biases; Q (T-1, D, D) process noise;
+        mean0 (D,), cov0 (D, D) initial state; mean (T, D), cov (T, D, D) marginals;
+        state_names tuple of D strings; kind str ("workspace", "joint", ...);
+        info dict of JSON-serialisable learning settings (ridge, jitter, coupled, ...);
+        posterior: the conjugate posterior (clamp.prior.conjugate.ConjugatePosterior) of a prior
+        learned with method="incremental" (None otherwise), saved with it.
+    The arrays are read-only copies (the marginals are cached from the parameters).
+    The state is ordered ``[positions (D/2), velocities (D/2)]``.
+    """
+
+    default_kind: ClassVar[str] = "generic"
+
+    def __init__(self, time: np.ndarray, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray,
+                 mean0: np.ndarray, cov0: np.ndarray, *, state_names: tuple[str, ...] | None = None,
+                 kind: str | None = None, info: dict[str, Any] | None = None,
+                 posterior: ConjugatePosterior | None = None) -> None:
+        Phi = as_array(Phi, "Phi", (None, "D", "D"))
+        steps, D = Phi.shape[0], Phi.shape[1]
+        if steps < 1:
+            raise ShapeError("Phi: expected at least one transition (T >= 2), got shape "
+                             f"{Phi.shape}")
+        if D % 2:
+            raise ShapeError(f"Phi: expected an even state size D = 2 * axes "
+                             f"([positions, velocities]), got D = {D}")
+        self.time = _frozen(as_time(time, "time", steps + 1))
+        self.Phi = _frozen(Phi)
+        self.u = _frozen(as_array(u, "u", (steps, D)))
+        self.Q = _frozen(as_array(Q, "Q", (steps, D, D)))
+        self.mean0 = _frozen(as_array(mean0, "mean0", (D,)))
+        self.cov0 = _frozen(as_array(cov0, "cov0", (D, D)))
+        for name, cov in (("Q", self.Q), ("cov0", self.cov0)):
+            if not is_symmetric(cov):
+                raise InvalidParameterError(f"{name}: expected symmetric covariance matrices")
+        self.T, self.D = steps + 1, D
+        self.num_axes = D // 2
+        self.dt = float(np.median(np.diff(self.time)))
+        self.kind = str(kind or self.default_kind)
+        self.info = dict(info or {})
+        self.posterior = posterior
+        if state_names is None:
+            state_names = self._default_state_names()
+        if len(state_names) != D:
+            raise ShapeError(f"state_names: expected {D} names, got {len(state_names)}")
+        self.state_names = tuple(str(s) for s in state_names)
+        # Whitening factors: L L^T = cov, W = L^{-1}, so ||W r||^2 is the squared Mahalanobis.
+        chol_Q = cholesky(self.Q, "Q", _JITTER_HINT)
+        chol_0 = cholesky(self.cov0, "cov0", _JITTER_HINT)
+        eye = np.eye(D)
+        self._white_Q = np.linalg.solve(chol_Q, np.broadcast_to(eye, chol_Q.shape))
+        self._white_0 = np.linalg.solve(chol_0, eye)
+        self._chol_Q, self._chol_0 = chol_Q, chol_0
+        self._logdet_Q = 2.0 * np.log(np.diagonal(chol_Q, axis1=1, axis2=2)).sum(axis=1)
+        self._logdet_0 = 2.0 * float(np.log(np.diag(chol_0)).sum())
+        self.mean, self.cov = (_frozen(a) for a in self._marginals())
+
+    def _default_state_names(self) -> tuple[str, ...]:
+        n = self.num_axes
+        return tuple(f"x{k}" for k in range(n)) + tuple(f"xdot{k}" for k in range(n))
+
+    # ------------------------------------------------------------------ marginals
+    def _marginals(self) -> tuple[np.ndarray, np.ndarray]:
+        """Marginal means (T, D) and covariances (T, D, D) of eq. (8), O(T log T) work.
+
+        The recursion mean_{i+1} = Phi_i mean_i + u_i, cov_{i+1} = Phi_i cov_i Phi_i^T + Q_i
+        composes affine maps; their running compositions come from a log-depth prefix scan
+        of batched 6x6 products (ceil(log2 T) numpy calls instead of T Python iterations).
+        """
+        A, b, B = prefix_compose(self.Phi, self.u, self.Q)
+        mean = np.concatenate([self.mean0[None], A @ self.mean0 + b])
+        cov = np.concatenate([self.cov0[None], A @ self.cov0 @ np.swapaxes(A, 1, 2) + B])
+        return mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
+
+    @property
+    def std(self) -> np.ndarray:
+        """Marginal standard deviation of every coordinate, (T, D)."""
+        return np.sqrt(np.diagonal(self.cov, axis1=1, axis2=2))
+
+    def envelope(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+        """Per-coordinate marginal envelope ``mean -+ z sigma`` with z = 1.96 for level 0.95.
+
+        Returns (lower, upper), each (T, D): each coordinate lies inside its band with
+        probability ``level`` under the prior (marginally, one coordinate at a time).
+        """
+        half = envelope_quantile(level) * self.std
+        return self.mean - half, self.mean + half
+
+    # ------------------------------------------------------------------ sampling
+    def sample(self, count: int, rng: np.random.Generator | int) -> np.ndarray:
+        """Draw ``count`` trajectories (count, T, D) by simulating the discrete LTV-SDE.
+
+        ``rng`` is a numpy Generator or an integer seed.
+        """
+        count = as_count(count, "count")
+        if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
+            rng = np.random.default_rng(int(rng))
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidParameterError(f"rng: expected a numpy.random.Generator or an int seed, "
+                                        f"got {type(rng).__name__}")
+        noise = rng.standard_normal((count, self.T, self.D))
+        x = np.empty((count, self.T, self.D))
+        x[:, 0] = self.mean0 + noise[:, 0] @ self._chol_0.T
+        for i in range(self.T - 1):
+            x[:, i + 1] = x[:, i] @ self.Phi[i].T + self.u[i] + noise[:, i + 1] @ self._chol_Q[i].T
+        return x
+
+    # ------------------------------------------------------------------ densities
+    def _as_trajectories(self, x: object, name: str = "x") -> tuple[np.ndarray, bool]:
+        """x (T, D) or (K, T, D) -> ((K, T, D) array, whether a single trajectory was given)."""
+        try:
+            ndim = np.ndim(x)
+        except ValueError:  # ragged nested sequences
+            ndim = -1
+        if ndim == 2:
+            return as_array(x, name, (self.T, self.D))[None], True
+        return as_array(x, name, (None, self.T, self.D)), False
+
+    def _residuals(self, xs: np.ndarray) -> np.ndarray:
+        """x_{i+1} - Phi_i x_i - u_i (K, T-1, D) of validated trajectories xs (K, T, D)."""
+        return transition_residuals(self.Phi, self.u, xs[:, :-1], xs[:, 1:])
+
+    def transition_residuals(self, x: np.ndarray) -> np.ndarray:
+        """Residuals ``x_{i+1} - Phi_i x_i - u_i`` of trajectories x (T, D) or (K, T, D).
+
+        Returns (T-1, D) or (K, T-1, D).
+        """
+        xs, single = self._as_trajectories(x)
+        r = self._residuals(xs)
+        return r[0] if single else r
+
+    def step_mahalanobis_squared(self, x: np.ndarray) -> np.ndarray:
+        """Squared Mahalanobis distance of every factor of the prior, (T,) or (K, T).
+
+        Entry 0 is the initial term ``(x_0 - mean0)^T cov0^{-1} (x_0 - mean0)``; entry i >= 1
+        is the transition i-1 -> i, ``r^T Q_{i-1}^{-1} r``. Under the prior each entry is
+        chi-square distributed with D degrees of freedom, independently of the others.
+        """
+        xs, single = self._as_trajectories(x)
+        white = np.einsum("tij,ktj->kti", self._white_Q, self._residuals(xs))
+        white0 = (xs[:, 0] - self.mean0) @ self._white_0.T
+        d2 = np.concatenate([np.sum(white0**2, axis=-1)[:, None], np.sum(white**2, axis=-1)],
+                            axis=1)
+        return d2[0] if single else d2
+
+    def mahalanobis(self, x: np.ndarray, initial: bool = True) -> float | np.ndarray:
+        """Mahalanobis distance of trajectories x (T, D) or (K, T, D) from the prior.
+
+        ``sqrt(sum of step_mahalanobis_squared)``; with ``initial=False`` the initial-state
+        term is left out (for plans that start away from the demonstrations).
+        """
+        d2 = self.step_mahalanobis_squared(x)
+        d2 = d2 if initial else d2[..., 1:]
+        out = np.sqrt(d2.sum(axis=-1))
+        return float(out) if out.ndim == 0 else out
+
+    def degrees_of_freedom(self, initial: bool = True) -> int:
+        """Number of scalar Gaussian terms in the density: D T, or D (T-1) without initial."""
+        return self.D * (self.T if initial else self.T - 1)
+
+    def log_likelihood(self, x: np.ndarray, initial: bool = True) -> float | np.ndarray:
+        """Log density of trajectories x (T, D) or (K, T, D) under the prior.
+
+        Sum over the transitions i -> i+1 of ``log N(x_{i+1}; Phi_i x_i + u_i, Q_i)`` plus, if
+        ``initial``, ``log N(x_0; mean0, cov0)``. Returns a float or (K,).
+        """
+        d2 = self.step_mahalanobis_squared(x)
+        logdet = np.concatenate([[self._logdet_0], self._logdet_Q])
+        terms = -0.5 * (d2 + logdet + self.D * np.log(2.0 * np.pi))
+        terms = terms if initial else terms[..., 1:]
+        out = terms.sum(axis=-1)
+        return float(out) if out.ndim == 0 else out
+
+    def success_probability(self, x: np.ndarray, initial: bool = False) -> float | np.ndarray:
+        """Demonstration-based success likelihood of a plan x (T, D) (paper, section 6).
+
+        Defined as the chi-square tail probability ``P(chi2_k >= d^2)`` of the plan's squared
+        Mahalanobis distance d^2 (see :meth:`mahalanobis`) with k = :meth:`degrees_of_freedom`:
+        the fraction of trajectories drawn from the prior that are *less* typical than x.
+        It is calibrated: for trajectories drawn from the prior it is uniform on [0, 1], so
+        rejecting plans below ``alpha`` rejects a fraction ``alpha`` of prior-like motions.
+        ``initial=False`` (default) scores the shape of the motion only, not its start.
+        Returns a float or (K,) for x (K, T, D).
+        """
+        d2 = self.step_mahalanobis_squared(x)
+        d2 = d2 if initial else d2[..., 1:]
+        out = stats.chi2.sf(d2.sum(axis=-1), df=self.degrees_of_freedom(initial))
+        return float(out) if np.ndim(out) == 0 else np.asarray(out)
+
+    def step_success_probabilities(self, x: np.ndarray) -> np.ndarray:
+        """Per-factor tail probabilities ``P(chi2_D >= d_i^2)``, (T,) or (K, T).
+
+        Entry 0 scores the initial state, entry i the transition i-1 -> i; each is uniform on
+        [0, 1] under the prior, so small entries locate where a plan leaves the skill.
+        """
+        return stats.chi2.sf(self.step_mahalanobis_squared(x), df=self.D)
+
+    # ------------------------------------------------------------------ learning on
+    def update(self, demos: Any) -> LinearGaussianPrior:
+        """A new prior that has also learned from ``demos`` (a scenes.Demonstrations, or
+        anything with positions / velocities (M, T, A) and time (T,) on this prior's steps),
+        by the conjugate update of :mod:`clamp.prior.conjugate`; needs a prior learned with
+        method="incremental" (or loaded from its file). Weighted like the original when it
+        was learned with obstacle_weighting. This prior is unchanged."""
+        from clamp.prior.learning import update_prior      # learning builds priors: deferred import
+        return update_prior(self, demos)
+
+    # ------------------------------------------------------------------ persistence
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the prior (and its conjugate posterior, if any, as ``posterior_*`` entries:
+        M, K, S, N and the factor learning resumes from) to an ``.npz`` file (suffix added if
+        missing). The file is written next to the target and moved over it when complete."""
+        path = Path(as_path(path, "path", ClampTypeError))
+        if path.suffix != ".npz":
+            path = path.with_name(path.name + ".npz")
+        extra = {} if self.posterior is None else {
+            f"posterior_{k}": v for k, v in self.posterior.arrays().items()}
+        partial = path.with_name(path.name + ".partial.npz")
+        np.savez(partial, format=np.array(FILE_FORMAT), kind=np.array(self.kind),
+                 state_names=np.array(self.state_names), info=np.array(json.dumps(self.info)),
+                 time=self.time, Phi=self.Phi, u=self.u, Q=self.Q, mean0=self.mean0,
+                 cov0=self.cov0, **extra)
+        os.replace(partial, path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> LinearGaussianPrior:
+        """Read a prior written by :meth:`save`, validating format, kind, shapes and values.
+
+        ``LinearGaussianPrior.load`` returns a :class:`WorkspacePrior` for workspace files;
+        ``WorkspacePrior.load`` rejects files of any other kind. Raises PriorFileError.
+        """
+        path = as_file(path, "path", PriorFileError, ClampTypeError)
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                contents = {key: data[key] for key in data.files}
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+            raise PriorFileError(f"path: '{path}' is not a readable .npz prior file ({exc})") \
+                from None
+        fmt = str(contents.get("format", ""))
+        if fmt != FILE_FORMAT:
+            raise PriorFileError(f"path: '{path}' has format '{fmt}', expected '{FILE_FORMAT}'")
+        missing = [k for k in (*_ARRAY_KEYS, "kind", "state_names", "info") if k not in contents]
+        if missing:
+            raise PriorFileError(f"path: '{path}' lacks entries {missing}")
+        kind = str(contents["kind"])
+        target: type[LinearGaussianPrior] = cls
+        if cls is LinearGaussianPrior and kind == WorkspacePrior.default_kind:
+            target = WorkspacePrior
+        if target is not LinearGaussianPrior and kind != target.default_kind:
+            raise PriorFileError(f"path: '{path}' holds a '{kind}' prior, expected "
+                                 f"'{target.default_kind}'")
+        try:
+            info = json.loads(str(contents["info"]))
+        except (json.JSONDecodeError, RecursionError) as exc:
+            raise PriorFileError(f"path: '{path}' has unreadable info ({exc})") from None
+        if not isinstance(info, dict):
+            raise PriorFileError(f"path: '{path}' has info {type(info).__name__}, expected a JSON "
+                                 "object of learning settings")
+        names = contents["state_names"]
+        if names.ndim != 1 or names.dtype.kind not in "US":
+            raise PriorFileError(f"path: '{path}' has state_names of dtype {names.dtype} and shape "
+                                 f"{names.shape}, expected a list of names")
+        posterior = None
+        if "posterior_factor" in contents:
+            try:
+                posterior = ConjugatePosterior.from_arrays(
+                    {k: contents[f"posterior_{k}"] for k in POSTERIOR_KEYS})
+            except KeyError as exc:
+                raise PriorFileError(f"path: '{path}' has an incomplete posterior (lacks "
+                                     f"{exc})") from None
+        try:
+            return target(*(contents[k] for k in _ARRAY_KEYS), kind=kind, info=info,
+                          state_names=tuple(str(s) for s in names),
+                          posterior=posterior)
+        except (ShapeError, InvalidParameterError, ValueError) as exc:
+            raise PriorFileError(f"path: '{path}' holds an invalid prior: {exc}") from None
+
+    def __repr__(self) -> str:
+        return (f"{type(self).__name__}(kind={self.kind!r}, T={self.T}, D={self.D}, "
+                f"dt={self.dt:.4g})")
+
+
+class WorkspacePrior(LinearGaussianPrior):
+    """CLAMP's learned end-effector workspace prior: D = 6, x = [p (3) m, v (3) m/s].
+
+    Same attributes and methods as :class:`LinearGaussianPrior`; ``position_mean`` (T, 3)
+    and ``velocity_mean`` (T, 3) are views of ``mean``.
+    """
+
+    default_kind: ClassVar[str] = "workspace"
+
+    def __init__(self, time: np.ndarray, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray,
+                 mean0: np.ndarray, cov0: np.ndarray, *, state_names: tuple[str, ...] | None = None,
+                 kind: str | None = None, info: dict[str, Any] | None = None,
+                 posterior: ConjugatePosterior | None = None) -> None:
+        Phi = as_array(Phi, "Phi", (None, 6, 6))
+        super().__init__(time, Phi, u, Q, mean0, cov0, state_names=state_names,
+                         kind=kind or self.default_kind, info=info, posterior=posterior)
+
+    def _default_state_names(self) -> tuple[str, ...]:
+        return ("px", "py", "pz", "vx", "vy", "vz")
+
+    @property
+    def position_mean(self) -> np.ndarray:
+        """Prior mean end-effector position (T, 3), metres."""
+        return self.mean[:, :3]
+
+    @property
+    def velocity_mean(self) -> np.ndarray:
+        """Prior mean end-effector velocity (T, 3), m/s."""
+        return self.mean[:, 3:]
+
+
+def check_prior(prior: object, name: str = "prior", workspace: bool = False) -> LinearGaussianPrior:
+    """``prior`` itself when it is a learned prior (``learn_prior``, ``learn_joint_prior`` or
+    ``WorkspacePrior.load``); ClampTypeError naming ``name`` otherwise. ``workspace``: it must
+    also be over x = [p, v] (D = 6), ShapeError otherwise."""
+    if not isinstance(prior, LinearGaussianPrior):
+        raise ClampTypeError(f"{name}: expected a clamp prior (learn_prior(...) or "
+                                f"WorkspacePrior.load(path)), got {type(prior).__name__}")
+    if workspace and prior.D != 6:
+        raise ShapeError(f"{name}: expected a workspace prior over x = [p, v] (D = 6), "
+                         f"got D = {prior.D}")
+    return prior
