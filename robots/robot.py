@@ -15,6 +15,9 @@ from .errors import InvalidArrayError, RobotError, UnknownFrameError, URDFParseE
 from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain, frame_index, frame_names
 from .sphere_model import SphereModel, load_sphere_file
 from .validation import as_file, as_joint_array, as_scalar
+from robots.spheres import fit_spheres
+from robots.ik import solve_ik
+from robots.ik import solve_ik_trajectory
 
 log = logging.getLogger(__name__)
 
@@ -133,7 +136,6 @@ class Robot:
         """Collision spheres: given at construction (a SphereModel or a sphere JSON file),
         else fitted from the URDF's collision geometry on first use (slow: seconds)."""
         if self._spheres is None:
-            from .spheres import fit_spheres  # sphere fitting lives in its own module
             geometry = self.collision_model
             if not moves(geometry):            # no <collision> on the moving links: fit the <visual>
                 geometry = load_geometry(self.model, self.urdf_path, self.package_dirs, "visual")
@@ -313,14 +315,12 @@ class Robot:
     def ik(self, target, seed=None, tol: float = 1e-4, max_iter: int = 200, restarts: int = 8,
            rng: np.random.Generator | int | None = 0):
         """End-effector position IK; see robots.ik.solve_ik. Returns IKResult(q (n,), error [m], success)."""
-        from .ik import solve_ik
         return solve_ik(self, target, seed=seed, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
 
     def ik_trajectory(self, targets, seed=None, tol: float = 1e-4, max_iter: int = 100,
                       rng: np.random.Generator | int | None = 0):
         """IK along a path (T, 3) with continuity; see robots.ik.solve_ik_trajectory.
         Returns IKTrajectoryResult(q (T, n), errors (T,) [m], success)."""
-        from .ik import solve_ik_trajectory
         return solve_ik_trajectory(self, targets, seed=seed, tol=tol, max_iter=max_iter, rng=rng)
 
     def __repr__(self) -> str:

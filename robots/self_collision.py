@@ -69,6 +69,7 @@ from .collision_check import SLACK, CollisionChecker, motion_lower_bounds
 from .errors import CollisionCheckError
 from .robot import Robot
 from .validation import as_array, as_scalar
+from robots.spheres import fit_spheres
 
 #: configurations sampled for the "always in contact" rule
 ALWAYS_SAMPLES = 1000
@@ -351,7 +352,6 @@ def _fixed_spheres(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
                     if o.parentJoint == 0})
     if not fixed:
         return np.zeros((0, 3)), np.zeros(0)
-    from .spheres import fit_spheres          # sphere fitting lives in its own module (as Robot.spheres)
     spheres = fit_spheres(model, robot.collision_model, links=fixed, max_spheres=max(FIXED_SPHERES, len(fixed)),
                           inflation=robot.spheres.inflation)
     local = np.array([att.rotation @ centre + att.translation for att, centre in

@@ -31,10 +31,10 @@ from .cylinder import fit_cylinder
 from .errors import TLGCArgumentError
 from .plots import plot_cross_sections, plot_cylinder, save_figure
 from .reproduction import DEFAULT_GAMMA, random_starts, reproduce
+import scenes
 
 
 def _load(args: argparse.Namespace):
-    import scenes
 
     if args.demos is not None:
         return scenes.load_demonstrations(args.demos)

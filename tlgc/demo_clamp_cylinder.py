@@ -24,6 +24,9 @@ from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, int
 from .boundary_factor import BoundaryFamily, boundary_distance, section_indices
 from .cylinder import GeneralizedCylinder, fit_cylinder
 from .errors import TLGCArgumentError
+from clamp import learn_prior, plan
+from robots import load_robot
+from scenes import make_demonstrations
 
 INSIDE_TOLERANCE = 1e-3      # [m] counted as inside when at most this far outside
 
@@ -69,9 +72,6 @@ def run_clamp_cylinder_demo(skill: str = "reach_from_above", robot_name: str = "
     sigma [m], margin [m] of the boundary factor; start at ``start_ratio`` of the first
     boundary along its normal; config: a clamp.PlannerConfig for both plans (None: defaults).
     """
-    from clamp import learn_prior, plan            # clamp does not import tlgc: no cycle
-    from robots import load_robot
-    from scenes import make_demonstrations
 
     if not 0.0 <= start_ratio < 1.0:
         raise TLGCArgumentError(f"start_ratio: expected a number in [0, 1), got {start_ratio!r}")

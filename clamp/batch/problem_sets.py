@@ -26,6 +26,14 @@ from clamp.batch.problems import Problem, make_problem
 from clamp.prior.linear_gaussian import check_prior
 from clamp.validation import ERRORS, as_count, as_scalar
 from skillplan.validation import as_generator, as_instance, as_path, as_sequence, as_seed
+from clamp.batch.runner import load_prior
+from scenes import Box, Cylinder, Sphere
+from scenes import Box, Sphere
+from robots.collision_check import CollisionChecker
+from scenes.coal_shapes import coal_obstacles
+from clamp.batch.runner import load_prior, load_robot
+from scenes import Scene
+from scenes.synthetic import SKILLS
 
 #: skills of the scene benchmark (all synthetic skills that carry no obstacle of their own)
 BENCHMARK_SKILLS = ("box_closing", "reach_from_above", "pick_place", "two_target_press")
@@ -52,7 +60,6 @@ def start_problems(base: Problem, count: int | None = None, *, grid: int | None 
     """Copies of ``base`` with starts in the start region of its prior (:func:`start_region`):
     ``count`` seeded uniform samples, or a ``grid`` x ``grid`` x ``grid`` grid (exactly one of
     the two). Ids ``<base id>/start<k>``; ``meta["start_index"] = k``."""
-    from clamp.batch.runner import load_prior
     _check_problem(base, "base")
     rng = as_generator(seed, "seed", error=ERRORS)
     if base_dir is not None:
@@ -105,7 +112,6 @@ def _check_problem(problem: Any, name: str) -> None:
 
 # ------------------------------------------------------------------ scene benchmark
 def _random_obstacle(rng: np.random.Generator, centre: np.ndarray) -> Any:
-    from scenes import Box, Cylinder, Sphere
     kind = rng.choice(["box", "sphere", "cylinder"])
     if kind == "box":
         return Box(centre, rng.uniform(0.03, 0.08, size=3))
@@ -118,7 +124,6 @@ def _random_obstacle(rng: np.random.Generator, centre: np.ndarray) -> Any:
 
 def _covering_obstacle(rng: np.random.Generator, point: np.ndarray) -> Any:
     """An obstacle that contains ``point`` (by at least 1 cm)."""
-    from scenes import Box, Sphere
     centre = point + rng.uniform(-0.01, 0.01, size=3)
     if rng.random() < 0.5:
         return Box(centre, rng.uniform(0.06, 0.10, size=3))
@@ -128,8 +133,6 @@ def _covering_obstacle(rng: np.random.Generator, point: np.ndarray) -> Any:
 def _configurations_clear(robot: Any, obstacles: list, targets: np.ndarray) -> bool:
     """Whether the arm's IK configurations at ``targets`` (K, 3) are CLEAR_CONFIGURATION clear
     of ``obstacles`` on the URDF collision geometry (each configuration checked on its own)."""
-    from robots.collision_check import CollisionChecker
-    from scenes.coal_shapes import coal_obstacles
     checker = CollisionChecker(robot, coal_obstacles(obstacles))
     return all(checker.check(np.asarray(robot.ik(t).q)[None]).min_distance >= CLEAR_CONFIGURATION
                for t in targets)
@@ -154,9 +157,6 @@ def scene_benchmark(count: int, robot: str = "jaco", seed: int = 0, *,
     over the start or the goal (alternately), ``expected="impossible"``, ``meta["impossible"]``
     "start" / "goal". Ids ``scenes/<robot>/<k>``.
     """
-    from clamp.batch.runner import load_prior, load_robot
-    from scenes import Scene
-    from scenes.synthetic import SKILLS
     count = as_count(count, "count")
     share = as_scalar(impossible_share, "impossible_share", minimum=0.0, maximum=1.0)
     seed = as_seed(seed, "seed", ERRORS)

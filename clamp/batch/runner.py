@@ -71,6 +71,17 @@ from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.batch.problems import Problem, check_unique_ids
 from skillplan.command_line import atomic_write_text, writable_folder
 from skillplan.validation import as_path, as_sequence
+from clamp.prior.learning import learn_prior
+from clamp.prior.linear_gaussian import WorkspacePrior
+from scenes import make_demonstrations
+from scenes import load_demonstrations
+from robots import Robot
+from robots import load_robot as builtin
+from clamp.config import PlannerConfig
+from scenes import Scene
+from clamp.planning.planner import plan
+from scenes.errors import InvalidArgumentError
+from skillplan.threads import single_blas_thread
 
 __all__ = ["LocalPool", "ResultsFile", "TRAJECTORY_MODES", "WorkerDied", "load_prior",
            "load_robot", "pending_problems", "plan_many", "read_results", "resolve",
@@ -108,22 +119,16 @@ def _path(value: str, base: Path) -> Path:
 
 def load_prior(spec: dict[str, Any], base: Path) -> Any:
     """The prior a problem names: a prior file, demonstrations to learn from, or a skill."""
-    from clamp.prior.learning import learn_prior
-    from clamp.prior.linear_gaussian import WorkspacePrior
     if "path" in spec:
         return WorkspacePrior.load(_path(spec["path"], base))
     if "demos" in spec:
-        from scenes import load_demonstrations
         return learn_prior(load_demonstrations(_path(spec["demos"], base)))
-    from scenes import make_demonstrations
     return learn_prior(make_demonstrations(spec["skill"], num_demos=spec["num_demos"],
                                            num_points=spec["num_points"], seed=spec["seed"]))
 
 
 def load_robot(spec: dict[str, Any], base: Path) -> Any:
     """The robot a problem names: built-in by name, or a URDF with its end-effector frame."""
-    from robots import Robot
-    from robots import load_robot as builtin
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if "name" in spec:
@@ -136,8 +141,6 @@ def resolve(problem: Problem, base: Path) -> dict[str, Any]:
     """Keyword arguments of :func:`clamp.plan` for ``problem`` (robots and priors cached)."""
     import numpy as np
 
-    from clamp.config import PlannerConfig
-    from scenes import Scene
     data, key = problem.to_dict(), str(base)
     prior = _cached("prior", (problem.prior, key), lambda: load_prior(data["prior"], base))
     robot = _cached("robot", (problem.robot, key), lambda: load_robot(data["robot"], base))
@@ -164,9 +167,6 @@ def _record(problem: Problem, **fields: Any) -> dict[str, Any]:
 def run_problem(data: dict[str, Any], base: str, trajectory: bool = True) -> dict[str, Any]:
     """Plan one problem (its JSON object) and return its record; never raises for a bad
     problem (the error is recorded). ``base``: folder of relative paths. Runs in workers."""
-    from clamp.planning.planner import plan
-    from scenes.errors import InvalidArgumentError
-    from skillplan.threads import single_blas_thread
     t0, cpu0 = time.perf_counter(), time.thread_time()
     problem = Problem.from_dict(data)
     try:

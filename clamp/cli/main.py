@@ -32,11 +32,21 @@ from clamp.errors import InvalidParameterError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.planning.planner import plan
 from clamp.planning.result import PlanResult
+from clamp.cli.batch import add_batch_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
                                  integer_at_least, number, output_directory, quiet, run,
                                  save_figure)
 from skillplan.progress import progress
+from robots.retiming import DEFAULT_ACCELERATION_LIMIT
+from robots.errors import RetimingError
+from robots import Robot, available_robots, load_robot
+from clamp.prior.learning import learn_prior
+from scenes import Scene, make_demonstrations
+from scenes.errors import DemonstrationFileError, SceneFileError
+from skillplan.validation import as_file
+from scenes import Scene, load_demonstrations
+from scenes import Box
 
 log = logging.getLogger(__name__)
 
@@ -82,6 +92,7 @@ def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfi
              plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
     """Prior figures; per plan: 3-D, top view, joint angles, clearance and uncertainty
     figures and the browser animation (HTML)."""
+    # deferred: matplotlib and the animation writer load only when figures are written
     from clamp.viz.animation import write_animation
     from clamp.viz.plan_plots import (plot_clearance, plot_joint_angles, plot_plan_3d,
                                   plot_plan_uncertainty, plot_top_view)
@@ -123,7 +134,6 @@ def created_output_directory(path: Any, force: bool) -> Iterator[Path]:
 def acceleration_limits(args: argparse.Namespace, robot: Any) -> float | np.ndarray:
     """The --acc-limit values [rad/s^2]: one for every joint or one per joint, positive
     (default robots.retiming.DEFAULT_ACCELERATION_LIMIT)."""
-    from robots.retiming import DEFAULT_ACCELERATION_LIMIT
     if args.acc_limit is None:
         return DEFAULT_ACCELERATION_LIMIT
     if args.no_retime:
@@ -146,7 +156,6 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
     they would pass for this plan's). Returns what the plan JSON records as "trajectory":
     files, retimed, acceleration_limits [rad/s^2] (None when not retimed), duration [s], error
     (why there is none)."""
-    from robots.errors import RetimingError
     paths = [out / pattern.format(name) for pattern in TRAJECTORY_FILES]
     record: dict[str, Any] = {"files": [], "retimed": retime, "acceleration_limits": None,
                               "duration": None, "error": None}
@@ -172,7 +181,6 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
 
 def load_robot_from_args(args: argparse.Namespace) -> Any:
     """The robot of ``--robot NAME`` or ``--urdf FILE --end-effector FRAME``."""
-    from robots import Robot, available_robots, load_robot
     if args.urdf is None:
         if args.end_effector is not None:
             raise InvalidParameterError("--end-effector: only with --urdf (a registered robot "
@@ -208,8 +216,6 @@ def run_demo(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace, out: Path) -> int:
-    from clamp.prior.learning import learn_prior
-    from scenes import Scene, make_demonstrations
     robot = load_robot_from_args(args)
     limits = acceleration_limits(args, robot)
     demos = make_demonstrations(args.skill, num_demos=6, num_points=args.num_points)
@@ -243,8 +249,6 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
 
 
 def run_plan(args: argparse.Namespace) -> int:
-    from scenes.errors import DemonstrationFileError, SceneFileError
-    from skillplan.validation import as_file
     as_file(args.demos, "--demos", DemonstrationFileError)     # named as the user typed them,
     if args.scene:                                              # before the output folder is made
         as_file(args.scene, "--scene", SceneFileError)
@@ -253,8 +257,6 @@ def run_plan(args: argparse.Namespace) -> int:
 
 
 def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
-    from clamp.prior.learning import learn_prior
-    from scenes import Scene, load_demonstrations
     robot = load_robot_from_args(args)
     limits = acceleration_limits(args, robot)
     start = _start(args, robot)
@@ -308,7 +310,6 @@ def trajectory_summary(exported: dict[str, dict[str, Any]]) -> str:
 
 def obstacle_below_path(result: PlanResult, size: float = 0.08, overlap: float = 0.02) -> Any:
     """A cube under the middle of a plan's end-effector path, reaching ``overlap`` m above it."""
-    from scenes import Box
     middle = result.ee_path[len(result.ee_path) // 2]
     centre = middle - np.array([0.0, 0.0, 0.5 * size - overlap])
     return Box(centre, [size, size, size])
@@ -338,7 +339,6 @@ def planning_options(p: argparse.ArgumentParser, out_default: str | None = "clam
 
 def trajectory_options(p: argparse.ArgumentParser) -> None:
     """--acc-limit and --no-retime: how the executable trajectory is timed."""
-    from robots.retiming import DEFAULT_ACCELERATION_LIMIT
     p.add_argument("--acc-limit", type=number, nargs="+", default=None, metavar="RAD_S2",
                    help="joint acceleration limit [rad/s^2] the trajectory is retimed to, one for all "
                         f"joints or one per joint (default {DEFAULT_ACCELERATION_LIMIT}; URDFs carry none: "
@@ -399,7 +399,6 @@ def parser() -> argparse.ArgumentParser:
     user.add_argument("--translate", type=number, nargs=3, default=None,
                       help="move the demonstrations by dx dy dz [m] before learning")
     user.set_defaults(run=run_plan)
-    from clamp.cli.batch import add_batch_parser
     add_batch_parser(sub)
     add_view_parser(sub)
     return main

@@ -19,6 +19,17 @@ from pathlib import Path
 from typing import Any
 
 from clamp.errors import InvalidParameterError
+from clamp.config import PlannerConfig
+from clamp.batch.problems import make_problem
+from skillplan.command_line import atomic_write_text
+from clamp.batch.runner import resolve
+from clamp.planning.planner import plan
+from clamp.batch.problems import Problem
+from scenes import Demonstrations
+from skillplan.validation import as_path
+from clamp.viz.viewer import PlanViewer
+from skillplan.command_line import EXIT_OK, quiet
+from skillplan.command_line import integer_at_least
 
 log = logging.getLogger(__name__)
 
@@ -33,7 +44,6 @@ def problem_file(name: str) -> str:
 
 def config_changes(config: Any) -> dict[str, Any]:
     """The fields of a PlannerConfig that differ from ``PlannerConfig()`` (field -> value)."""
-    from clamp.config import PlannerConfig
     default = PlannerConfig()
     return {f.name: getattr(getattr(config, group), f.name)
             for group in ("model", "optimizer", "checks") for f in fields(getattr(config, group))
@@ -44,8 +54,6 @@ def save_view_inputs(out: Path, plans: dict[str, dict[str, Any]], prior: Any, de
                      robot_spec: dict[str, Any], config: Any) -> None:
     """Write prior.npz, demos.npz and problem_<name>.json (name -> {"scene", "start", "goal"})
     into the output folder ``out`` (see the module docstring)."""
-    from clamp.batch.problems import make_problem
-    from skillplan.command_line import atomic_write_text
     prior.save(out / PRIOR_FILE)
     demos.save_npz(out / DEMOS_FILE)
     for name, request in plans.items():
@@ -68,11 +76,6 @@ def robot_spec(args: argparse.Namespace) -> dict[str, Any]:
 def load_view(folder: str | Path, name: str | None = None) -> tuple[Any, Any]:
     """Plan the recorded problem of ``folder`` again; returns (PlanResult, Demonstrations).
     ``name``: which plan (``problem_<name>.json``); None: the only one, or ``obstacle``."""
-    from clamp.batch.runner import resolve
-    from clamp.planning.planner import plan
-    from clamp.batch.problems import Problem
-    from scenes import Demonstrations
-    from skillplan.validation import as_path
     folder = Path(as_path(folder, "FOLDER", InvalidParameterError))
     if not folder.is_dir():
         raise InvalidParameterError(f"FOLDER: expected the output folder of clamp plan / clamp demo, "
@@ -96,8 +99,6 @@ def load_view(folder: str | Path, name: str | None = None) -> tuple[Any, Any]:
 
 
 def run_view(args: argparse.Namespace) -> int:
-    from clamp.viz.viewer import PlanViewer
-    from skillplan.command_line import EXIT_OK, quiet
     result, demos = load_view(args.folder, args.plan)
     with PlanViewer(result, demonstrations=demos, port=args.port) as viewer:
         if not quiet(args):
@@ -109,7 +110,6 @@ def run_view(args: argparse.Namespace) -> int:
 
 def add_view_parser(sub: Any) -> None:
     """Register ``clamp view`` on the ``clamp`` subparsers."""
-    from skillplan.command_line import integer_at_least
     view = sub.add_parser("view", help="show the plan of an output folder live in the browser (127.0.0.1)")
     view.add_argument("folder", metavar="FOLDER", help="output folder of clamp plan / clamp demo")
     view.add_argument("--plan", default=None, metavar="NAME",

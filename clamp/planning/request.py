@@ -16,6 +16,9 @@ from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.planning.reach import check_prior_reach
 from clamp.validation import as_array, as_count
 from skillplan.validation import as_sequence
+from scenes import Scene
+from scenes.obstacles import Obstacle
+from clamp.factors import Family
 
 
 @dataclass(frozen=True)
@@ -48,8 +51,6 @@ def check_robot(robot: Any) -> None:
 
 def as_scene(scene: Any) -> Any:
     """A scenes.Scene from None, a Scene, an obstacle, a list of obstacles or a scene file path."""
-    from scenes import Scene
-    from scenes.obstacles import Obstacle
     if scene is None or isinstance(scene, Scene):
         return scene
     if isinstance(scene, Obstacle):
@@ -84,7 +85,6 @@ def as_extras(extra_factors: Any) -> list:
     """extra_factors as a list: a sequence as is, a single family / factor / maker wrapped."""
     import gtsam
 
-    from clamp.factors import Family
     if isinstance(extra_factors, (Family, gtsam.NonlinearFactor)) or callable(extra_factors):
         return [extra_factors]
     return as_sequence(extra_factors, "extra_factors", "a list of clamp Families, GTSAM factors "

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
+from robots.retiming import retime as retime_trajectory
+from robots.trajectory import JointTrajectory
 
 
 @dataclass(frozen=True)
@@ -160,8 +162,6 @@ class PlanResult:
         necessarily within the limits nor at rest). Check ``success`` first: a failed plan's
         trajectory is no motion to execute (its verdict says so).
         """
-        from robots.retiming import retime as retime_trajectory
-        from robots.trajectory import JointTrajectory
         planned = JointTrajectory.from_plan(robot, self.time, self.q, self.qdot, self.verdict())
         if not retime:
             return planned

@@ -36,6 +36,11 @@ from typing import Any
 import numpy as np
 
 from clamp.errors import AnimationError
+from robots.kinematics import frame_index
+from scenes import Box, Capsule, Cylinder, Sphere, TriangleMesh
+from scenes import Scene
+from scenes import PointCloud
+from robots.trajectory import atomic_write_text
 
 logger = logging.getLogger(__name__)
 
@@ -208,7 +213,6 @@ def planning_frame_transform(robot, pin) -> np.ndarray:
     model = robot.model
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin.neutral(model))
-    from robots.kinematics import frame_index  # the BODY frame when a link and its joint share a name
 
     return data.oMf[frame_index(model, base)].inverse().homogeneous
 
@@ -233,7 +237,6 @@ def _capsule_mesh(mg, radius: float, height: float, segments: int = 24):
 
 def _obstacle_geometry(obstacle: Any, index: int, mg, pin) -> tuple[Any, np.ndarray]:
     """meshcat geometry and 4x4 placement of one scenes obstacle."""
-    from scenes import Box, Capsule, Cylinder, Sphere, TriangleMesh
 
     placement = np.eye(4)
     if isinstance(obstacle, TriangleMesh):   # vertices in the scene frame
@@ -367,7 +370,6 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
         q = np.column_stack([np.interp(frames, time, q[:, j]) for j in range(n)])
         time = frames
     if obstacles is not None:
-        from scenes import Scene
         if isinstance(obstacles, Scene):
             obstacles = obstacles.obstacles
         elif not isinstance(obstacles, Sequence):
@@ -415,7 +417,6 @@ def animation_html(robot, time: Any, q: Any, obstacles: Any = None, demonstratio
 
     points = [robot.frame_positions(q).reshape(-1, 3)]
     if obstacles:
-        from scenes import PointCloud
         for i, obstacle in enumerate(obstacles):
             node = vis[f"scene/obstacles/{i}"]
             if isinstance(obstacle, PointCloud):   # points drawn at their diameter
@@ -531,7 +532,6 @@ def write_animation(path: str | Path, robot, time: Any, q: Any, obstacles: Any =
     sample, in between the viewer interpolates each link's pose); loop: repeat the animation;
     overwrite: replace an existing file (written atomically either way).
     """
-    from robots.trajectory import atomic_write_text
 
     if not overwrite and Path(path).exists():
         raise AnimationError(f"path: {str(path)!r} already exists; pass overwrite=True to replace it")

@@ -23,6 +23,9 @@ from clamp.planning.request import as_scene, check_robot
 from clamp.validation import as_count, as_scalar
 from clamp.viz.prior_plots import covariance_tube
 from scenes.plotting import draw_obstacle, set_equal_axes_3d
+from clamp.factors import OrientationFamily
+from clamp.planning.clearance import state_clearance
+from clamp.planning.verdict import sphere_clearance
 
 #: probability mass inside the drawn posterior tube / band
 LEVEL = 0.95
@@ -126,7 +129,6 @@ def plot_orientation(result: Any, robot: Any, family: Any,
                      dpi: int = 120) -> Figure:
     """Angle of the tool from an orientation family's target [deg] against time over the whole
     plan, with the family's window shaded and its tolerance; writes a PNG to ``path``."""
-    from clamp.factors import OrientationFamily
     _check_inputs(result, robot)
     if not isinstance(family, OrientationFamily):
         raise ClampTypeError(f"family: expected a clamp.factors.OrientationFamily, got "
@@ -262,8 +264,6 @@ def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
     a cap of max(3 epsilon, 15 cm), drawn at the cap beyond it) and the obstacles, the
     collision spheres' clearance the optimiser works with (dotted), the safety distance
     ``epsilon`` [m] (the obstacle factors act below it) and contact (0) marked."""
-    from clamp.planning.clearance import state_clearance
-    from clamp.planning.verdict import sphere_clearance
     scene = _check_inputs(result, robot, scene)
     epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
     q = np.asarray(result.q)

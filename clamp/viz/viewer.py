@@ -27,6 +27,16 @@ from typing import Any
 import numpy as np
 
 from clamp.errors import AnimationError, ClampTypeError, InvalidParameterError
+from skillplan.validation import as_shaped
+from scenes import Box, Capsule, Cylinder, Sphere, TriangleMesh
+from clamp.planning.result import PlanResult
+from skillplan.validation import as_instance, as_shaped
+from clamp.viz.animation import planning_frame_transform, robot_geometry
+from skillplan.validation import as_vector
+from scenes import Scene
+from scenes import PointCloud
+from clamp.viz.animation import box_corners, camera_distance
+from clamp.planning.replanning import replan
 
 logger = logging.getLogger(__name__)
 
@@ -65,7 +75,6 @@ def tube_mesh(ee_path: Any, ee_covariance: Any, sigmas: float = 2.0,
     ee_path (T, 3) [m], ee_covariance (T, 3, 3) [m^2] -> vertices (K*V, 3) [m], faces (K*F, 3):
     a vertex v of ellipsoid i satisfies (v - p_i)^T Sigma_i^-1 (v - p_i) = sigmas^2.
     """
-    from skillplan.validation import as_shaped
     path = as_shaped(ee_path, "ee_path", (None, 3), InvalidParameterError)
     cov = as_shaped(ee_covariance, "ee_covariance", (len(path), 3, 3), InvalidParameterError)
     if not (isinstance(sigmas, (int, float)) and math.isfinite(sigmas) and sigmas > 0):
@@ -90,7 +99,6 @@ def _obstacle_mesh(obstacle: Any, index: int) -> tuple[np.ndarray, np.ndarray, n
     the scene's (a box's rotation, z along a cylinder's or capsule's axis)."""
     import trimesh
 
-    from scenes import Box, Capsule, Cylinder, Sphere, TriangleMesh
     rotation = np.eye(3)
     if isinstance(obstacle, TriangleMesh):
         return (np.asarray(obstacle.vertices, dtype=float) - obstacle_anchor(obstacle), np.asarray(obstacle.faces),
@@ -159,8 +167,6 @@ class PlanViewer:
 
     def __init__(self, result: Any, *, demonstrations: Any = None, port: int = 0,
                  host: str = "127.0.0.1", sigmas: float = 2.0, tube_states: int = 30) -> None:
-        from clamp.planning.result import PlanResult
-        from skillplan.validation import as_instance, as_shaped
         as_instance(result, "result", PlanResult, "a clamp.PlanResult returned by clamp.plan",
                     ClampTypeError)
         if result.inputs is None:
@@ -180,7 +186,6 @@ class PlanViewer:
             import viser
         except ImportError as exc:
             raise AnimationError(f"the live viewer needs viser (pip install 'skillplan[viewer]'): {exc}") from exc
-        from clamp.viz.animation import planning_frame_transform, robot_geometry
 
         self._pin = pin
         self._result = result
@@ -287,20 +292,17 @@ class PlanViewer:
         """Move obstacle ``index`` of the scene so its centre (the middle of its bounding box,
         :func:`obstacle_anchor`) is ``center`` (3,) [m], replan (:func:`clamp.replan`,
         warm-started from the shown plan) and show the new plan; returns it."""
-        from skillplan.validation import as_vector
         obstacles = () if self._scene is None else self._scene.obstacles
         if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < len(obstacles):
             raise InvalidParameterError(f"index: expected an obstacle index in [0, {len(obstacles) - 1}] "
                                         f"(the scene has {len(obstacles)}), got {index!r}")
         center = as_vector(center, "center", 3, InvalidParameterError)
-        from scenes import Scene
         moved = list(obstacles)
         moved[index] = moved[index].translated(center - obstacle_anchor(moved[index]))
         return self._replan(scene=Scene(moved))
 
     def move_goal(self, goal: Any) -> Any:
         """Replan to end-effector goal ``goal`` (3,) [m] and show the new plan; returns it."""
-        from skillplan.validation import as_vector
         return self._replan(goal=as_vector(goal, "goal", 3, InvalidParameterError))
 
     def close(self) -> None:
@@ -331,7 +333,6 @@ class PlanViewer:
         """Each obstacle under a drag handle at its anchor (:func:`obstacle_anchor`)."""
         import viser
 
-        from scenes import PointCloud
         controls = []
         obstacles = () if self._scene is None else self._scene.obstacles
         for i, obstacle in enumerate(obstacles):
@@ -411,7 +412,6 @@ class PlanViewer:
     def _frame_camera(self, demonstrations: np.ndarray | None) -> None:
         """Initial camera: front-right and above the centre of the arm's motion, the paths and
         the obstacles, at the distance where they fit (:func:`clamp.viz.animation.camera_distance`)."""
-        from clamp.viz.animation import box_corners, camera_distance
         points = [self._robot.frame_positions(self._result.q).reshape(-1, 3), self._result.ee_path]
         if self._scene is not None:
             points += [box_corners(np.clip(o.aabb(), -2.0, 2.0)) for o in self._scene.obstacles]
@@ -428,7 +428,6 @@ class PlanViewer:
 
     # ------------------------------------------------------------------ replanning
     def _replan(self, **changes: Any) -> Any:
-        from clamp.planning.replanning import replan
         with self._lock:
             new = replan(self._result, **changes)
             self._result = new
