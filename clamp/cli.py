@@ -244,10 +244,23 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
 
 
 def run_plan(args: argparse.Namespace) -> int:
+    from scenes.bags import is_bag
     from scenes.errors import DemonstrationFileError, SceneFileError
     from scenes.validation import as_file
-    as_file(args.demos, "--demos", DemonstrationFileError)     # named as the user typed them,
-    if args.scene:                                              # before the output folder is made
+    bags = [is_bag(d) for d in args.demos]
+    bag_options = args.topic is not None or args.split != "bag" or args.frames is not None
+    if not all(bags) and (len(args.demos) > 1 or bag_options):
+        raise DemonstrationFileError(f"--demos: several files, and --topic / --split / --frames, are for "
+                                     f"ROS 2 bags (folders with metadata.yaml, .mcap or .db3 files), got "
+                                     f"{' '.join(args.demos)}")
+    if all(bags) and args.topic is None:
+        raise DemonstrationFileError("--topic: ROS 2 bags need the topic to read, e.g. --topic /joint_states")
+    for demos in args.demos:                                    # named as the user typed them,
+        if not is_bag(demos):                                   # before the output folder is made
+            as_file(demos, "--demos", DemonstrationFileError)
+        elif not Path(demos).exists():
+            raise DemonstrationFileError(f"--demos: {demos} does not exist (no such bag)")
+    if args.scene:
         as_file(args.scene, "--scene", SceneFileError)
     with created_output_directory(args.out, args.force) as out:
         return _plan_from_files(args, out)
@@ -259,7 +272,11 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     robot = load_robot_from_args(args)
     limits = acceleration_limits(args, robot)
     start = _start(args, robot)
-    demos = load_demonstrations(args.demos, robot=robot)   # a joint-space file needs the arm
+    if args.topic is None:                                  # a joint-space file needs the arm
+        demos = load_demonstrations(args.demos[0], robot=robot)
+    else:
+        demos = load_demonstrations(args.demos, robot=robot, topic=args.topic, split=args.split,
+                                    frames=args.frames)
     if args.num_points is not None:
         demos = demos.resample(args.num_points)
     if args.translate is not None:
@@ -270,14 +287,14 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     goal = None if args.goal is None else np.array(args.goal, dtype=float)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
     exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime)}
-    write_plan(result, out / "plan.json", robot=robot.name, demos=str(args.demos),
+    write_plan(result, out / "plan.json", robot=robot.name, demos=" ".join(args.demos),
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     _figures(out, prior, demos, robot, config, [("result", result, scene)])
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
     if not quiet(args):
-        print(summary_table([(Path(args.demos).stem, result)]))
+        print(summary_table([(Path(args.demos[0]).stem, result)]))
         print(trajectory_summary(exported))
         print(f"wrote figures and plan to {out}")
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
@@ -384,7 +401,15 @@ def parser() -> argparse.ArgumentParser:
     planning_options(user)
     robot_options(user)
     trajectory_options(user)
-    user.add_argument("--demos", required=True, help="demonstrations (.mat, .npz, .csv)")
+    user.add_argument("--demos", required=True, nargs="+", metavar="FILE",
+                      help="demonstrations (.mat, .npz, .csv), or ROS 2 bags (folders, .mcap, "
+                           ".db3) with --topic")
+    user.add_argument("--topic", default=None,
+                      help="bags: the topic to read (JointState, PoseStamped or /tf)")
+    user.add_argument("--split", choices=("bag", "rest"), default="bag",
+                      help="bags: one demonstration per bag, or cut at rests (default bag)")
+    user.add_argument("--frames", nargs=2, default=None, metavar=("PARENT", "CHILD"),
+                      help="bags with --topic /tf: the transform to read")
     user.add_argument("--num-points", type=integer_at_least(2), default=None, metavar="T",
                       help="resample the demonstrations to T support states before learning "
                            "(default: as recorded)")

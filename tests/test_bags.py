@@ -319,3 +319,34 @@ def test_bad_arguments(good, jaco, tmp_path):
         load_bag_demonstrations(good[0], "/joint_states", robot=jaco, rest_speed=-1.0)
     with pytest.raises(ArgumentTypeError, match="frames"):
         load_bag_demonstrations(good[0], "/tf", frames="base_link->tool0")
+
+
+# ------------------------------------------------------------------------------ command line
+def test_clamp_plan_bad_bag_is_one_line_and_exit_2(tmp_path, capfd, jaco, good):
+    from clamp.cli import main
+    bag = tmp_path / "broken.mcap"
+    bag.write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 50)
+    code = main(["plan", "--demos", str(bag), str(good[1]), "--topic", "/joint_states", "--robot", "jaco",
+                 "--start", "0.2", "-0.47", "0.27", "--out", str(tmp_path / "out")])
+    captured = capfd.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "Traceback" not in captured.err, captured.err
+    assert "broken.mcap" in lines[0] and "error" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_clamp_plan_learns_from_bags(tmp_path, jaco):
+    """``clamp plan --demos a.mcap b.db3 --topic /joint_states --robot jaco`` plans."""
+    import json
+
+    from clamp.cli import main
+    demos = make_demonstrations("box_closing", num_demos=4, num_points=60, seed=0)
+    q = joint_recordings(jaco, demos)
+    bags = [joint_bag(tmp_path / f"rec{m}", jaco, demos.time, q[m], storage=("mcap", "db3")[m % 2],
+                      bare=True, seed=m) for m in range(4)]
+    out = tmp_path / "out"
+    assert main(["plan", "--robot", "jaco", "--demos", *map(str, bags), "--topic", "/joint_states",
+                 "--start", *map(str, demos.positions[0, 0] + [0.02, 0.0, 0.0]),
+                 "--out", str(out), "-q"]) == 0
+    plan_json = json.loads((out / "plan.json").read_text())
+    assert plan_json["success"]
