@@ -9,18 +9,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
 
 from clamp import learn_prior
 from scenes import (DemonstrationFileError, InvalidArgumentError, load_bag_demonstrations,
                     load_demonstrations, make_demonstrations)
 from scenes.bags import REST_SPEED
 from scenes.errors import ArgumentTypeError
-
 from tests.test_joint_demonstrations import joint_recordings
-
-rosbags = pytest.importorskip("rosbags")
-from rosbags.rosbag2 import StoragePlugin, Writer  # noqa: E402
-from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
 TYPES = get_typestore(Stores.ROS2_HUMBLE)
 EXTRA_JOINTS = ("j2s6s200_joint_finger_1", "j2s6s200_joint_finger_2")
