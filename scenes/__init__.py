@@ -1,5 +1,6 @@
 """The world and what was shown in it: obstacles, scenes, signed distance fields,
-demonstration sets (import/export, resampling, time alignment) and synthetic skills."""
+demonstration sets (import/export, ROS 2 bags, resampling, time alignment) and synthetic skills."""
+from .bags import BagSplit, load_bag_demonstrations
 from .datasets import shared_dataset
 from .demonstrations import NOMINAL_DURATION, Demonstrations
 from .errors import (DemonstrationFileError, InvalidArgumentError, InvalidDemonstrationsError,
@@ -15,7 +16,8 @@ from .synthetic import SKILLS, make_cluttered_demonstrations, make_demonstration
 __all__ = [
     "Box", "Capsule", "Cylinder", "Obstacle", "Sphere", "TriangleMesh", "PointCloud", "Scene", "SignedDistanceField", "DEFAULT_WORKSPACE",
     "available_scenes", "builtin_scene",
-    "Demonstrations", "NOMINAL_DURATION", "load_demonstrations", "save_csv", "shared_dataset",
+    "Demonstrations", "NOMINAL_DURATION", "load_demonstrations", "save_csv",
+    "load_bag_demonstrations", "BagSplit", "shared_dataset",
     "make_demonstrations", "make_cluttered_demonstrations", "SKILLS",
     "ScenesError", "InvalidArgumentError", "InvalidObstacleError", "SceneFileError",
     "InvalidDemonstrationsError", "DemonstrationFileError", "UnknownSkillError",

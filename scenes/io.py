@@ -18,6 +18,9 @@ Formats (chosen by suffix, then by content):
   The obstacles of each demonstration come from scene JSON files (one per demonstration,
   ``scenes=`` of :func:`load_demonstrations`; :func:`save_csv` writes them as
   ``<stem>.scene<m>.json`` next to the CSV).
+* ROS 2 bags (``ros2 bag record``: the folder with ``metadata.yaml``, or a bare ``.mcap`` /
+  ``.db3`` file; one bag or a list): a ``topic`` of JointState (with ``robot=``), PoseStamped or
+  /tf messages, one demonstration per bag or split at rests (:mod:`scenes.bags`).
 
 Velocities missing from a file (and joint velocities) are estimated per demonstration as
 ``smoothing=`` chooses (:mod:`scenes.smoothing`: "auto" smooths noisy recordings with a
@@ -40,6 +43,7 @@ from typing import Any
 import numpy as np
 import scipy.io
 
+from .bags import is_bag, load_bag_demonstrations
 from .demonstrations import NOMINAL_DURATION, Demonstrations
 from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrationsError,
                      InvalidObstacleError)
@@ -53,9 +57,15 @@ CSV_COLUMNS = ("demo", "t", "x", "y", "z")
 CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
 
 
-def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None, *,
-                        robot: Any = None, smoothing: str = "auto") -> Demonstrations:
-    """Read demonstrations from a .mat (CLAMP or TLGC), .npz or .csv file.
+def load_demonstrations(path: str | Path | Sequence[str | Path], scenes: Sequence[Any] | None = None,
+                        *, robot: Any = None, smoothing: str = "auto", topic: str | None = None,
+                        split: str = "bag", frames: Sequence[str] | None = None) -> Demonstrations:
+    """Read demonstrations from a .mat (CLAMP or TLGC), .npz or .csv file, or from ROS 2 bags.
+
+    ROS 2 bags: ``path`` is a bag (its folder, or a bare .mcap / .db3 file) or a list of bags;
+    ``topic`` (required), ``split`` ("bag" or "rest") and ``frames`` ((parent, child) for a /tf
+    topic) are passed to :func:`scenes.bags.load_bag_demonstrations` (its defaults for what
+    counts as a rest). ``topic``, ``split`` and ``frames`` are for bags only.
 
     scenes: per demonstration the scene it was recorded in (a scene JSON path or a
     scenes.Scene), whose obstacles become that demonstration's ``obstacles`` (replacing any
@@ -66,6 +76,19 @@ def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None, *
     without a robot, a scene count that is not the demonstration count) naming the file and
     what was expected; SceneFileError for a bad scene file.
     """
+    if isinstance(path, (list, tuple)) or is_bag(path):
+        if topic is None:
+            raise ScenesTypeError(f"topic: expected the topic to read from the ROS 2 bag(s) "
+                                    f"{_shown(path)} (e.g. '/joint_states'), got None")
+        demos = load_bag_demonstrations(path, topic, robot=robot, split=split, frames=frames,
+                                        smoothing=smoothing)
+        return _with_scenes(demos, scenes, _shown(path))
+    bag_options = {k: v for k, v in (("topic", topic), ("frames", frames)) if v is not None}
+    if split != "bag":
+        bag_options["split"] = split
+    if bag_options:
+        raise ScenesTypeError(f"{', '.join(bag_options)}: only for ROS 2 bags (a folder with "
+                                f"metadata.yaml, a .mcap or .db3 file), got the file {path!r:.80}")
     path = as_file(path, "path", DemonstrationFileError, ScenesTypeError)
     smoothing = as_smoothing(smoothing)
     if robot is not None:
@@ -78,17 +101,32 @@ def load_demonstrations(path: str | Path, scenes: Sequence[Any] | None = None, *
         demos = readers[suffix](path, robot, smoothing)
     except (InvalidDemonstrationsError, InvalidObstacleError) as exc:
         raise DemonstrationFileError(f"{path}: {exc}") from None
+    return _with_scenes(demos, scenes, str(path))
+
+
+def _shown(path: Any) -> str:
+    """A path or a list of paths as text for messages."""
+    if isinstance(path, (list, tuple)):
+        return ", ".join(str(p) for p in path)[:200]
+    return str(path)
+
+
+def _with_scenes(demos: Demonstrations, scenes: Sequence[Any] | None, source: str) -> Demonstrations:
+    """``demos`` with each demonstration's obstacles from its scene (module docstring)."""
     if scenes is None:
         return demos
     scenes = as_sequence(scenes, "scenes", "one scene (a scene JSON path or a scenes.Scene) per "
                          "demonstration", ScenesTypeError)
     if len(scenes) != demos.M:
-        raise DemonstrationFileError(f"scenes: expected one scene per demonstration of {path} "
+        raise DemonstrationFileError(f"scenes: expected one scene per demonstration of {source} "
                                      f"({demos.M}), got {len(scenes)}")
     loaded = [s if isinstance(s, Scene) else Scene.load(s) for s in scenes]
-    return Demonstrations(demos.positions, demos.velocities, demos.time,
-                          [list(s.obstacles) for s in loaded], demos.name,
-                          joint_positions=demos.joint_positions, joint_names=demos.joint_names)
+    out = Demonstrations(demos.positions, demos.velocities, demos.time,
+                         [list(s.obstacles) for s in loaded], demos.name,
+                         joint_positions=demos.joint_positions, joint_names=demos.joint_names)
+    if hasattr(demos, "bag_split"):
+        out.bag_split = demos.bag_split  # type: ignore[attr-defined]
+    return out
 
 
 def _load_mat(path: Path, robot: Any, smoothing: str) -> Demonstrations:

@@ -1,5 +1,5 @@
 """A point cloud obstacle: balls of a radius about N points (a depth camera's cloud, an array
-of spheres).
+of spheres; :meth:`PointCloud.from_depth` makes one from a depth image).
 
 Signed distance of p: ``min_i |p - x_i| - r_i`` (exact for the union of the balls outside them,
 and at least the depth inside, the usual sphere-set distance). With one radius for every
@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .depth import DEPTH_RADIUS, ROBOT_MARGIN, depth_points
 from .errors import InvalidObstacleError
 from .nearest import ball_pairs
 from .obstacles import IndexedObstacle
@@ -55,6 +56,29 @@ class PointCloud(IndexedObstacle):
         self.radius = radius
         self._tree = cKDTree(points)
         self._largest = float(np.max(radius))
+
+    @classmethod
+    def from_depth(cls, depth: Any, intrinsics: Any, camera_pose: Any, *, depth_scale: float = 1.0,
+                   roi: Any = None, voxel: float | None = None, radius: Any = DEPTH_RADIUS,
+                   robot: Any = None, q: Any = None, robot_margin: float = ROBOT_MARGIN) -> "PointCloud":
+        """The cloud a depth camera sees, in the robot's base frame (:mod:`scenes.depth`).
+
+        depth (H, W): metres, or integers (a 16-bit image) times ``depth_scale`` [m per unit,
+        0.001 for millimetres]; pixels of 0, NaN or inf are dropped. intrinsics: pinhole fx, fy,
+        cx, cy [px] (a 3x3 K, a dict or a sequence). camera_pose (4, 4): the camera's optical
+        frame (z forward, x right, y down) -> robot base. roi (2, 3): keep the points inside
+        this axis-aligned box [m] of the robot frame. voxel [m]: one point per occupied voxel
+        (the centroid of its points). radius [m]: the balls about the points (one number or
+        (N,)). robot, q (n,) [rad]: drop the points within ``robot_margin`` [m] of the robot's
+        URDF collision geometry at q (coal), the arm's own pixels. InvalidArgumentError names
+        a bad argument; InvalidObstacleError when no point is left.
+        """
+        points = depth_points(depth, intrinsics, camera_pose, depth_scale=depth_scale, roi=roi,
+                              voxel=voxel, robot=robot, q=q, robot_margin=robot_margin)
+        if not len(points):
+            raise InvalidObstacleError("PointCloud.from_depth: no point left (no valid pixel, none "
+                                       "in roi, or all of them the robot's); see the INFO log")
+        return cls(points, radius)
 
     def _evaluate_within(self, coords: np.ndarray, gradient: bool, max_distance: float
                          ) -> tuple[np.ndarray, np.ndarray | None]:

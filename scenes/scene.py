@@ -10,13 +10,20 @@ Scene files are JSON::
                    {"type": "capsule", "center": [..], "radius": r, "height": h, "axis": [..]},
                    {"type": "mesh", "vertices": [[x, y, z], ..], "faces": [[i, j, k], ..]},
                    {"type": "point_cloud", "points": [[x, y, z], ..], "radius": r or [r, ..]},
-                   {"type": "mesh", "file": "table.npz"}]}
+                   {"type": "mesh", "file": "table.npz"},
+                   {"type": "depth_image", "file": "camera.png", "intrinsics": {"fx": .., "fy": ..,
+                    "cx": .., "cy": ..}, "camera_pose": [[..]x4], "depth_scale": 0.001,
+                    "roi": [[..], [..]], "voxel": 0.01, "radius": 0.01}]}
 
 ``rotation`` and ``axis`` are optional (default: axis aligned, +z); a capsule's ``height`` is the
 length of its segment (overall length height + 2 radius). A mesh or point cloud gives its arrays
 inline or in an ``.npz`` file beside the scene file (``"file"``, holding exactly the array
 fields: ``vertices`` and ``faces``, or ``points`` and ``radius``); inline arrays are converted in
 one vectorised step, an .npz is read as is (the fastest for clouds of millions of points).
+A ``depth_image`` (a ``.npy`` or 16-bit ``.png`` file beside the scene file, with its camera's
+intrinsics and pose and the optional depth_scale, roi, voxel and radius of
+:meth:`PointCloud.from_depth`) becomes that point cloud when the scene is read (the arm's own
+points are not removed there: that needs the robot's configuration, :meth:`PointCloud.from_depth`).
 
 A Scene is immutable: ``obstacles`` is a tuple of immutable obstacles and ``bounds`` a read-only
 array, both read-only properties. That is what lets a scene cache the grid fields it builds
@@ -37,6 +44,7 @@ import numpy as np
 from skillplan.command_line import atomic_write, atomic_write_text
 from .errors import (ScenesTypeError, InvalidArgumentError, InvalidObstacleError, OutputPathError,
                      SceneFileError)
+from .depth import DEPTH_RADIUS, depth_entry_points
 from .mesh import TriangleMesh
 from .nearest import Nearest
 from .obstacles import OBSTACLE_TYPES, Obstacle, as_coords, obstacle_from_dict
@@ -54,6 +62,8 @@ DEFAULT_WORKSPACE = np.array([[-0.75, -0.75, -0.1], [0.75, 0.75, 0.7]])
 OBSTACLE_MARGIN = 0.1
 
 _DATA = Path(__file__).resolve().parent / "data"
+#: a scene file's obstacle made from a depth image (scenes.depth), read as a PointCloud
+DEPTH_IMAGE = "depth_image"
 
 
 class Scene:
@@ -189,9 +199,11 @@ class Scene:
                 kind = item.get("type") if isinstance(item, dict) else None
                 if isinstance(kind, str) and kind in ARRAY_OBSTACLES:
                     obstacles.append(_array_obstacle(item, where, folder))
+                elif kind == DEPTH_IMAGE:
+                    obstacles.append(_depth_obstacle(item, where, folder))
                 elif isinstance(kind, str) and kind not in OBSTACLE_TYPES:
                     raise InvalidObstacleError(f"{where}.type: expected one of "
-                                               f"{sorted([*OBSTACLE_TYPES, *ARRAY_OBSTACLES])}, got {kind!r}")
+                                               f"{sorted([*OBSTACLE_TYPES, *ARRAY_OBSTACLES, DEPTH_IMAGE])}, got {kind!r}")
                 else:
                     obstacles.append(obstacle_from_dict(item, where=where))
             except InvalidObstacleError as exc:
@@ -297,6 +309,19 @@ def _array_obstacle(item: dict, where: str, folder: Path) -> Obstacle:
                                    f"got {sorted(fields)}")
     try:
         return cls(**{k: _as_numbers(fields[k], f"{cls.__name__} {k}") for k in names})
+    except InvalidObstacleError as exc:
+        raise InvalidObstacleError(f"{where}: {exc}") from None
+
+
+def _depth_obstacle(item: dict, where: str, folder: Path) -> PointCloud:
+    """The point cloud of a depth image entry (scenes.depth: file relative to ``folder``)."""
+    try:
+        points, radius = depth_entry_points(item, where, folder)
+    except InvalidArgumentError as exc:
+        raise InvalidObstacleError(str(exc)) from None
+    radius = DEPTH_RADIUS if radius is None else _as_numbers(radius, f"{where}.radius")
+    try:
+        return PointCloud(points, radius)
     except InvalidObstacleError as exc:
         raise InvalidObstacleError(f"{where}: {exc}") from None
 

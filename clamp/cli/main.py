@@ -32,8 +32,8 @@ from clamp.errors import InvalidParameterError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.planning.planner import plan
 from clamp.planning.result import PlanResult
-from clamp.cli.batch import add_batch_parser
-from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
+from clamp.cli.main.batch import add_batch_parser
+from clamp.cli.main.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
                                  integer_at_least, number, output_directory, quiet, run,
                                  save_figure)
@@ -41,12 +41,11 @@ from skillplan.progress import progress
 from robots.retiming import DEFAULT_ACCELERATION_LIMIT
 from robots.errors import RetimingError
 from robots import Robot, available_robots, load_robot
-from clamp.prior.learning import learn_prior
-from scenes import Scene, make_demonstrations
+from clamp.prior.linear_gaussian.learning import learn_prior
+from scenes import Box, Scene, load_demonstrations, make_demonstrations
+from scenes.bags import is_bag
 from scenes.errors import DemonstrationFileError, SceneFileError
 from skillplan.validation import as_file
-from scenes import Scene, load_demonstrations
-from scenes import Box
 
 log = logging.getLogger(__name__)
 
@@ -249,8 +248,20 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
 
 
 def run_plan(args: argparse.Namespace) -> int:
-    as_file(args.demos, "--demos", DemonstrationFileError)     # named as the user typed them,
-    if args.scene:                                              # before the output folder is made
+    bags = [is_bag(d) for d in args.demos]
+    bag_options = args.topic is not None or args.split != "bag" or args.frames is not None
+    if not all(bags) and (len(args.demos) > 1 or bag_options):
+        raise DemonstrationFileError(f"--demos: several files, and --topic / --split / --frames, are for "
+                                     f"ROS 2 bags (folders with metadata.yaml, .mcap or .db3 files), got "
+                                     f"{' '.join(args.demos)}")
+    if all(bags) and args.topic is None:
+        raise DemonstrationFileError("--topic: ROS 2 bags need the topic to read, e.g. --topic /joint_states")
+    for demos in args.demos:                                    # named as the user typed them,
+        if not is_bag(demos):                                   # before the output folder is made
+            as_file(demos, "--demos", DemonstrationFileError)
+        elif not Path(demos).exists():
+            raise DemonstrationFileError(f"--demos: {demos} does not exist (no such bag)")
+    if args.scene:
         as_file(args.scene, "--scene", SceneFileError)
     with created_output_directory(args.out, args.force) as out:
         return _plan_from_files(args, out)
@@ -260,7 +271,11 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     robot = load_robot_from_args(args)
     limits = acceleration_limits(args, robot)
     start = _start(args, robot)
-    demos = load_demonstrations(args.demos, robot=robot)   # a joint-space file needs the arm
+    if args.topic is None:                                  # a joint-space file needs the arm
+        demos = load_demonstrations(args.demos[0], robot=robot)
+    else:
+        demos = load_demonstrations(args.demos, robot=robot, topic=args.topic, split=args.split,
+                                    frames=args.frames)
     if args.num_points is not None:
         demos = demos.resample(args.num_points)
     if args.translate is not None:
@@ -271,14 +286,14 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     goal = None if args.goal is None else np.array(args.goal, dtype=float)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
     exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime)}
-    write_plan(result, out / "plan.json", robot=robot.name, demos=str(args.demos),
+    write_plan(result, out / "plan.json", robot=robot.name, demos=" ".join(args.demos),
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     _figures(out, prior, demos, robot, config, [("result", result, scene)])
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
     if not quiet(args):
-        print(summary_table([(Path(args.demos).stem, result)]))
+        print(summary_table([(Path(args.demos[0]).stem, result)]))
         print(trajectory_summary(exported))
         print(f"wrote figures and plan to {out}")
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
@@ -383,7 +398,15 @@ def parser() -> argparse.ArgumentParser:
     planning_options(user)
     robot_options(user)
     trajectory_options(user)
-    user.add_argument("--demos", required=True, help="demonstrations (.mat, .npz, .csv)")
+    user.add_argument("--demos", required=True, nargs="+", metavar="FILE",
+                      help="demonstrations (.mat, .npz, .csv), or ROS 2 bags (folders, .mcap, "
+                           ".db3) with --topic")
+    user.add_argument("--topic", default=None,
+                      help="bags: the topic to read (JointState, PoseStamped or /tf)")
+    user.add_argument("--split", choices=("bag", "rest"), default="bag",
+                      help="bags: one demonstration per bag, or cut at rests (default bag)")
+    user.add_argument("--frames", nargs=2, default=None, metavar=("PARENT", "CHILD"),
+                      help="bags with --topic /tf: the transform to read")
     user.add_argument("--num-points", type=integer_at_least(2), default=None, metavar="T",
                       help="resample the demonstrations to T support states before learning "
                            "(default: as recorded)")
