@@ -32,8 +32,8 @@ from clamp.errors import InvalidParameterError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.planning.planner import plan
 from clamp.planning.result import PlanResult
-from clamp.cli.main.batch import add_batch_parser
-from clamp.cli.main.viewer import add_view_parser, robot_spec, save_view_inputs
+from clamp.cli.batch import add_batch_parser
+from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
                                  integer_at_least, number, output_directory, quiet, run,
                                  save_figure)
@@ -41,7 +41,7 @@ from skillplan.progress import progress
 from robots.retiming import DEFAULT_ACCELERATION_LIMIT
 from robots.errors import RetimingError
 from robots import Robot, available_robots, load_robot
-from clamp.prior.linear_gaussian.learning import learn_prior
+from clamp.prior.learning import learn_prior
 from scenes import Box, Scene, load_demonstrations, make_demonstrations
 from scenes.bags import is_bag
 from scenes.errors import DemonstrationFileError, SceneFileError
