@@ -47,7 +47,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline
+from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from .errors import RetimingError
 from .trajectory import JointTrajectory
@@ -276,17 +276,51 @@ def _chord_knots(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray]:
     return knots, kept
 
 
-class _SubPath:
-    """The part [start, stop] of a toppra path (TOPP-RA's grid must span its path's interval)."""
+class _ChordPath:
+    """The path the retimers follow: the C2 cubic spline q(s) (n joints) through the moving
+    samples of a trajectory (:func:`_chord_knots`), s the cumulative joint-space chord length
+    [rad], with end tangents dq/ds along the input's end velocities (zero where the input rests).
 
-    def __init__(self, path: Any, start: float, stop: float):
+    ``path(s, order)``: q (order 0, rad) or its derivative dq/ds, d2q/ds2 (orders 1, 2) at path
+    positions s (K,) -> (K, n); ``spline``: the scipy CubicSpline itself (piecewise cubic
+    coefficients per knot interval); ``knots`` (K,) [rad] and ``knot_times`` (K,) [s]: the
+    chord length and the input's time at each kept sample; ``length`` [rad]; ``dof`` = n.
+    Raises RetimingError when the positions do not move."""
+
+    def __init__(self, traj: JointTrajectory):
+        s_knots, kept = _chord_knots(traj)
+        if len(kept) < 2:
+            raise RetimingError("traj: the positions do not move (velocities without motion)")
+        t_knots = traj.time_from_start[kept]
+        # end tangents dq/ds = qdot dt/ds, dt/ds of the end intervals
+        bc = ((1, traj.velocities[0] * (t_knots[1] - t_knots[0]) / s_knots[1]),
+              (1, traj.velocities[-1] * (t_knots[-1] - t_knots[-2]) / (s_knots[-1] - s_knots[-2])))
+        self.spline = CubicSpline(s_knots, traj.positions[kept], bc_type=bc)
+        self._orders = [self.spline, self.spline.derivative()]
+        self._orders.append(self._orders[1].derivative())
+        self.knots, self.knot_times = s_knots, t_knots
+        self.length, self.dof = float(s_knots[-1]), traj.n
+
+    def __call__(self, positions: Any, order: int = 0) -> np.ndarray:
+        return self._orders[order](positions)
+
+    def input_time(self, positions: Any) -> np.ndarray:
+        """The input's time [s] at path positions s (piecewise linear between the knots)."""
+        return np.interp(positions, self.knots, self.knot_times)
+
+
+class _SubPath:
+    """The part [start, stop] of a path q(s) for TOPP-RA (its grid must span its path's interval);
+    ``path(s, order)`` is q or its derivative of that order."""
+
+    def __init__(self, path: _ChordPath, start: float, stop: float):
         self.path, self.path_interval, self.dof = path, np.array([start, stop]), path.dof
 
     def __call__(self, positions: Any, order: int = 0) -> np.ndarray:
         return self.path(positions, order)
 
 
-def _ramp_jerk(path: Any, end: float, direction: float, vlim: np.ndarray, alim: np.ndarray,
+def _ramp_jerk(path: _ChordPath, end: float, direction: float, vlim: np.ndarray, alim: np.ndarray,
                ramp_time: float, length: float, reach: float) -> float:
     """Path jerk j [rad/s^3] of the ramp at one end of the path (``direction`` +1: leaving the
     start, -1: arriving at the end): path acceleration j t over its ``ramp_time`` s, from
@@ -349,7 +383,7 @@ class _RestToRestProfile:
 
 
 def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, grid_per_interval: int,
-                    ramp_time: float) -> tuple[Any, _RestToRestProfile, Callable[[np.ndarray], np.ndarray]]:
+                    ramp_time: float) -> tuple[_ChordPath, _RestToRestProfile, Callable[[np.ndarray], np.ndarray]]:
     """Rest-to-rest profile on the C2 spline through the samples, parameterised by chord length
     s [rad]: (path, profile, the map from s to the input's time [s] (piecewise linear between
     the knots)). Jerk-limited ramps at both ends, TOPP-RA between them starting and ending at
@@ -358,15 +392,8 @@ def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, g
     import toppra.algorithm
     import toppra.constraint
 
-    s_knots, kept = _chord_knots(traj)
-    if len(kept) < 2:
-        raise RetimingError("traj: the positions do not move (velocities without motion)")
-    t_knots = traj.time_from_start[kept]
-    # end tangents dq/ds = qdot dt/ds, dt/ds of the end intervals
-    bc = ((1, traj.velocities[0] * (t_knots[1] - t_knots[0]) / s_knots[1]),
-          (1, traj.velocities[-1] * (t_knots[-1] - t_knots[-2]) / (s_knots[-1] - s_knots[-2])))
-    path = toppra.SplineInterpolator(s_knots, traj.positions[kept], bc_type=bc)
-    length = float(s_knots[-1])
+    path = _ChordPath(traj)
+    s_knots, length = path.knots, path.length
     jerks = [_ramp_jerk(path, 0.0, 1.0, vlim, alim, ramp_time, length, float(s_knots[1])),
              _ramp_jerk(path, length, -1.0, vlim, alim, ramp_time, length, float(length - s_knots[-2]))]
     fractions = np.arange(grid_per_interval) / grid_per_interval
@@ -397,10 +424,10 @@ def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, g
         raise RetimingError("traj: TOPP-RA returned a path speed of zero inside the path")
     times = np.concatenate(([0.0], np.cumsum(2.0 * np.diff(s) / speed_sum)))
     profile = _RestToRestProfile(0.0, length, (jerks[0], jerks[1]), ramp_time, s, sd, times)
-    return path, profile, (lambda position: np.interp(position, s_knots, t_knots))
+    return path, profile, path.input_time
 
 
-def _sampled_profile(traj: JointTrajectory, path: Any, profile: _RestToRestProfile, count: int) -> JointTrajectory:
+def _sampled_profile(traj: JointTrajectory, path: _ChordPath, profile: _RestToRestProfile, count: int) -> JointTrajectory:
     """The smoothed profile sampled at `count` equally spaced times, from the input's first
     position to its last, at rest at both ends; velocities and accelerations are the exact
     derivatives of the spline path under the profile (path' sd, path'' sd^2 + path' sdd)."""
