@@ -146,7 +146,7 @@ class PlanResult:
                           for k, v in self.skill.items()}}
 
     def to_joint_trajectory(self, robot: Any, *, retime: bool = True,
-                            acceleration_limits: Any = None) -> Any:
+                            acceleration_limits: Any = None, jerk_limits: Any = None) -> Any:
         """The plan as an executable ``robots.JointTrajectory`` of ``robot`` (the arm it was
         planned for): joint names, time from start [s], positions, velocities, accelerations
         (rad, rad/s, rad/s^2), and the verdict in its header; ``.to_json(path)`` /
@@ -156,7 +156,9 @@ class PlanResult:
         and ``acceleration_limits`` (rad/s^2, a number or one per joint; None =
         ``robots.retiming.DEFAULT_ACCELERATION_LIMIT``), from rest to rest (zero velocity and
         acceleration at both ends), sampled every 10 ms; the retiming report is
-        ``verdict["retiming"]``. ``retime=False``: the plan's own T samples and timing (not
+        ``verdict["retiming"]``. ``jerk_limits`` (rad/s^3, a number or one per joint): retimed
+        jerk-limited along the same path by ruckig instead (``method="ruckig"``); not with
+        ``retime=False``. ``retime=False``: the plan's own T samples and timing (not
         necessarily within the limits nor at rest). Check ``success`` first: a failed plan's
         trajectory is no motion to execute (its verdict says so).
         """
@@ -164,8 +166,12 @@ class PlanResult:
         from robots.trajectory import JointTrajectory
         planned = JointTrajectory.from_plan(robot, self.time, self.q, self.qdot, self.verdict())
         if not retime:
+            if jerk_limits is not None:
+                from robots.errors import RetimingError
+                raise RetimingError("jerk_limits: only with retime=True (the limits are what the plan is retimed to)")
             return planned
-        retimed, _ = retime_trajectory(planned, robot, acceleration_limits, method="toppra")
+        retimed, _ = retime_trajectory(planned, robot, acceleration_limits,
+                                       method="toppra" if jerk_limits is None else "ruckig", jerk_limits=jerk_limits)
         return retimed
 
     def show(self, demonstrations: Any = None, **options: Any) -> Any:
