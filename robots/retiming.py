@@ -614,7 +614,8 @@ class _PathTiming:
             position, speed, acceleration = self.trajectories[k].at_time(time)
             out[:, i] = position[0], speed[0], acceleration[0]
         rest = (t <= 0.0) | (t >= self.duration)
-        out[0] = np.where(t <= 0.0, self.start, np.where(t >= self.duration, self.stop, np.clip(out[0], 0.0, self.stop)))
+        out[0] = np.clip(out[0], self.start, self.stop)
+        out[0, t <= 0.0], out[0, t >= self.duration] = self.start, self.stop
         out[1:, rest] = 0.0
         return out[0], out[1], out[2]
 
