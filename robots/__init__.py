@@ -10,11 +10,11 @@ from .sphere_model import SphereModel
 from .registry import available_robots, load_robot
 from .retiming import RetimingReport, check_limits, retime, uniform_scaling
 from .self_collision import SelfCollisionReport, disabled_pairs, self_collision_report
-from .trajectory import JointTrajectory, load_trajectory
+from .trajectory import JointTrajectory, RetimingLimits, load_trajectory
 
 __all__ = [
     "Robot", "load_robot", "available_robots", "EndEffectorKinematics", "SphereModel",
-    "IKResult", "IKTrajectoryResult", "JointTrajectory", "load_trajectory", "retime",
+    "IKResult", "IKTrajectoryResult", "JointTrajectory", "RetimingLimits", "load_trajectory", "retime",
     "RetimingReport", "check_limits", "uniform_scaling",
     "self_collision_report", "SelfCollisionReport", "disabled_pairs",
     "RobotError", "UnknownRobotError", "UnknownFrameError", "URDFParseError", "UnsupportedJointError",

@@ -1,4 +1,4 @@
-"""Retiming: make a joint trajectory executable under velocity and acceleration limits.
+"""Retiming: make a joint trajectory executable under velocity, acceleration and jerk limits.
 
 Velocity limits come from the URDF (``robot.velocity_limits``, rad/s). URDFs carry no
 acceleration limits, so they are an argument: a scalar or one per joint (rad/s^2), default
@@ -10,7 +10,10 @@ A trajectory is *within limits* when at every sample (tolerance ``1e-6`` relativ
   limits, and
 - its stored accelerations and the difference quotients of its velocity samples (the mean
   acceleration over each sample interval; they bound the export's finite differences,
-  :func:`robots.trajectory.finite_difference`) are within the acceleration limits.
+  :func:`robots.trajectory.finite_difference`) are within the acceleration limits, and
+- when jerk limits are given (rad/s^3; none by default), the difference quotients of its stored
+  accelerations (the mean jerk over each sample interval, what a controller differencing the
+  written accelerations sees) are within the jerk limits.
 
 Two methods keep the geometric path and change only the timing:
 - ``"uniform"``: one time-scaling factor k (time * k, velocity / k, acceleration / k^2), the
@@ -29,7 +32,20 @@ Two methods keep the geometric path and change only the timing:
   time, a plan that creeps out of its start (the demonstrations' timing: 1e-7 .. 1e-3 rad/s
   over the first seconds) gives TOPP-RA's solver path speeds and coefficients far outside its
   fixed numerical range, and it reports the path "not controllable" although it is.
-``"auto"`` uses toppra when it is installed, else uniform scaling.
+- ``"ruckig"``: jerk-limited path timing (the ``ruckig`` package, as MoveIt 2 smooths its
+  trajectories) along the same chord-length spline q(s), from rest to rest. Ruckig times the
+  path position s itself, so the motion never leaves the path: each piece of the spline gets
+  bounds on the path speed, acceleration and jerk derived from the joint limits and the exact
+  maxima of |q'|, |q''|, |q'''| on the piece (:func:`_path_bounds`); pieces with alike bounds
+  form windows, the path speeds at the window boundaries come from a forward and a backward
+  pass (path acceleration zero there), and each window is a 1-DOF ruckig problem between its
+  boundary states within its bounds. The fastest of a few ways to split the limits and group
+  the pieces is kept. Every joint's velocity, acceleration and jerk then stay within limits;
+  the sampled result is checked (jerk: difference quotients of the written accelerations) and
+  if a check still fails the bounds shrink and the timing is redone: a trajectory outside the
+  limits is never returned (RetimingError instead).
+``"auto"`` uses ruckig when jerk limits are given, else toppra when it is installed, else
+uniform scaling.
 
 The report measures how far the retimed motion leaves the original path: both trajectories
 are interpolated as a joint trajectory controller would (cubic Hermite through positions and
@@ -47,7 +63,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline
+from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from .errors import RetimingError
 from .trajectory import JointTrajectory
@@ -69,7 +85,17 @@ RAMP_FRACTION = 0.5
 LIMIT_TOLERANCE = 1e-6
 #: Stand-in for an infinite velocity limit inside TOPP-RA [rad/s].
 _UNBOUNDED_VELOCITY = 1e6
-METHODS = ("auto", "uniform", "toppra")
+#: Relative margin kept from every path bound handed to ruckig (its profiles meet a bound up
+#: to round-off).
+_RUCKIG_MARGIN = 1e-3
+#: (centripetal, similarity) settings of the ruckig retiming; the fastest result is kept:
+#: centripetal = share of the acceleration limit the path's curvature may take at full speed,
+#: similarity = how alike (factor) the bounds of the pieces grouped into one window must be.
+_RUCKIG_SETTINGS = ((0.5, 0.4), (0.5, 0.55), (0.5, 0.7), (0.7, 0.4), (0.7, 0.55), (0.7, 0.7))
+#: A sampled violation multiplies every limit the ruckig bounds come from by this, then retries.
+_RUCKIG_SHRINK = 0.9
+_RUCKIG_ATTEMPTS = 5
+METHODS = ("auto", "uniform", "toppra", "ruckig")
 
 
 # --------------------------------------------------------------------------- limits
@@ -95,13 +121,20 @@ def acceleration_limits_for(n: int, acceleration_limits: Any = None) -> np.ndarr
                       "acceleration_limits", n)
 
 
+def jerk_limits_for(n: int, jerk_limits: Any = None) -> np.ndarray:
+    """Jerk limits (n,) [rad/s^3]: the given scalar / array, or +inf (unlimited) for None."""
+    return np.full(n, np.inf) if jerk_limits is None else _as_limits(jerk_limits, "jerk_limits", n)
+
+
 @dataclass(frozen=True)
 class LimitCheck:
     """Peaks of a trajectory against its limits, per joint (n,).
 
     peak_velocity: max of |velocity samples| and |position difference quotients| [rad/s];
     peak_acceleration: max of |stored accelerations| and |velocity difference quotients|
-    [rad/s^2]; ratios = peak / limit (0 for unlimited joints).
+    [rad/s^2]; peak_jerk: max of |acceleration difference quotients| [rad/s^3] (measured
+    always, limited only where jerk_limits is finite; +inf = no jerk limit); ratios = peak /
+    limit (0 for unlimited joints).
     """
 
     joint_names: tuple[str, ...]
@@ -110,6 +143,15 @@ class LimitCheck:
     peak_velocity: np.ndarray
     peak_acceleration: np.ndarray
     tolerance: float = LIMIT_TOLERANCE
+    jerk_limits: np.ndarray | None = None
+    peak_jerk: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.joint_names)
+        if self.jerk_limits is None:
+            object.__setattr__(self, "jerk_limits", np.full(n, np.inf))
+        if self.peak_jerk is None:
+            object.__setattr__(self, "peak_jerk", np.zeros(n))
 
     @property
     def velocity_ratio(self) -> np.ndarray:
@@ -122,6 +164,16 @@ class LimitCheck:
         return self.peak_acceleration / self.acceleration_limits
 
     @property
+    def jerk_ratio(self) -> np.ndarray:
+        """peak_jerk / jerk_limits (n,); 0 where the jerk is not limited."""
+        return self.peak_jerk / self.jerk_limits
+
+    @property
+    def jerk_limited(self) -> bool:
+        """Whether any joint has a (finite) jerk limit."""
+        return bool(np.any(np.isfinite(self.jerk_limits)))
+
+    @property
     def velocity_ok(self) -> bool:
         """Every velocity within its limit (up to the tolerance)."""
         return bool(np.all(self.velocity_ratio <= 1.0 + self.tolerance))
@@ -132,9 +184,14 @@ class LimitCheck:
         return bool(np.all(self.acceleration_ratio <= 1.0 + self.tolerance))
 
     @property
+    def jerk_ok(self) -> bool:
+        """Every jerk within its limit (up to the tolerance); True without jerk limits."""
+        return bool(np.all(self.jerk_ratio <= 1.0 + self.tolerance))
+
+    @property
     def within_limits(self) -> bool:
-        """Velocities and accelerations within limits at every sample."""
-        return self.velocity_ok and self.acceleration_ok
+        """Velocities, accelerations and (where limited) jerks within limits at every sample."""
+        return self.velocity_ok and self.acceleration_ok and self.jerk_ok
 
     def violations(self) -> list[str]:
         """Readable list of the violated limits (empty when within limits)."""
@@ -145,35 +202,44 @@ class LimitCheck:
             if self.acceleration_ratio[j] > 1.0 + self.tolerance:
                 out.append(f"{name}: acceleration {self.peak_acceleration[j]:.4g} rad/s^2 > "
                            f"{self.acceleration_limits[j]:.4g}")
+            if self.jerk_ratio[j] > 1.0 + self.tolerance:
+                out.append(f"{name}: jerk {self.peak_jerk[j]:.4g} rad/s^3 > {self.jerk_limits[j]:.4g}")
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary."""
+        """JSON-ready summary (max_jerk_ratio: None without jerk limits)."""
         return {"within_limits": self.within_limits,
                 "max_velocity_ratio": float(self.velocity_ratio.max()),
                 "max_acceleration_ratio": float(self.acceleration_ratio.max()),
+                "max_jerk_ratio": float(self.jerk_ratio.max()) if self.jerk_limited else None,
                 "peak_velocity": self.peak_velocity.tolist(), "peak_acceleration": self.peak_acceleration.tolist(),
-                "violations": self.violations()}
+                "peak_jerk": self.peak_jerk.tolist(), "violations": self.violations()}
 
 
-def _peaks(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray]:
+def _peaks(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Peak velocity [rad/s], acceleration [rad/s^2] and jerk [rad/s^3] per joint (n,) of the
+    samples (see LimitCheck)."""
     t = traj.time_from_start
     quotients = np.diff(traj.positions, axis=0) / np.diff(t)[:, None]
     velocity = np.maximum(np.abs(traj.velocities).max(axis=0), np.abs(quotients).max(axis=0))
     differenced = np.diff(traj.velocities, axis=0) / np.diff(t)[:, None]
     acceleration = np.maximum(np.abs(traj.accelerations).max(axis=0), np.abs(differenced).max(axis=0))
-    return velocity, acceleration
+    jerk = np.abs(np.diff(traj.accelerations, axis=0) / np.diff(t)[:, None]).max(axis=0)
+    return velocity, acceleration, jerk
 
 
 def check_limits(traj: JointTrajectory, velocity_limits: Any, acceleration_limits: Any = None,
-                 tolerance: float = LIMIT_TOLERANCE) -> LimitCheck:
-    """Check `traj` against velocity limits (n,) rad/s and acceleration limits (scalar or (n,)
-    rad/s^2, None = DEFAULT_ACCELERATION_LIMIT); see the module docstring for what is checked."""
+                 tolerance: float = LIMIT_TOLERANCE, *, jerk_limits: Any = None) -> LimitCheck:
+    """Check `traj` against velocity limits (n,) rad/s, acceleration limits (scalar or (n,)
+    rad/s^2, None = DEFAULT_ACCELERATION_LIMIT) and jerk limits (scalar or (n,) rad/s^3, None =
+    not limited; the peak jerk is measured anyway); see the module docstring for what is
+    checked."""
     traj = _as_trajectory(traj)
     vlim = _as_limits(velocity_limits, "velocity_limits", traj.n)
     alim = acceleration_limits_for(traj.n, acceleration_limits)
-    velocity, acceleration = _peaks(traj)
-    return LimitCheck(traj.joint_names, vlim, alim, velocity, acceleration, float(tolerance))
+    jlim = jerk_limits_for(traj.n, jerk_limits)
+    velocity, acceleration, jerk = _peaks(traj)
+    return LimitCheck(traj.joint_names, vlim, alim, velocity, acceleration, float(tolerance), jlim, jerk)
 
 
 def uniform_scaling(traj: JointTrajectory, velocity_limits: Any, acceleration_limits: Any = None) -> float:
@@ -210,7 +276,8 @@ class RetimingReport:
 
     scaling_factor: for "uniform" the time factor applied; for "toppra" the final uniform
     stretch that removed violations left between TOPP-RA grid points, or kept the duration
-    with allow_faster=False (1.0 when none was needed). within_position_limits: every retimed
+    with allow_faster=False (1.0 when none was needed); for "ruckig" the stretch that kept the
+    duration with allow_faster=False (else 1.0). within_position_limits: every retimed
     sample inside the robot's joint position limits (the spline between the input samples can
     overshoot a limit the samples touch).
     """
@@ -247,6 +314,7 @@ class RetimingReport:
                 "within_position_limits": self.within_position_limits,
                 "velocity_limits": self.after.velocity_limits.tolist(),
                 "acceleration_limits": self.after.acceleration_limits.tolist(),
+                "jerk_limits": self.after.jerk_limits.tolist() if self.after.jerk_limited else None,
                 "before": self.before.to_dict(), "after": self.after.to_dict()}
 
 
@@ -276,17 +344,51 @@ def _chord_knots(traj: JointTrajectory) -> tuple[np.ndarray, np.ndarray]:
     return knots, kept
 
 
-class _SubPath:
-    """The part [start, stop] of a toppra path (TOPP-RA's grid must span its path's interval)."""
+class _ChordPath:
+    """The path the retimers follow: the C2 cubic spline q(s) (n joints) through the moving
+    samples of a trajectory (:func:`_chord_knots`), s the cumulative joint-space chord length
+    [rad], with end tangents dq/ds along the input's end velocities (zero where the input rests).
 
-    def __init__(self, path: Any, start: float, stop: float):
+    ``path(s, order)``: q (order 0, rad) or its derivative dq/ds, d2q/ds2 (orders 1, 2) at path
+    positions s (K,) -> (K, n); ``spline``: the scipy CubicSpline itself (piecewise cubic
+    coefficients per knot interval); ``knots`` (K,) [rad] and ``knot_times`` (K,) [s]: the
+    chord length and the input's time at each kept sample; ``length`` [rad]; ``dof`` = n.
+    Raises RetimingError when the positions do not move."""
+
+    def __init__(self, traj: JointTrajectory):
+        s_knots, kept = _chord_knots(traj)
+        if len(kept) < 2:
+            raise RetimingError("traj: the positions do not move (velocities without motion)")
+        t_knots = traj.time_from_start[kept]
+        # end tangents dq/ds = qdot dt/ds, dt/ds of the end intervals
+        bc = ((1, traj.velocities[0] * (t_knots[1] - t_knots[0]) / s_knots[1]),
+              (1, traj.velocities[-1] * (t_knots[-1] - t_knots[-2]) / (s_knots[-1] - s_knots[-2])))
+        self.spline = CubicSpline(s_knots, traj.positions[kept], bc_type=bc)
+        self._orders = [self.spline, self.spline.derivative()]
+        self._orders.append(self._orders[1].derivative())
+        self.knots, self.knot_times = s_knots, t_knots
+        self.length, self.dof = float(s_knots[-1]), traj.n
+
+    def __call__(self, positions: Any, order: int = 0) -> np.ndarray:
+        return self._orders[order](positions)
+
+    def input_time(self, positions: Any) -> np.ndarray:
+        """The input's time [s] at path positions s (piecewise linear between the knots)."""
+        return np.interp(positions, self.knots, self.knot_times)
+
+
+class _SubPath:
+    """The part [start, stop] of a path q(s) for TOPP-RA (its grid must span its path's interval);
+    ``path(s, order)`` is q or its derivative of that order."""
+
+    def __init__(self, path: _ChordPath, start: float, stop: float):
         self.path, self.path_interval, self.dof = path, np.array([start, stop]), path.dof
 
     def __call__(self, positions: Any, order: int = 0) -> np.ndarray:
         return self.path(positions, order)
 
 
-def _ramp_jerk(path: Any, end: float, direction: float, vlim: np.ndarray, alim: np.ndarray,
+def _ramp_jerk(path: _ChordPath, end: float, direction: float, vlim: np.ndarray, alim: np.ndarray,
                ramp_time: float, length: float, reach: float) -> float:
     """Path jerk j [rad/s^3] of the ramp at one end of the path (``direction`` +1: leaving the
     start, -1: arriving at the end): path acceleration j t over its ``ramp_time`` s, from
@@ -349,7 +451,7 @@ class _RestToRestProfile:
 
 
 def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, grid_per_interval: int,
-                    ramp_time: float) -> tuple[Any, _RestToRestProfile, Callable[[np.ndarray], np.ndarray]]:
+                    ramp_time: float) -> tuple[_ChordPath, _RestToRestProfile, Callable[[np.ndarray], np.ndarray]]:
     """Rest-to-rest profile on the C2 spline through the samples, parameterised by chord length
     s [rad]: (path, profile, the map from s to the input's time [s] (piecewise linear between
     the knots)). Jerk-limited ramps at both ends, TOPP-RA between them starting and ending at
@@ -358,15 +460,8 @@ def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, g
     import toppra.algorithm
     import toppra.constraint
 
-    s_knots, kept = _chord_knots(traj)
-    if len(kept) < 2:
-        raise RetimingError("traj: the positions do not move (velocities without motion)")
-    t_knots = traj.time_from_start[kept]
-    # end tangents dq/ds = qdot dt/ds, dt/ds of the end intervals
-    bc = ((1, traj.velocities[0] * (t_knots[1] - t_knots[0]) / s_knots[1]),
-          (1, traj.velocities[-1] * (t_knots[-1] - t_knots[-2]) / (s_knots[-1] - s_knots[-2])))
-    path = toppra.SplineInterpolator(s_knots, traj.positions[kept], bc_type=bc)
-    length = float(s_knots[-1])
+    path = _ChordPath(traj)
+    s_knots, length = path.knots, path.length
     jerks = [_ramp_jerk(path, 0.0, 1.0, vlim, alim, ramp_time, length, float(s_knots[1])),
              _ramp_jerk(path, length, -1.0, vlim, alim, ramp_time, length, float(length - s_knots[-2]))]
     fractions = np.arange(grid_per_interval) / grid_per_interval
@@ -397,10 +492,199 @@ def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, g
         raise RetimingError("traj: TOPP-RA returned a path speed of zero inside the path")
     times = np.concatenate(([0.0], np.cumsum(2.0 * np.diff(s) / speed_sum)))
     profile = _RestToRestProfile(0.0, length, (jerks[0], jerks[1]), ramp_time, s, sd, times)
-    return path, profile, (lambda position: np.interp(position, s_knots, t_knots))
+    return path, profile, path.input_time
 
 
-def _sampled_profile(traj: JointTrajectory, path: Any, profile: _RestToRestProfile, count: int) -> JointTrajectory:
+# --------------------------------------------------------------------------- ruckig
+def _piece_maxima(path: _ChordPath) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact maxima of |q'|, |q''| [rad/rad^2], |q'''| over each knot interval of the path
+    spline: three arrays (P, n), P = K - 1 pieces. On a piece q = c0 h^3 + c1 h^2 + c2 h + c3
+    (h from the piece's start), q''' = 6 c0 is constant, q'' linear (largest at an end) and q'
+    quadratic (largest at an end or at its vertex inside the piece)."""
+    c = path.spline.c                                     # (4, P, n)
+    h = np.diff(path.spline.x)[:, None]                   # (P, 1)
+    m3 = np.abs(6.0 * c[0])
+    m2 = np.maximum(np.abs(2.0 * c[1]), np.abs(6.0 * c[0] * h + 2.0 * c[1]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = np.where(c[0] != 0.0, -c[1] / (3.0 * c[0]), -1.0)
+    inside = (vertex > 0.0) & (vertex < h)
+    at_vertex = np.where(inside, np.abs(3.0 * c[0] * vertex**2 + 2.0 * c[1] * vertex + c[2]), 0.0)
+    m1 = np.maximum(np.maximum(np.abs(c[2]), np.abs(3.0 * c[0] * h**2 + 2.0 * c[1] * h + c[2])), at_vertex)
+    return m1, m2, m3
+
+
+def _path_bounds(maxima: tuple[np.ndarray, np.ndarray, np.ndarray], vlim: np.ndarray, alim: np.ndarray,
+                 jlim: np.ndarray, centripetal: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bounds (V, A, J) on the path speed, acceleration and jerk (each (P,), rad/s, rad/s^2,
+    rad/s^3 of chord) under which every joint keeps its limits on a piece whose derivative
+    maxima are M1, M2, M3 (P, n) (:func:`_piece_maxima`). With |s'| <= V, |s''| <= A,
+    |s'''| <= J, on the piece
+        |qdot|   = |q' s'|                          <= M1 V,
+        |qddot|  = |q' s'' + q'' s'^2|              <= M1 A + M2 V^2,
+        |qdddot| = |q' s''' + 3 q'' s' s'' + q''' s'^3| <= M1 J + 3 M2 V A + M3 V^3.
+    V is the largest speed with M1 V <= vlim, M2 V^2 <= ``centripetal`` alim and M3 V^3 <= jlim/3;
+    A takes the rest of the acceleration limit and at most jlim/3 for 3 M2 V A; J the rest of
+    the jerk limit. Infinite bounds are capped at 1e6."""
+    m1, m2, m3 = maxima
+    with np.errstate(divide="ignore", invalid="ignore"):
+        speed = np.minimum(np.minimum(vlim / m1, np.sqrt(centripetal * alim / m2)), np.cbrt(jlim / (3.0 * m3)))
+        V = np.minimum(speed.min(axis=1), _UNBOUNDED_VELOCITY)[:, None]
+        accel = np.minimum((alim - m2 * V**2) / m1, jlim / (9.0 * m2 * V))
+        A = np.minimum(accel.min(axis=1), _UNBOUNDED_VELOCITY)[:, None]
+        J = np.minimum(((jlim - 3.0 * m2 * V * A - m3 * V**3) / m1).min(axis=1), _UNBOUNDED_VELOCITY)
+    return V[:, 0], A[:, 0], J
+
+
+def _windows(V: np.ndarray, A: np.ndarray, J: np.ndarray, similarity: float) -> np.ndarray:
+    """Breaks (W + 1,) that cut the pieces (P,) into W windows of consecutive pieces whose
+    bounds each stay within a factor ``similarity`` (0 < similarity < 1) of one another; the
+    window's bounds are then the smallest of its pieces'."""
+    breaks = [0]
+    low = high = np.array([V[0], A[0], J[0]])
+    for i in range(1, len(V)):
+        here = np.array([V[i], A[i], J[i]])
+        lower, higher = np.minimum(low, here), np.maximum(high, here)
+        if np.all(lower >= similarity * higher):
+            low, high = lower, higher
+        else:
+            breaks.append(i)
+            low = high = here
+    return np.array(breaks + [len(V)])
+
+
+def _s_curve_distance(v0: float, v1: float, A: float, J: float) -> float:
+    """Distance covered by the jerk-limited change of speed from v0 to v1 (acceleration zero
+    at both ends, |acceleration| <= A, |jerk| <= J): mean speed (v0 + v1) / 2 times its
+    duration, 2 sqrt(dv / J) or dv / A + A / J."""
+    dv = abs(v1 - v0)
+    duration = 2.0 * math.sqrt(dv / J) if dv <= A * A / J else dv / A + A / J
+    return 0.5 * (v0 + v1) * duration
+
+
+def _reachable_speed(v0: float, length: float, V: float, A: float, J: float) -> float:
+    """Largest speed v1 <= V [/s] that a window of ``length`` reaches from speed v0 (either
+    way: the distance is symmetric in v0, v1), by bisection on :func:`_s_curve_distance`
+    with a relative margin of 1e-6 on the length."""
+    room = length * (1.0 - 1e-6)
+    if _s_curve_distance(v0, V, A, J) <= room:
+        return V
+    low, high = min(v0, V), V          # the reachable speeds: an interval around v0
+    for _ in range(80):
+        middle = 0.5 * (low + high)
+        if _s_curve_distance(v0, middle, A, J) <= room:
+            low = middle
+        else:
+            high = middle
+    return low
+
+
+def _boundary_speeds(lengths: np.ndarray, V: np.ndarray, A: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """Path speeds (W + 1,) at the window boundaries: zero at both ends, at most both adjacent
+    windows' V, and each window able to join its two (a forward and a backward pass)."""
+    count = len(lengths)
+    speed = np.concatenate(([0.0], np.minimum(V[:-1], V[1:]), [0.0]))
+    for k in range(count):
+        speed[k + 1] = min(speed[k + 1], _reachable_speed(speed[k], lengths[k], V[k], A[k], J[k]))
+    for k in range(count - 1, -1, -1):
+        speed[k] = min(speed[k], _reachable_speed(speed[k + 1], lengths[k], V[k], A[k], J[k]))
+    return speed
+
+
+class _PathTiming:
+    """Path position s(t) [rad of chord] from rest at 0 to rest at ``stop``: one ruckig
+    trajectory per window of the path, from (s_k, speed v_k, acceleration 0) to
+    (s_k+1, v_k+1, 0) within the window's bounds; the same interface as _RestToRestProfile."""
+
+    def __init__(self, stop: float, trajectories: list[Any]):
+        self.start, self.stop, self.trajectories = 0.0, stop, trajectories
+        self.starts = np.concatenate(([0.0], np.cumsum([tr.duration for tr in trajectories])))
+
+    @property
+    def duration(self) -> float:
+        """Length [s] of the timing."""
+        return float(self.starts[-1])
+
+    def __call__(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Path position, speed [/s] and acceleration [/s^2] at times t (K,) in [0, duration];
+        exactly at rest at both ends."""
+        t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
+        window = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, len(self.trajectories) - 1)
+        out = np.zeros((3, len(t)))
+        for i, (k, time) in enumerate(zip(window.tolist(), (t - self.starts[window]).tolist())):
+            position, speed, acceleration = self.trajectories[k].at_time(time)
+            out[:, i] = position[0], speed[0], acceleration[0]
+        rest = (t <= 0.0) | (t >= self.duration)
+        out[0] = np.clip(out[0], self.start, self.stop)
+        out[0, t <= 0.0], out[0, t >= self.duration] = self.start, self.stop
+        out[1:, rest] = 0.0
+        return out[0], out[1], out[2]
+
+
+def _ruckig_timing(path: _ChordPath, maxima: tuple[np.ndarray, np.ndarray, np.ndarray], vlim: np.ndarray,
+                   alim: np.ndarray, jlim: np.ndarray, centripetal: float, similarity: float) -> _PathTiming:
+    """Jerk-limited timing of the path by ruckig: bounds per piece (:func:`_path_bounds`, less
+    the relative margin _RUCKIG_MARGIN), pieces grouped into windows (:func:`_windows`), speeds
+    at the window boundaries (:func:`_boundary_speeds`), then a 1-DOF ruckig problem per
+    window (time-optimal within its bounds, never moving backwards). Raises RetimingError when
+    ruckig finds no trajectory."""
+    import ruckig           # deferred: ruckig loads only for a jerk-limited retiming
+
+    V, A, J = _path_bounds(maxima, vlim, alim, jlim, centripetal)
+    breaks = _windows(V, A, J, similarity)
+    V, A, J = (np.minimum.reduceat(bound, breaks[:-1]) * (1.0 - _RUCKIG_MARGIN) for bound in (V, A, J))
+    edges = path.knots[breaks]
+    edges[-1] = path.length
+    speeds = _boundary_speeds(np.diff(edges), V, A, J)
+    generator = ruckig.Ruckig(1)
+    trajectories = []
+    for k in range(len(V)):
+        problem = ruckig.InputParameter(1)
+        problem.current_position, problem.target_position = [float(edges[k])], [float(edges[k + 1])]
+        problem.current_velocity, problem.target_velocity = [float(speeds[k])], [float(speeds[k + 1])]
+        problem.current_acceleration, problem.target_acceleration = [0.0], [0.0]
+        problem.max_velocity, problem.min_velocity = [float(V[k])], [0.0]
+        problem.max_acceleration, problem.max_jerk = [float(A[k])], [float(J[k])]
+        trajectory = ruckig.Trajectory(1)
+        try:
+            result = generator.calculate(problem, trajectory)
+        except RuntimeError as exc:
+            raise RetimingError(f"traj: ruckig rejected the timing of path window {k}: {exc}") from None
+        if result not in (ruckig.Result.Working, ruckig.Result.Finished):
+            raise RetimingError(f"traj: ruckig found no timing for path window {k} ({result})")
+        trajectories.append(trajectory)
+    return _PathTiming(path.length, trajectories)
+
+
+def _jerk_limited(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, jlim: np.ndarray,
+                  sample_period: float, stretch_to: float) -> tuple[_ChordPath, _PathTiming, JointTrajectory, float]:
+    """Jerk-limited rest-to-rest retiming along the path: the fastest of the ruckig timings for
+    the settings _RUCKIG_SETTINGS, sampled every <= ``sample_period`` s and checked
+    (:func:`check_limits` with the jerk limits); a sampled violation shrinks every limit the
+    bounds are derived from by _RUCKIG_SHRINK and starts again (at most _RUCKIG_ATTEMPTS
+    times, then RetimingError). Returns (path, timing, sampled trajectory before stretching,
+    uniform stretch >= 1 that makes it last at least ``stretch_to`` s)."""
+    path = _ChordPath(traj)
+    maxima = _piece_maxima(path)
+    factor = 1.0
+    for attempt in range(_RUCKIG_ATTEMPTS):
+        timings = [_ruckig_timing(path, maxima, factor * vlim, factor * alim, factor * jlim, centripetal, similarity)
+                   for centripetal, similarity in _RUCKIG_SETTINGS]
+        timing = min(timings, key=lambda candidate: candidate.duration)
+        stretch = max(1.0, stretch_to / timing.duration)
+        count = max(int(math.ceil(timing.duration * stretch / sample_period)), 1) + 1
+        sampled = _sampled_profile(traj, path, timing, count)
+        check = check_limits(sampled, vlim, alim, jerk_limits=jlim)
+        if check.within_limits:
+            return path, timing, sampled, stretch
+        logger.info("retime: ruckig timing attempt %d violates %s; shrinking the path bounds",
+                    attempt + 1, "; ".join(check.violations()))
+        factor *= _RUCKIG_SHRINK
+    raise RetimingError(f"traj: no jerk-limited timing within the limits after {_RUCKIG_ATTEMPTS} attempts "
+                        f"({'; '.join(check.violations())})")
+
+
+def _sampled_profile(traj: JointTrajectory, path: _ChordPath, profile: _RestToRestProfile | _PathTiming,
+                     count: int) -> JointTrajectory:
     """The smoothed profile sampled at `count` equally spaced times, from the input's first
     position to its last, at rest at both ends; velocities and accelerations are the exact
     derivatives of the spline path under the profile (path' sd, path'' sd^2 + path' sdd)."""
@@ -465,18 +749,21 @@ def _deviation(robot, original: JointTrajectory, retimed: JointTrajectory,
 def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method: str = "auto", *,
            velocity_limits: Any = None, sample_period: float = DEFAULT_SAMPLE_PERIOD,
            allow_faster: bool = True, ramp_time: float = DEFAULT_RAMP_TIME, grid_per_interval: int = 4,
-           substeps: int = 4) -> tuple[JointTrajectory, RetimingReport]:
-    """Retime `traj` for `robot` so that it respects velocity and acceleration limits.
+           substeps: int = 4, jerk_limits: Any = None) -> tuple[JointTrajectory, RetimingReport]:
+    """Retime `traj` for `robot` so that it respects velocity, acceleration (and jerk) limits.
 
     traj: JointTrajectory with robot.joint_names; acceleration_limits: scalar or (n,) rad/s^2
     (None = DEFAULT_ACCELERATION_LIMIT); velocity_limits: (n,) rad/s (None = robot.velocity_limits);
-    method: "auto" | "uniform" | "toppra" (see the module docstring); sample_period: max spacing
-    [s] of the toppra output samples; allow_faster: if False the result never takes less time
-    than the input (stretched uniformly when it would); ramp_time: duration [s] of the toppra
-    profile's jerk-limited ramps at both ends; grid_per_interval: TOPP-RA grid points
-    per input interval; substeps: interpolation points per output interval for the deviation.
+    method: "auto" | "uniform" | "toppra" | "ruckig" (see the module docstring); jerk_limits:
+    scalar or (n,) rad/s^3, required by "ruckig" and only taken by it ("auto" with jerk limits
+    is "ruckig"); sample_period: max spacing [s] of the toppra / ruckig output samples;
+    allow_faster: if False the result never takes less time than the input (stretched
+    uniformly when it would); ramp_time: duration [s] of the toppra profile's jerk-limited
+    ramps at both ends; grid_per_interval: TOPP-RA grid points per input interval; substeps:
+    interpolation points per output interval for the deviation.
     Returns (retimed trajectory starting at 0 s, RetimingReport); the retimed verdict is the
-    input's plus "retiming": report.to_dict().
+    input's plus "retiming": report.to_dict(). "ruckig" raises RetimingError rather than
+    return a trajectory outside the limits.
     """
     traj = _as_trajectory(traj)
     if method not in METHODS:
@@ -495,6 +782,14 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
             raise RetimingError(f"{name}: expected a positive int, got {value!r}")
     vlim = _as_limits(robot.velocity_limits if velocity_limits is None else velocity_limits, "velocity_limits", traj.n)
     alim = acceleration_limits_for(traj.n, acceleration_limits)
+    jlim = jerk_limits_for(traj.n, jerk_limits)
+    if method == "auto" and jerk_limits is not None:
+        method = "ruckig"
+    if method == "ruckig" and jerk_limits is None:
+        raise RetimingError("jerk_limits: method 'ruckig' needs jerk limits [rad/s^3], a positive number or "
+                            "one per joint")
+    if method not in ("ruckig", "auto") and jerk_limits is not None:
+        raise RetimingError(f"jerk_limits: only method 'ruckig' (or 'auto') limits the jerk, got method {method!r}")
     automatic = method == "auto"
     if automatic:
         method = "toppra" if toppra_available() else "uniform"
@@ -505,7 +800,7 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
 
     start = traj.time_from_start[0]
     zeroed = traj.replace(time_from_start=traj.time_from_start - start) if start != 0.0 else traj
-    before = check_limits(zeroed, vlim, alim)
+    before = check_limits(zeroed, vlim, alim, jerk_limits=jlim)
     k_uniform = uniform_scaling(zeroed, vlim, alim)
     stretch = 1.0
     if k_uniform == 0.0:  # motionless: nothing to time
@@ -514,6 +809,13 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
         stretch = k_uniform if allow_faster else max(k_uniform, 1.0)
         retimed = scale_time(zeroed, stretch)
         path_position = (lambda t, k=stretch: t / k)
+    elif method == "ruckig":
+        path, timing, candidate, stretch = _jerk_limited(zeroed, vlim, alim, jlim, float(sample_period),
+                                                         0.0 if allow_faster else zeroed.duration)
+        retimed = scale_time(candidate, stretch) if stretch != 1.0 else candidate
+        if stretch != 1.0:
+            logger.info("retime: stretched the ruckig result uniformly by %.6g to the input's duration", stretch)
+        path_position = (lambda tt, k=stretch: path.input_time(timing(tt / k)[0]))
     else:
         try:
             path, profile, input_time = _toppra_profile(zeroed, vlim, alim, int(grid_per_interval),
@@ -541,7 +843,8 @@ def retime(traj: JointTrajectory, robot, acceleration_limits: Any = None, method
         path_position = (lambda tt, k=stretch: input_time(profile(tt / k)[0]))
     joint_dev, ee_dev = _deviation(robot, zeroed, retimed, path_position, int(substeps))
     report = RetimingReport(method=method, duration_before=zeroed.duration, duration_after=retimed.duration,
-                            before=before, after=check_limits(retimed, vlim, alim), scaling_factor=float(stretch),
+                            before=before, after=check_limits(retimed, vlim, alim, jerk_limits=jlim),
+                            scaling_factor=float(stretch),
                             max_joint_deviation=joint_dev, max_ee_deviation=ee_dev,
                             num_points_before=traj.num_points, num_points_after=retimed.num_points,
                             within_position_limits=bool(np.all(robot.within_limits(retimed.positions))))

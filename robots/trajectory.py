@@ -4,7 +4,10 @@
 (from the URDF, ``robot.joint_names``) and, per point, positions, velocities and accelerations
 with a ``time_from_start``. Units: s, rad, rad/s, rad/s^2 (m, m/s, m/s^2 for prismatic joints;
 the ``units`` header says which). A free-form ``verdict`` header carries what the planner
-concluded (success, reasons, ...).
+concluded (success, reasons, ...); a retimed trajectory's ``verdict["retiming"]`` records the
+method and the velocity, acceleration and jerk limits it was made for
+(:meth:`JointTrajectory.retiming_limits` reads them, also from files written before jerk limits
+were recorded).
 
 A plan's accelerations (:meth:`JointTrajectory.from_plan`; a retimed trajectory,
 :func:`robots.retime`, carries its profile's exact ones) are finite differences of the velocity
@@ -148,6 +151,30 @@ def _ros2_seconds(value: Any, where: str) -> float:
 
 
 # --------------------------------------------------------------------------- the trajectory
+@dataclass(frozen=True)
+class RetimingLimits:
+    """The limits a retimed trajectory was made for, from its ``verdict["retiming"]``
+    (:func:`robots.retime`): method ("uniform", "toppra", "ruckig"); velocity (n,) rad/s,
+    acceleration (n,) rad/s^2 and jerk (n,) rad/s^3 limits, None where the file records none
+    (jerk: not limited, or a file written before jerk limits were recorded)."""
+
+    method: str
+    velocity: np.ndarray | None
+    acceleration: np.ndarray | None
+    jerk: np.ndarray | None
+
+
+def _recorded_limits(record: Mapping[str, Any], key: str, n: int) -> np.ndarray | None:
+    """Limits (n,) recorded under ``key`` of a verdict's "retiming" entry, None when absent."""
+    value = record.get(key)
+    if value is None:
+        return None
+    array = _float_array(value, f"verdict['retiming'][{key!r}]")
+    if array.shape != (n,):
+        raise TrajectoryError(f"verdict['retiming'][{key!r}]: expected {n} limits, got shape {array.shape}")
+    return array
+
+
 @dataclass(frozen=True, eq=False)
 class JointTrajectory:
     """A time-stamped joint trajectory, like ROS ``trajectory_msgs/JointTrajectory``.
@@ -220,6 +247,18 @@ class JointTrajectory:
     def duration(self) -> float:
         """Execution time [s]: last time_from_start."""
         return float(self.time_from_start[-1])
+
+    def retiming_limits(self) -> RetimingLimits | None:
+        """The method and limits this trajectory was retimed for (verdict["retiming"]), or None
+        when it was not retimed; older files without jerk limits read with ``jerk`` None.
+        TrajectoryError when the record is malformed."""
+        record = self.verdict.get("retiming")
+        if record is None:
+            return None
+        if not isinstance(record, Mapping) or not isinstance(record.get("method"), str):
+            raise TrajectoryError("verdict['retiming']: expected an object with a 'method' (str)")
+        return RetimingLimits(record["method"], *(_recorded_limits(record, key, self.n) for key in
+                                                  ("velocity_limits", "acceleration_limits", "jerk_limits")))
 
     # ---------------------------------------------------------------- construction
     @classmethod

@@ -5,7 +5,7 @@ URDF arm) and write to the output folder (new or empty, or ``--force``): prior f
 figures (3-D, top view, joint angles with limits, clearance, uncertainty), plans as JSON (q,
 qdot, end-effector path, metrics), browser animations, the scene and, for a successful plan,
 its executable joint trajectory: retimed within the arm's velocity limits and ``--acc-limit``
-(TOPP-RA, from rest to rest) as skillplan JSON (with the verdict) and as a ROS 2
+(TOPP-RA, from rest to rest; with ``--jerk-limit`` jerk-limited by ruckig) as skillplan JSON (with the verdict) and as a ROS 2
 ``trajectory_msgs/JointTrajectory`` message; a summary table is printed. Exit codes: 0 success,
 1 a plan was computed but failed (no trajectory is written for it), 2 bad input (nothing is
 left behind: a folder the run created is removed again). Shared plumbing (errors, output
@@ -145,24 +145,44 @@ def acceleration_limits(args: argparse.Namespace, robot: Any) -> float | np.ndar
     return float(values[0]) if len(values) == 1 else values
 
 
+def jerk_limits(args: argparse.Namespace, robot: Any) -> float | np.ndarray | None:
+    """The --jerk-limit values [rad/s^3]: one for every joint or one per joint, positive; None
+    when not given (the trajectory is then not jerk-limited)."""
+    if args.jerk_limit is None:
+        return None
+    if args.no_retime:
+        raise InvalidParameterError("--jerk-limit: not with --no-retime (the limit is what the "
+                                    "trajectory is retimed to)")
+    values = np.array(args.jerk_limit, dtype=float)
+    if len(values) not in (1, robot.n) or np.any(values <= 0.0):
+        raise InvalidParameterError(f"--jerk-limit: expected one positive limit [rad/s^3] or one per "
+                                    f"joint of {robot.name} ({robot.n}), got {args.jerk_limit}")
+    return float(values[0]) if len(values) == 1 else values
+
+
 def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
-                     limits: float | np.ndarray, retime: bool) -> dict[str, Any]:
+                     limits: float | np.ndarray, retime: bool,
+                     jerk: float | np.ndarray | None = None) -> dict[str, Any]:
     """The executable trajectory of a successful plan: ``trajectory_NAME.json`` (skillplan
     format, verdict and retiming report in its header) and ``trajectory_NAME_ros2.json`` (the
     ROS 2 JointTrajectory message), retimed within the arm's velocity limits and ``limits``
-    [rad/s^2] from rest to rest unless ``retime`` is False. A failed plan, or one the retimer
+    [rad/s^2] from rest to rest unless ``retime`` is False (and within ``jerk`` [rad/s^3] by
+    ruckig when given). A failed plan, or one the retimer
     cannot parameterise, gets none (files of that name left by an earlier run are removed:
     they would pass for this plan's). Returns what the plan JSON records as "trajectory":
-    files, retimed, acceleration_limits [rad/s^2] (None when not retimed), duration [s], error
-    (why there is none)."""
+    files, retimed, acceleration_limits [rad/s^2] (None when not retimed), jerk_limits [rad/s^3]
+    (None when not jerk-limited), duration [s], error (why there is none)."""
     paths = [out / pattern.format(name) for pattern in TRAJECTORY_FILES]
     record: dict[str, Any] = {"files": [], "retimed": retime, "acceleration_limits": None,
-                              "duration": None, "error": None}
+                              "jerk_limits": None, "duration": None, "error": None}
     if retime:
         record["acceleration_limits"] = np.broadcast_to(limits, (robot.n,)).tolist()
+        if jerk is not None:
+            record["jerk_limits"] = np.broadcast_to(jerk, (robot.n,)).tolist()
     if result.success:
         try:
-            trajectory = result.to_joint_trajectory(robot, retime=retime, acceleration_limits=limits)
+            trajectory = result.to_joint_trajectory(robot, retime=retime, acceleration_limits=limits,
+                                                    jerk_limits=jerk)
         except RetimingError as exc:
             record["error"] = f"retiming failed: {exc}"
         else:
@@ -216,7 +236,7 @@ def run_demo(args: argparse.Namespace) -> int:
 
 def _demo(args: argparse.Namespace, out: Path) -> int:
     robot = load_robot_from_args(args)
-    limits = acceleration_limits(args, robot)
+    limits, jerk = acceleration_limits(args, robot), jerk_limits(args, robot)
     demos = make_demonstrations(args.skill, num_demos=6, num_points=args.num_points)
     prior = learn_prior(demos)
     start = prior.mean[0, :3] + DEMO_START_OFFSET
@@ -228,7 +248,7 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
         ("obstacle", scene, config, {}),
         ("obstacle, no factors", scene, config.with_(obstacle_factors=False), {})])
     rows = [("empty scene", empty), ("obstacle", with_obstacle), ("obstacle, no factors", unaware)]
-    exported = {name: write_trajectory(out, name, result, robot, limits, not args.no_retime)
+    exported = {name: write_trajectory(out, name, result, robot, limits, not args.no_retime, jerk)
                 for name, result in (("empty", empty), ("obstacle", with_obstacle))}
     write_plan(empty, out / "plan_empty.json", robot=robot.name, skill=args.skill,
                trajectory=exported["empty"])
@@ -269,7 +289,7 @@ def run_plan(args: argparse.Namespace) -> int:
 
 def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     robot = load_robot_from_args(args)
-    limits = acceleration_limits(args, robot)
+    limits, jerk = acceleration_limits(args, robot), jerk_limits(args, robot)
     start = _start(args, robot)
     if args.topic is None:                                  # a joint-space file needs the arm
         demos = load_demonstrations(args.demos[0], robot=robot)
@@ -285,7 +305,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     config = _config(args)
     goal = None if args.goal is None else np.array(args.goal, dtype=float)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
-    exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime)}
+    exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime, jerk)}
     write_plan(result, out / "plan.json", robot=robot.name, demos=" ".join(args.demos),
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
@@ -316,7 +336,8 @@ def trajectory_summary(exported: dict[str, dict[str, Any]]) -> str:
     lines = []
     for name, record in exported.items():
         if record["files"]:
-            how = "retimed" if record["retimed"] else "plan timing, not retimed"
+            how = ("plan timing, not retimed" if not record["retimed"] else
+                   "retimed, jerk-limited" if record.get("jerk_limits") else "retimed")
             lines.append(f"trajectory {name}: {', '.join(record['files'])} ({record['duration']:.2f} s, {how})")
         else:
             lines.append(f"trajectory {name}: none ({record['error']})")
@@ -353,11 +374,15 @@ def planning_options(p: argparse.ArgumentParser, out_default: str | None = "clam
 
 
 def trajectory_options(p: argparse.ArgumentParser) -> None:
-    """--acc-limit and --no-retime: how the executable trajectory is timed."""
+    """--acc-limit, --jerk-limit and --no-retime: how the executable trajectory is timed."""
     p.add_argument("--acc-limit", type=number, nargs="+", default=None, metavar="RAD_S2",
                    help="joint acceleration limit [rad/s^2] the trajectory is retimed to, one for all "
                         f"joints or one per joint (default {DEFAULT_ACCELERATION_LIMIT}; URDFs carry none: "
                         "use the arm's data sheet)")
+    p.add_argument("--jerk-limit", type=number, nargs="+", default=None, metavar="RAD_S3",
+                   help="joint jerk limit [rad/s^3], one for all joints or one per joint: the trajectory is "
+                        "retimed jerk-limited along the planned path (ruckig, as MoveIt 2 smooths its "
+                        "trajectories; for controllers that reject acceleration jumps); default: not jerk-limited")
     p.add_argument("--no-retime", action="store_true",
                    help="write the trajectory with the plan's own timing (not retimed: it may exceed "
                         "the limits and start and end moving)")

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
+from robots.errors import RetimingError
 from robots.retiming import retime as retime_trajectory
 from robots.trajectory import JointTrajectory
 
@@ -148,7 +149,7 @@ class PlanResult:
                           for k, v in self.skill.items()}}
 
     def to_joint_trajectory(self, robot: Any, *, retime: bool = True,
-                            acceleration_limits: Any = None) -> Any:
+                            acceleration_limits: Any = None, jerk_limits: Any = None) -> Any:
         """The plan as an executable ``robots.JointTrajectory`` of ``robot`` (the arm it was
         planned for): joint names, time from start [s], positions, velocities, accelerations
         (rad, rad/s, rad/s^2), and the verdict in its header; ``.to_json(path)`` /
@@ -158,14 +159,19 @@ class PlanResult:
         and ``acceleration_limits`` (rad/s^2, a number or one per joint; None =
         ``robots.retiming.DEFAULT_ACCELERATION_LIMIT``), from rest to rest (zero velocity and
         acceleration at both ends), sampled every 10 ms; the retiming report is
-        ``verdict["retiming"]``. ``retime=False``: the plan's own T samples and timing (not
+        ``verdict["retiming"]``. ``jerk_limits`` (rad/s^3, a number or one per joint): retimed
+        jerk-limited along the same path by ruckig instead (``method="ruckig"``); not with
+        ``retime=False``. ``retime=False``: the plan's own T samples and timing (not
         necessarily within the limits nor at rest). Check ``success`` first: a failed plan's
         trajectory is no motion to execute (its verdict says so).
         """
         planned = JointTrajectory.from_plan(robot, self.time, self.q, self.qdot, self.verdict())
         if not retime:
+            if jerk_limits is not None:
+                raise RetimingError("jerk_limits: only with retime=True (the limits are what the plan is retimed to)")
             return planned
-        retimed, _ = retime_trajectory(planned, robot, acceleration_limits, method="toppra")
+        retimed, _ = retime_trajectory(planned, robot, acceleration_limits,
+                                       method="toppra" if jerk_limits is None else "ruckig", jerk_limits=jerk_limits)
         return retimed
 
     def to_dict(self) -> dict[str, Any]:
