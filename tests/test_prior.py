@@ -6,8 +6,7 @@ import pytest
 from scipy import stats
 
 from clamp import errors
-from clamp.prior.linear_gaussian import (FILE_FORMAT, LinearGaussianPrior, WorkspacePrior, prefix_compose,
-                         suffix_compose)
+from clamp.prior.linear_gaussian import FILE_FORMAT, LinearGaussianPrior, WorkspacePrior
 
 
 def random_system(T: int = 5, D: int = 4, seed: int = 0) -> dict[str, np.ndarray]:
@@ -57,38 +56,6 @@ def test_marginals_match_dense_eq8(system, prior):
     assert (prior.T, prior.D, prior.num_axes) == (5, 4, 2)
     assert prior.dt == pytest.approx(0.1)
 
-
-@pytest.mark.parametrize("steps", [1, 2, 7, 256, 300])
-def test_prefix_scan_equals_sequential_recursion(steps):
-    p = random_system(T=steps + 1, D=6, seed=steps)
-    p["Phi"] = 0.9 * p["Phi"] / np.linalg.norm(p["Phi"], ord=2, axis=(1, 2))[:, None, None]
-    A, b, B = prefix_compose(p["Phi"], p["u"], p["Q"])
-    mean, cov, product = p["mean0"], p["cov0"], np.eye(6)
-    for i in range(steps):
-        mean = p["Phi"][i] @ mean + p["u"][i]
-        cov = p["Phi"][i] @ cov @ p["Phi"][i].T + p["Q"][i]
-        product = p["Phi"][i] @ product
-        np.testing.assert_allclose(A[i], product, rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(A[i] @ p["mean0"] + b[i], mean, rtol=1e-10, atol=1e-10)
-        np.testing.assert_allclose(A[i] @ p["cov0"] @ A[i].T + B[i], cov, rtol=1e-10,
-                                   atol=1e-10)
-
-
-
-@pytest.mark.parametrize("steps", [1, 2, 7, 256, 300])
-def test_suffix_scan_equals_sequential_recursion_from_every_state(steps):
-    p = random_system(T=steps + 1, D=6, seed=steps)
-    p["Phi"] = 0.9 * p["Phi"] / np.linalg.norm(p["Phi"], ord=2, axis=(1, 2))[:, None, None]
-    A, b, B = suffix_compose(p["Phi"], p["u"], p["Q"])
-    # backwards: the map from state i to the last state is the map from i + 1 after step i
-    product, offset, noise = np.eye(6), np.zeros(6), np.zeros((6, 6))
-    for i in range(steps - 1, -1, -1):
-        offset = product @ p["u"][i] + offset
-        noise = product @ p["Q"][i] @ product.T + noise
-        product = product @ p["Phi"][i]
-        np.testing.assert_allclose(A[i], product, rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(b[i], offset, rtol=1e-10, atol=1e-10)
-        np.testing.assert_allclose(B[i], noise, rtol=1e-10, atol=1e-10)
 
 def test_log_likelihood_and_mahalanobis_match_dense_gaussian(system, prior):
     mu, K = dense_gaussian(system)

@@ -2,7 +2,9 @@
 (:mod:`.learning`, incrementally :mod:`.conjugate`, obstacle-aware weighting
 :mod:`.obstacle_weighting`), conditioned on what a plan is asked (:mod:`.conditioning`), the
 skill's region and checks (:mod:`.skill`) and the calibrated plausibility of a path
-(:mod:`.plausibility`). Knows nothing of robots' planning problems or solvers."""
+(:mod:`.plausibility`); the chain's Gaussian algebra (compositions, marginals, filter and
+smoother, backward messages) is :mod:`.chain`. Knows nothing of robots' planning problems or
+solvers."""
 from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
 
 __all__ = ["LinearGaussianPrior", "WorkspacePrior"]

@@ -13,7 +13,9 @@ u' = (I - K L) u + K e, Q' = (I - K L) Q = K, and the message passed back to x_i
 e~ = (I + L Q)^-1 e, L_i = Phi' L~ Phi (+ H' H / r^2 if state i is observed),
 e_i = Phi' (e~ - L~ u) (+ H' p / r^2). Between observed states the messages are carried in
 one batched step through the composed transitions (log-depth scan), so only the loop over the
-few observed states is sequential; the conditioned steps are batched over all states.
+few observed states is sequential; the conditioned steps are batched over all states. The
+messages and the conditioned chain are :func:`clamp.prior.chain.backward_messages` and
+:func:`clamp.prior.chain.conditioned_chain`; this module builds the observations.
 
 The planner plans with the conditioned prior when a goal or via points are asked for, so the
 learned workspace GP family itself pulls the plan through them (a soft 1 mm factor alone loses
@@ -28,7 +30,8 @@ from typing import Any
 import numpy as np
 
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
-from clamp.prior.linear_gaussian import WorkspacePrior, check_prior, suffix_compose
+from clamp.prior import chain
+from clamp.prior.linear_gaussian import WorkspacePrior, check_prior
 from clamp.validation import as_array, as_count, as_scalar
 from skillplan.validation import MAX_COORDINATE, as_sequence
 
@@ -74,57 +77,14 @@ def conditioned(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndar
     for index, p in observations:
         L_obs[index, np.arange(A), np.arange(A)] += 1.0 / sigma**2
         e_obs[index, :A] += p / sigma**2
-    eye = np.eye(D)
-    L_msg, e_msg = _backward_messages(Phi, u, Q, L_obs, e_obs)
-    L_next, e_next = L_msg[1:], e_msg[1:]
-    # K_i = (Q_i^-1 + L_{i+1})^-1 (= Q (I + L Q)^-1), batched
-    Q_inv = np.linalg.inv(Q)
-    gains = np.linalg.inv(0.5 * (Q_inv + np.swapaxes(Q_inv, 1, 2)) + L_next)
-    L, e = L_msg[0], e_msg[0]
-    keep = eye - gains @ L_next                                    # (T-1, D, D)
-    Phi_c = keep @ Phi
-    u_c = np.einsum("tij,tj->ti", keep, u) + np.einsum("tij,tj->ti", gains, e_next)
-    Q_c = gains                                                    # (Q^-1 + L)^-1 = (I - K L) Q
-    Q_c = 0.5 * (Q_c + np.swapaxes(Q_c, 1, 2))
+    L_msg, e_msg = chain.backward_messages(Phi, u, Q, L_obs, e_obs)
     P0, m0 = np.asarray(prior.cov0, dtype=float), np.asarray(prior.mean0, dtype=float)
-    K0 = np.linalg.solve((eye + L @ P0).T, P0).T                  # P0 (I + L P0)^-1
-    mean0 = m0 + K0 @ (e - L @ m0)
-    cov0 = (eye - K0 @ L) @ P0
-    cov0 = 0.5 * (cov0 + cov0.T)
+    Phi_c, u_c, Q_c, mean0, cov0 = chain.conditioned_chain(Phi, u, Q, m0, P0, L_msg, e_msg)
     info = {**getattr(prior, "info", {}), "conditioned_on": [
         [int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations],
         "conditioning_sigma": sigma}
     return WorkspacePrior(prior.time, Phi_c, u_c, _floor(Q_c, sigma), mean0,
                           _floor(cov0[None], sigma)[0], info=info)
-
-
-def _backward_messages(Phi: np.ndarray, u: np.ndarray, Q: np.ndarray, L_obs: np.ndarray,
-                       e_obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Information (L (T, D, D), e (T, D)) of the observations at states >= i given x_i.
-
-    Between two observed states a < j the message of x_i (a <= i < j) is the message of x_j
-    carried back through the composed step x_j = A x_i + b + N(0, B) (:func:`suffix_compose`,
-    log depth): L_i = A' (I + L_j B)^-1 L_j A, e_i = A' (I + L_j B)^-1 (e_j - L_j b); only the
-    loop over the observed states is sequential.
-    """
-    T, D = L_obs.shape[:2]
-    L_msg, e_msg = L_obs.copy(), e_obs.copy()
-    observed = np.flatnonzero(np.any(L_obs != 0.0, axis=(1, 2)))
-    j = T - 1
-    while j > 0:
-        a = int(observed[observed < j].max(initial=0))
-        A, b, B = suffix_compose(Phi[a:j], u[a:j], Q[a:j])
-        L_j, e_j = L_msg[j], e_msg[j]
-        rhs = np.broadcast_to(np.hstack([L_j, e_j[:, None]]), (j - a, D, D + 1))
-        carried = np.linalg.solve(np.eye(D) + L_j @ B, rhs)           # (I + L_j B)^-1 [L_j, e_j]
-        L_t, e_t = carried[..., :D], carried[..., D]
-        L_t = 0.5 * (L_t + np.swapaxes(L_t, 1, 2))
-        At = np.swapaxes(A, 1, 2)
-        L_i = At @ L_t @ A
-        L_msg[a:j] += 0.5 * (L_i + np.swapaxes(L_i, 1, 2))
-        e_msg[a:j] += np.einsum("sij,sj->si", At, e_t - np.einsum("sij,sj->si", L_t, b))
-        j = a
-    return L_msg, e_msg
 
 
 def _floor(cov: np.ndarray, sigma: float) -> np.ndarray:

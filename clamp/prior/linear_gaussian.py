@@ -10,7 +10,8 @@ marginal means and covariances follow by the O(T) recursion
 
     mean_{i+1} = Phi_i mean_i + u_i,     cov_{i+1} = Phi_i cov_i Phi_i^T + Q_i,
 
-which is eq. (8) evaluated block by block, never forming the dense (D T)^2 covariance.
+which is eq. (8) evaluated block by block, never forming the dense (D T)^2 covariance
+(:func:`clamp.prior.chain.marginals`; the chain's algebra is all in :mod:`clamp.prior.chain`).
 
 :class:`LinearGaussianPrior` is generic in the number of axes (a joint-space prior for an
 n-joint arm has D = 2n); :class:`WorkspacePrior` is the end-effector workspace prior of CLAMP
@@ -27,6 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy import stats
 
+from clamp.prior import chain
 from clamp.prior.conjugate import POSTERIOR_KEYS, ConjugatePosterior
 from clamp.errors import ClampTypeError, InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time, cholesky, is_symmetric
@@ -42,50 +44,6 @@ def _frozen(arr: np.ndarray) -> np.ndarray:
     out = np.array(arr, dtype=np.float64, copy=True)
     out.flags.writeable = False
     return out
-
-
-def _compose(late: tuple[np.ndarray, np.ndarray, np.ndarray],
-             early: tuple[np.ndarray, np.ndarray, np.ndarray]
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Batched composition (A2, b2, B2) o (A1, b1, B1) = (A2 A1, A2 b1 + b2, A2 B1 A2^T + B2)
-    of affine Gaussian steps (A (S, D, D), b (S, D), B (S, D, D)): ``early`` applied first."""
-    (A2, b2, B2), (A1, b1, B1) = late, early
-    return (A2 @ A1, np.einsum("sij,sj->si", A2, b1) + b2,
-            A2 @ B1 @ np.swapaxes(A2, 1, 2) + B2)
-
-
-def prefix_compose(Phi: np.ndarray, u: np.ndarray,
-                   Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Running compositions of the steps x -> Phi_i x + u_i, C -> Phi_i C Phi_i^T + Q_i.
-
-    Phi (S, D, D), u (S, D), Q (S, D, D). Returns A (S, D, D), b (S, D), B (S, D, D) with
-    ``mean_{i+1} = A_i mean_0 + b_i`` and ``cov_{i+1} = A_i cov_0 A_i^T + B_i``, i.e.
-    A_i = Phi_i ... Phi_0. Hillis-Steele scan: ceil(log2 S) rounds of batched products,
-    using (A2, b2, B2) o (A1, b1, B1) = (A2 A1, A2 b1 + b2, A2 B1 A2^T + B2).
-    """
-    A, b, B = Phi.copy(), u.copy(), Q.copy()
-    shift = 1
-    while shift < len(A):
-        A[shift:], b[shift:], B[shift:] = _compose((A[shift:], b[shift:], B[shift:]),
-                                                   (A[:-shift], b[:-shift], B[:-shift]))
-        shift *= 2
-    return A, b, B
-
-
-def suffix_compose(Phi: np.ndarray, u: np.ndarray,
-                   Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Compositions of the steps i..S-1 (as :func:`prefix_compose`, from the other end).
-
-    Returns A (S, D, D), b (S, D), B (S, D, D) with x_S = A_i x_i + b_i + w, w ~ N(0, B_i)
-    for x_{k+1} = Phi_k x_k + u_k + N(0, Q_k), i.e. A_i = Phi_{S-1} ... Phi_i (log depth).
-    """
-    A, b, B = Phi.copy(), u.copy(), Q.copy()
-    shift = 1
-    while shift < len(A):
-        A[:-shift], b[:-shift], B[:-shift] = _compose((A[shift:], b[shift:], B[shift:]),
-                                                      (A[:-shift], b[:-shift], B[:-shift]))
-        shift *= 2
-    return A, b, B
 
 
 def envelope_quantile(level: float) -> float:
@@ -175,16 +133,9 @@ class LinearGaussianPrior:
 
     # ------------------------------------------------------------------ marginals
     def _marginals(self) -> tuple[np.ndarray, np.ndarray]:
-        """Marginal means (T, D) and covariances (T, D, D) of eq. (8), O(T log T) work.
-
-        The recursion mean_{i+1} = Phi_i mean_i + u_i, cov_{i+1} = Phi_i cov_i Phi_i^T + Q_i
-        composes affine maps; their running compositions come from a log-depth prefix scan
-        of batched 6x6 products (ceil(log2 T) numpy calls instead of T Python iterations).
-        """
-        A, b, B = prefix_compose(self.Phi, self.u, self.Q)
-        mean = np.concatenate([self.mean0[None], A @ self.mean0 + b])
-        cov = np.concatenate([self.cov0[None], A @ self.cov0 @ np.swapaxes(A, 1, 2) + B])
-        return mean, 0.5 * (cov + np.swapaxes(cov, 1, 2))
+        """Marginal means (T, D) and covariances (T, D, D) of eq. (8), O(T log T) work
+        (:func:`clamp.prior.chain.marginals`: a log-depth prefix scan of the steps)."""
+        return chain.marginals(self.Phi, self.u, self.Q, self.mean0, self.cov0)
 
     @property
     def std(self) -> np.ndarray:

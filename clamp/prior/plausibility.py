@@ -29,7 +29,8 @@ the chain's per-factor terms, :meth:`LinearGaussianPrior.step_mahalanobis_square
 d^2_c = (c - H mu)^T (H K H^T)^{-1} (c - H mu) is the squared Mahalanobis distance of the
 targets under their own prior marginal (from p(x) = p(x | c) p(c); the log-determinants cancel).
 d^2_c comes from a Kalman filter that visits only the constrained states, propagating between
-them with the log-depth prefix composition of :func:`clamp.prior.linear_gaussian.prefix_compose`. Because H
+them with the composed steps of :func:`clamp.prior.chain.total_compose`
+(:func:`clamp.prior.chain.observation_d2`). Because H
 selects coordinates, Sigma_c^+ annihilates exactly the constrained coordinates, so a path that
 misses its targets is scored as the path x' with those positions replaced by the targets: a
 miss shows up through the neighbouring transitions (a jump), and its size is reported as
@@ -73,10 +74,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import stats
 
 from clamp.errors import InvalidParameterError, ShapeError
-from clamp.prior.linear_gaussian import LinearGaussianPrior, check_prior, prefix_compose, transition_residuals
+from clamp.prior import chain
+from clamp.prior.linear_gaussian import LinearGaussianPrior, check_prior, transition_residuals
 from clamp.validation import as_array, as_scalar
 
 __all__ = ["plausibility", "plausibility_details", "PlausibilityResult", "floored_prior",
@@ -144,7 +146,7 @@ class _Model:
         if key not in self.segments:
             if len(self.segments) >= 64:
                 self.segments.clear()
-            A, b, B = _reduce(self.Phi[i:j], self.u[i:j], self.Q[i:j])
+            A, b, B = chain.total_compose(self.Phi[i:j], self.u[i:j], self.Q[i:j])
             self.segments[key] = (A, b, 0.5 * (B + B.T))
         return self.segments[key]
 
@@ -156,27 +158,6 @@ def _cholesky(cov: np.ndarray, name: str) -> np.ndarray:
         raise InvalidParameterError(
             f"floor_std: the prior's {name} is not positive definite; expected floor_std > 0 "
             f"(or a prior learned with a larger jitter)") from None
-
-
-def _reduce(Phi: np.ndarray, u: np.ndarray,
-            Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Compose the steps x -> Phi_s x + u_s (noise Q_s), s = 0 .. S-1, into one (A, b, B).
-
-    Pairwise tree reduction with (A2, b2, B2) o (A1, b1, B1) = (A2 A1, A2 b1 + b2,
-    A2 B1 A2^T + B2): O(S) products in ceil(log2 S) batched numpy calls.
-    """
-    A, b, B = Phi, u, Q
-    while len(A) > 1:
-        n = len(A) - len(A) % 2
-        A2 = A[1:n:2]
-        nA = A2 @ A[0:n:2]
-        nb = np.einsum("sij,sj->si", A2, b[0:n:2]) + b[1:n:2]
-        nB = A2 @ B[0:n:2] @ np.swapaxes(A2, 1, 2) + B[1:n:2]
-        if n < len(A):
-            nA, nb, nB = (np.concatenate([new, old[-1:]]) for new, old in
-                          ((nA, A), (nb, b), (nB, B)))
-        A, b, B = nA, nb, nB
-    return A[0], b[0], B[0]
 
 
 _MODELS: "weakref.WeakKeyDictionary[LinearGaussianPrior, dict]" = weakref.WeakKeyDictionary()
@@ -271,50 +252,6 @@ def _constraints(prior: LinearGaussianPrior, paths: np.ndarray, start: object, g
     return sorted(out, key=lambda c: c[0])
 
 
-# ------------------------------------------------------------------------------ filtering
-def _update(m: np.ndarray, P: np.ndarray, target: np.ndarray,
-            A: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Condition N(m (K, D), P) on the exact observation m[:, :A] = target (K, A).
-
-    Returns the conditioned mean and covariance and the innovations' squared Mahalanobis
-    distance (K,) under their predictive covariance S = P[:A, :A].
-    """
-    S = P[:A, :A]
-    factor = linalg.cho_factor(S, lower=True)
-    e = target - m[:, :A]
-    d2 = np.einsum("ka,ka->k", e, linalg.cho_solve(factor, e.T).T)
-    G = linalg.cho_solve(factor, P[:A, :]).T                 # (D, A) = P H^T S^{-1}
-    m = m + e @ G.T
-    P = P - G @ P[:A, :]
-    P = 0.5 * (P + P.T)
-    P[:A, :] = 0.0
-    P[:, :A] = 0.0
-    m[:, :A] = target
-    return m, P, d2
-
-
-def _target_d2(model: _Model, constraints: list[tuple[int, np.ndarray]]) -> np.ndarray:
-    """d^2_c (K,): the targets' squared Mahalanobis distance under their prior marginal.
-
-    A Kalman filter that visits only the constrained states: the innovation of each target
-    given the earlier ones (prediction-error decomposition of the targets' joint density).
-    """
-    K = constraints[0][1].shape[0]
-    m = np.broadcast_to(model.mean0, (K, model.D)).copy()
-    P = np.array(model.cov0)
-    d2 = np.zeros(K)
-    previous = 0
-    for index, target in constraints:
-        if index > previous:
-            Phi, b, B = model.compose(previous, index)
-            m = m @ Phi.T + b
-            P = Phi @ P @ Phi.T + B
-        m, P, step = _update(m, P, target, model.A)
-        d2 += step
-        previous = index
-    return d2
-
-
 # ------------------------------------------------------------------------------ the score
 def plausibility_details(prior: LinearGaussianPrior, x: np.ndarray, start: Any = None,
                          goal: Any = None, via: Via = (), floor_std: float = DEFAULT_FLOOR_STD,
@@ -332,7 +269,10 @@ def plausibility_details(prior: LinearGaussianPrior, x: np.ndarray, start: Any =
     for index, target in constraints:
         error = np.maximum(error, np.linalg.norm(paths[:, index, :A] - target, axis=1))
         met[:, index, :A] = target
-    d2 = np.maximum(model.d2_joint(met) - _target_d2(model, constraints), 0.0)
+    # d^2_c: the targets' own squared Mahalanobis distance under their prior marginal, from a
+    # Kalman filter that visits only the constrained states (through the cached segments)
+    d2_c = chain.observation_d2(model.mean0, model.cov0, constraints, A, model.compose)
+    d2 = np.maximum(model.d2_joint(met) - d2_c, 0.0)
     dof = model.D * model.T - A * len(constraints)
     score = stats.chi2.sf(d2, dof)
     z = (d2 - dof) / np.sqrt(2.0 * dof)
@@ -393,36 +333,10 @@ def conditional_mean(prior: LinearGaussianPrior, start: Any, goal: Any = None, v
 
 def _smooth(model: _Model, constraints: list[tuple[int, np.ndarray]]) -> np.ndarray:
     """Conditional mean (K, T, D) by a forward filter and an RTS backward pass."""
-    T, D, A = model.T, model.D, model.A
-    K = constraints[0][1].shape[0]
-    mf = np.empty((K, T, D))           # filtered means
-    mp = np.empty((K, T, D))           # predicted means
-    Pf = np.empty((T, D, D))           # filtered covariances
-    Pp = np.empty((T, D, D))           # predicted covariances
-    mp[:, 0], Pp[0] = model.mean0, model.cov0
-    mf[:, 0], Pf[0] = model.mean0, model.cov0
-    targets = dict(constraints)
-    m, P = np.broadcast_to(model.mean0, (K, D)).copy(), np.array(model.cov0)
-    previous = 0
-    for index in sorted(set(targets) | {T - 1}):
-        if index > previous:
-            Phi, b, B = prefix_compose(model.Phi[previous:index], model.u[previous:index],
-                                       model.Q[previous:index])
-            span = slice(previous + 1, index + 1)
-            mp[:, span] = np.einsum("sij,kj->ksi", Phi, m) + b
-            Pp[span] = Phi @ P @ np.swapaxes(Phi, 1, 2) + B
-            mf[:, span], Pf[span] = mp[:, span], Pp[span]
-            m, P = mp[:, index].copy(), Pp[index].copy()
-        if index in targets:
-            m, P, _ = _update(m, P, targets[index], A)
-            mf[:, index], Pf[index] = m, P
-        previous = index
-    # RTS: ms_i = mf_i + G_i (ms_{i+1} - mp_{i+1}),  G_i = Pf_i Phi_i^T Pp_{i+1}^{-1}
-    Pp_next = 0.5 * (Pp[1:] + np.swapaxes(Pp[1:], 1, 2))
-    G = np.swapaxes(np.linalg.solve(Pp_next, model.Phi @ Pf[:-1]), 1, 2)   # (T-1, D, D)
-    ms = mf.copy()
-    for i in range(T - 2, -1, -1):
-        ms[:, i] += (ms[:, i + 1] - mp[:, i + 1]) @ G[i].T
+    A = model.A
+    filtered = chain.kalman_filter(model.Phi, model.u, model.Q, model.mean0, model.cov0,
+                                   constraints, A)
+    ms = chain.rts_smooth(model.Phi, *filtered)
     for index, target in constraints:       # exactly on the targets
         ms[:, index, :A] = target
     return ms
