@@ -34,3 +34,25 @@ def test_docs_links_point_to_pages_that_exist():
     for source in [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]:
         for name in re.findall(r"docs/([\w-]+\.md)", source.read_text(encoding="utf-8")):
             assert (ROOT / "docs" / name).is_file(), f"{source.name} names docs/{name}"
+
+
+def _slug(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading: lower case, punctuation dropped, spaces -> -."""
+    import re
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_docs_anchors_exist():
+    """Every docs/NAME.md#anchor named by the README, the pages and the code (comments pointing
+    to docs/decisions.md) is a heading of that page."""
+    import re
+    pages = [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]
+    anchors = {p.name: {_slug(h) for h in re.findall(r"^#+ (.*)$", p.read_text(encoding="utf-8"), re.M)}
+               for p in pages}
+    sources = pages + [p for package in ("skillplan", "scenes", "robots", "clamp", "tlgc")
+                       for p in (ROOT / package).rglob("*.py")]
+    missing = [(source.name, page, anchor) for source in sources
+               for page, anchor in re.findall(r"docs/([\w-]+\.md)#([\w\-]+)",
+                                              source.read_text(encoding="utf-8"))
+               if anchor not in anchors.get(page, set())]
+    assert not missing
