@@ -25,22 +25,12 @@ INITIALISATIONS = ("prior_mean", "straight_line")
 @dataclass(frozen=True)
 class ModelConfig:
     """The factor graph (paper eq. 14-20; defaults are the reference implementation's except
-    ``sigma_obs`` and ``epsilon``)."""
+    ``sigma_obs`` and ``epsilon``; see docs/decisions.md#model-defaults-clampconfigmodelconfig)."""
 
-    #: [m] obstacle safety distance: spheres closer than this to an obstacle are penalised (the
-    #: reference's 0.05 pushes the arm 5 cm off every obstacle near the path: on the fidelity
-    #: benchmark 0.02 completes more of the skill with shorter detours, Jaco 14 -> 20 of 20
-    #: quick problems, joint path ratio 2.35x -> 1.73x; the verdict checks the real geometry)
+    #: [m] obstacle safety distance: spheres closer than this to an obstacle are penalised
+    #: (see docs/decisions.md#epsilon)
     epsilon: float = 0.02
-    #: [m] obstacle hinge noise (smaller = stronger avoidance; the reference's 0.05 loses
-    #: against the stiff learned prior: its optimum still touches obstacles on the path). 0.0025
-    #: rather than 0.005 since the posture motion tie (which resists a detour): the README box
-    #: on the Jaco is then clear at the first solve (181 -> 85 ms), and on the fidelity
-    #: benchmark (200 problems per arm) Jaco 198 -> 199 of 199 completed, planning time p95
-    #: 19x -> 16x; Sawyer 127 / 129 -> 126 / 130, joint path p90 2.6x -> 2.3x. 0.002 since the
-    #: posture velocity tie: at 0.0025 the README box's first optimum touched the box (0.4 mm,
-    #: 163 ms with a second round; 90 ms at 0.002), fidelity benchmark Jaco 196 -> 197 of 199
-    #: completed, Sawyer 129 -> 132 of 133
+    #: [m] obstacle hinge noise (smaller = stronger avoidance; see docs/decisions.md#sigma_obs)
     sigma_obs: float = 0.002
     #: joint GP power spectral density [rad^2 / s^3]
     Qc: float = 1.0
@@ -70,23 +60,16 @@ class ModelConfig:
     #: [rad/s] the velocity hinges start this far inside the limits
     velocity_margin: float = 0.0
     #: [rad] with obstacles, every state's configuration is tied to the plan the skill makes in
-    #: the empty scene (the free plan, one extra solve) with this noise: the arm keeps the
-    #: skill's posture and moves only as far as the obstacles demand (``clamp.factors.posture``;
-    #: 0 = off)
+    #: the empty scene (the free plan) with this noise (``clamp.factors.posture``; 0 = off; see
+    #: docs/decisions.md#posture_sigma)
     posture_sigma: float = 0.1
     #: [rad^2 / s^3] with obstacles (and posture_sigma > 0), the deviation from the free plan
     #: is also a constant-velocity GP of this power spectral density
-    #: (``clamp.factors.posture_motion``): detours are smooth instead of fast swings out and
-    #: back (the joint GP's Qc 1 lets a velocity change by ~0.4 rad/s per step at no cost).
-    #: Measured on 40 scene-benchmark problems (Jaco), joint path / TOPP-RA duration against
-    #: the free plan: off 3.3x / 2.4x, 1e-3 2.1x / 1.4x, 1e-4 1.7x / 1.2x, 1e-5 1.9x / 1.2x
-    #: (0 = off)
+    #: (``clamp.factors.posture_motion``; 0 = off; see docs/decisions.md#posture_qc)
     posture_Qc: float = 1e-4
     #: [rad/s] with obstacles (and posture_sigma > 0), every state's joint velocity is also
-    #: held this near the free plan's (``clamp.factors.posture_velocity``): no joint keeps
-    #: turning after a detour. Measured on 60 fidelity-benchmark problems (Jaco), completed and
-    #: joint path median / p90 against the free plan: off 60 / 60, 1.43x / 4.15x; 0.03 59,
-    #: 1.33x / 2.13x; 0.02 57, 1.27x / 1.87x; 0.01 50, 1.18x / 1.53x (0 = off)
+    #: held this near the free plan's (``clamp.factors.posture_velocity``; 0 = off; see
+    #: docs/decisions.md#posture_velocity_sigma)
     posture_velocity_sigma: float = 0.03
     #: [m] safety distance of the self-collision hinges the planner adds when a plan collides
     #: with itself (``clamp.factors.self_collision``; capped per sphere pair at the gap the
@@ -111,8 +94,8 @@ class OptimizerConfig:
     blend_start_offset: bool = True
     #: straight_line: the two end configurations (n,) each (default: start and IK of the end)
     straight_line_configurations: tuple[Any, Any] | None = None
-    #: initial Levenberg-Marquardt damping (small: the workspace correction keeps the model
-    #: accurate from the first step; the reference uses 1e3)
+    #: initial Levenberg-Marquardt damping (dimensionless, on the Jacobi-scaled system; see
+    #: docs/decisions.md#lambda_initial)
     lambda_initial: float = 0.1
     #: give up when no damping up to this decreases the error
     lambda_upper_bound: float = 1e10
@@ -124,23 +107,17 @@ class OptimizerConfig:
     absolute_error_tol: float = 1e-2
     #: ... for this many consecutive accepted steps
     convergence_patience: int = 2
-    #: constraints inside the solve (:mod:`clamp.optim.constrained`, an augmented Lagrangian): while
-    #: the optimum fails a check (collision on the robot's geometry, self-collision, limits, a
-    #: constraint family such as orientation), at most this many multiplier / penalty updates
-    #: per candidate start (the problem as built, or with obstacles the untied problem,
-    #: detours and a straight line after the tied problem's one solve); 0: the weighted solve
-    #: only. 2 rather than 3: a candidate still infeasible after
-    #: two updates rarely became feasible at the third, the next start did (Jaco, 80 problems:
-    #: the same 80 completed, planning time p95 13.6x -> 8.9x the free plan's)
+    #: constraints inside the solve (:mod:`clamp.optim.constrained`, an augmented Lagrangian):
+    #: at most this many multiplier / penalty updates per candidate start while the optimum
+    #: fails a check; 0: the weighted solve only (see docs/decisions.md#constraint_rounds)
     constraint_rounds: int = 2
     #: a fresh plan whose initial trajectory runs through an obstacle first solves with the
-    #: obstacle hinge noise multiplied by this, loosely
-    #: (:data:`clamp.optim.constrained.SOFT_START_TOLERANCE`): the first penalty of the schedule, soft
-    #: hinges letting the path slide around the obstacles before stiff ones pin it (box_closing +
-    #: box, Jaco: 43 -> 8 iterations); 1: the configured weight directly.
+    #: obstacle hinge noise multiplied by this (a factor >= 1), loosely
+    #: (:data:`clamp.optim.constrained.SOFT_START_TOLERANCE`); 1: the configured weight directly
+    #: (see docs/decisions.md#soft_start)
     soft_start: float = 4.0
     #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
-    #: workspace states (0 = plain LM, which crawls against stiff learned priors)
+    #: workspace states (0 = plain LM; see docs/decisions.md#workspace_correction)
     workspace_correction: int = 2
 
 

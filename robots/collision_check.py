@@ -18,129 +18,22 @@ coal.Transform3s or a 4x4 homogeneous matrix) is given in the robot's base frame
 ``robot.fk`` and of the scenes). ``robots`` does not import ``scenes``: the conversion of scene
 obstacles lives in :mod:`scenes.coal_shapes`.
 
-Geometry. ``geometry="urdf"``: every collision object of ``robot.collision_model`` that moves
-with a joint (geometry fixed to the world, i.e. the base, only with ``include_fixed=True``; it
-is the same at every state and a plan cannot change it). A robot without collision geometry
-(not loaded from a URDF, or a URDF without ``<collision>`` elements) falls back to its
-collision spheres (``geometry="spheres"``, also forced by ``geometry="spheres"``; a URDF
-without ``<collision>`` gets its spheres fitted to its ``<visual>`` geometry). Geometry fixed
-to the world is measured once per checker against every obstacle all the same: each overlap is
-logged as a warning and listed in ``report.fixed_overlaps`` (link, obstacle, depth), e.g. a
-table slab through the base or a box around it.
+Geometry: every collision object of ``robot.collision_model`` that moves with a joint
+(``geometry="urdf"``; the world-fixed base only with ``include_fixed=True``, its overlaps with
+obstacles listed in ``report.fixed_overlaps`` and logged as warnings), or the robot's
+collision spheres when it has no collision geometry (``geometry="spheres"``).
 
-Distances come from coal, and only from coal. The distance of a link geometry g to an obstacle
-O, ``d(g, O)``, is ``coal.distance`` on g's own collision geometry (the URDF mesh as Pinocchio
-loaded it, a BVH of its triangles, or the primitive) with signed distances enabled and a GJK
-tolerance of ``GJK_TOLERANCE``: the Euclidean distance when apart, negative when they overlap
-(coal's depth; for a mesh, that of the penetrating triangle coal's traversal meets, e.g. about
--1 mm for the fingertip of the probe in the tests). This module computes no distance of its
-own: every distance it uses is a coal query, and it only decides which queries are needed,
-from three bounds:
-
-- convex hulls. Each mesh has a convex bound: coal's convex hull of its vertices
-  (``coal.ConvexBase.convexHull``, qhull), a ``coal.Convex`` that contains the mesh, so
-  ``coal.distance(hull, O) <= d(g, O)`` (apart: a distance to a superset; overlapping: a
-  superset's penetration depth is at least that of any of its triangles): a lower bound of the
-  mesh distance, "hull clear" proves "mesh clear". GJK on the hull costs 2-4 microseconds,
-  coal's distance on a whole mesh 0.1-13 ms (the Jaco's hand: 44 578 triangles; against a
-  large obstacle coal's traversal prunes little). A primitive (sphere, box, cylinder,
-  capsule, ...) and a mesh too flat for a hull are their own bound, with an exact bound
-  distance;
-- pieces. A mesh of more than ``PIECE_TRIANGLES`` triangles is measured as a tree of pieces
-  (built once per robot and collision object: 8 parts per node by median cuts of the triangle
-  centroids, sub-meshes of at most PIECE_TRIANGLES triangles at the leaves, a convex hull per
-  part). Its distance is the least of its leaves' (their union is the mesh: the same value
-  apart, to coal's tolerance), nearest hull first, a part opened only while its hull distance
-  is below the least leaf distance so far: a handful of small hull and leaf queries
-  (~0.1-0.5 ms) instead of one traversal of the whole mesh;
-- bounding spheres: ``|c_g - c_O| - r_g - r_O`` (the link's sphere about its hull vertices, the
-  obstacle's from its size, or coal's AABB for other shapes): a lower bound without any query;
-- motion. The signed distance of a convex set to an obstacle is 1-Lipschitz in the set's
-  motion, and between two checked configurations no point of geometry g moves more than ``s_g``
-  (the bound below), so a hull distance h at one configuration bounds the hull distance at
-  every other one by ``h - (accumulated motion of g in between)``.
-
-A query is made only where these bounds leave the result open. Hull distances: for a pair
-(configuration, geometry, obstacle) whose bound is below the least exact distance found so far
-(at a support state: or below the state's least value so far), at both ends of each run of such
-configurations of a geometry-obstacle pair (conservative advancement: the motion bound of each
-answer rules out the configurations next to it) and, at each support state, for its most
-promising pair. Exact (mesh) distances: where a hull distance is below the least exact
-distance found, nearest hull first, each one lowering the bar for the rest; while no distance
-below the margin has been found, also where a hull distance is below the margin; and at each
-support state for the pair that decides a state value below the margin. The result:
-
-- ``min_distance``, ``nearest``: the least exact distance over every checked configuration and
-  pair, and where it is: every pair left out provably is not closer by more than ``SLACK``
-  (1e-6 m, the allowance for coal's GJK tolerance on the hull distances). When the least
-  distance is an overlap, "provably" takes coal's EPA depth of a hull as an upper bound of the
-  depth of its mesh (the hull contains every triangle);
-- ``collision`` (``min_distance < margin``): exact. It rests only on the signs and apart
-  distances of coal's answers, never on an overlap depth: every pair whose hull comes closer
-  than margin + SLACK is measured on its mesh before the trajectory is declared clear, and a
-  collision is only ever reported from a mesh distance. Never clear when a mesh comes closer
-  than the margin, never a collision that the meshes do not have;
-- ``state_distance[i]``: a lower bound of support state i's least exact distance: that
-  distance itself when it is below the margin (so ``states_in_collision`` is exact), and at
-  least the margin otherwise (the least bound of the state's pairs: exact, hull or sphere);
-- ``lower_bound``: what the whole continuous motion keeps, as below.
-
-Broad phase. Obstacles are many (perception gives thousands of boxes or spheres), the arm is
-near few of them. Per segment of the trajectory, each link geometry's bounding sphere at the
-segment's checked configurations sweeps an axis-aligned box; an obstacle's box (coal's AABB)
-farther than ``reach`` from it cannot be nearer than ``reach`` to the geometry at any checked
-configuration (``reach = max(REACH, margin)``, plus ``max_step`` with a resolution), so only
-the pairs within reach are searched (vectorised in numpy, then the bounds above); when the
-least distance found is farther than ``reach``, the search runs again with reach widened to
-it, so the result is the same as over every pair. States whose pairs are all out of reach get
-``reach`` as their state value (a lower bound). The cost grows with the obstacles near the
-arm, not with their number; memory is bounded by searching consecutive segments in windows of
-at most ``WINDOW_PAIRS`` configurations x pairs.
-
-Cost. A clear trajectory needs hull distances near its closest approach and a handful of
-mesh distances. A colliding one needs a mesh distance at (nearly) every overlapping
-configuration, since coal's mesh depth (one triangle's) can lie anywhere above the hull's: the
-exact deepest pair and the exact state values cost about a mesh query per colliding
-configuration (0.1-3 ms each).
-
-A mesh is a surface: a small obstacle wholly inside a link's closed mesh, touching no triangle,
-is not seen by coal's mesh distance (its hull sees it). Moving into that position crosses the
-surface, which the in-between checks catch, so only a trajectory that *starts* with an
-obstacle swallowed by a link is affected.
-
-In between support states. Segments are linear in joint space. A point p of a link moves at
-speed |sum_j dq_j w_j x (p - o_j)| <= sum_j |dq_j| r_j(p), r_j(p) the distance of p from joint
-j's axis. r_j is bounded once per link geometry, for every configuration, by
-``rho_j = dist(o_{j+1}, axis_j) + sum_{k=j+1}^{L-1} |o_{k+1} - o_k| + max_p |p - o_L|``
-(j < L, the link's own joint L: ``max_p dist(p, axis_L)``; prismatic joints: 1), with o_k the
-joint origins (rigid offsets along the chain) and p over the geometry's (hull) vertices
-(meshes, boxes) or its bounding sphere (other shapes); both are convex in p, so the vertices of
-the hull give the same bound as all the mesh's vertices and bound every hull point too. A
-segment with joint step dq is cut into ``k = ceil(max_g sum_j |dq_j| rho_j(g) / max_motion)``
-equal steps, so no point of any link moves more than ``max_motion`` between two checked
-configurations (``report.max_step``; geometry g moves at most ``s_g = sum_j |dq_j| rho_j(g) / k``
-per step). The distance is 1-Lipschitz in that motion, so the whole continuous motion keeps at
-least ``report.lower_bound = min_distance - max_step / 2`` (every configuration on a segment is
-within max_step / 2 of a checked one).
-
-Resolution (certified success). With ``resolution`` set (default ``RESOLUTION``, 0.2 mm) and no
-collision found, the check certifies the motion between checked configurations: a pair at
-distances >= a and >= b at the ends of a step in which its geometry moves at most s keeps
-``>= (a + b - s) / 2`` throughout (the Lipschitz bound from both ends). Where that is below the
-margin, the ends get hull, then exact distances, and a step still open is halved (exact
-distance at its midpoint configuration, each half moving at most s / 2) until every part is
-certified, a distance below the margin is found (a collision, at the fractional index where it
-was found) or the part's motion bound is at most ``resolution``. So a report without collision
-guarantees that nowhere along the motion does any link come closer than
-``margin - resolution / 2`` (``report.lower_bound``, the least certified bound, is at least
-that): an obstacle thicker than the resolution cannot slip between checks, however large
-``max_motion`` is. Costs only where the trajectory skims an obstacle (within ~max_step / 2).
-``resolution=None`` skips it (``lower_bound = min_distance - max_step / 2``), e.g. to measure
-the support states alone.
-
-Faults. A check that cannot be made (coal raises on a pair of shapes) gives a report with
-``fault`` set (the reason), ``collision`` True and NaN distances, never an exception; bad
-arguments still raise CollisionCheckError naming them.
+Every distance is a coal query (signed, GJK tolerance :data:`GJK_TOLERANCE`); convex hulls,
+a tree of pieces for large meshes (:data:`PIECE_TRIANGLES`), bounding spheres, motion bounds
+and a broad phase (:data:`REACH`) only decide which queries are needed. ``collision``
+(``min_distance < margin``) is exact; ``min_distance`` and ``nearest`` are exact to
+:data:`SLACK`; between support states the motion is subdivided so that no point of a link
+moves more than ``max_motion``, and a clear report is certified to ``resolution`` (default
+:data:`RESOLUTION`): ``report.lower_bound >= margin - resolution / 2`` along the whole motion.
+A check coal cannot make gives a report with ``fault`` set, ``collision`` True and NaN
+distances; bad arguments raise CollisionCheckError. The method in full (bounds, broad phase,
+cost, the in-between motion bound, the certified resolution, faults): see
+docs/decisions.md#verdict-geometry.
 """
 from __future__ import annotations
 
@@ -175,7 +68,7 @@ PIECE_TRIANGLES = 256
 #: [m] how near (besides the margin) a link piece's swept box must come to an obstacle's box for
 #: the pair to be searched at all (broad phase); farther pairs are provably farther than this
 REACH = 0.05
-#: [m] default resolution of the certified in-between check (see "Resolution")
+#: [m] default resolution of the certified in-between check (see docs/decisions.md#verdict-geometry)
 RESOLUTION = 2e-4
 #: configurations x pairs searched at once (a window of consecutive segments); bounds memory only
 WINDOW_PAIRS = 1_000_000
@@ -228,7 +121,7 @@ class _RobotGeometry:
     exact: np.ndarray               # (G,) bool: bounds[g] is shapes[g] (its distance is exact)
     sphere_centre: np.ndarray       # (G, 3) bounding sphere, geometry frame
     sphere_radius: np.ndarray       # (G,)
-    motion_radius: np.ndarray       # (G, n) rho_j(g) of the module docstring
+    motion_radius: np.ndarray       # (G, n) rho_j(g) of docs/decisions.md#verdict-geometry
     pin_objects: list               # pin.GeometryObject per g (for reference_distances)
     aligned: bool = False           # every rotation is the identity
 
@@ -371,8 +264,8 @@ def _shape_item(geometry: Any, name: str) -> dict:
 
 def _motion_radii(robot: Robot, joints: np.ndarray, points: list[np.ndarray], pads: np.ndarray) -> np.ndarray:
     """rho (G, n): bound on the distance of any point of geometry g from joint j's axis over all
-    configurations (1 for prismatic joints), see the module docstring. points[g] (m, 3) in the
-    aligned frame of g's joint, each standing for a ball of radius pads[g]."""
+    configurations (1 for prismatic joints), see docs/decisions.md#verdict-geometry. points[g]
+    (m, 3) in the aligned frame of g's joint, each standing for a ball of radius pads[g]."""
     chain = robot.chain
     n = chain.n
     offsets = np.asarray(chain._step_offsets)[:, :, 3]          # (n, 3): o_{k+1} in aligned frame k
@@ -837,7 +730,7 @@ class CollisionChecker:
     none), "urdf" or "spheres". include_fixed: also check geometry fixed to the world (the base).
     Build once, then call :meth:`check` for each trajectory. The robot-side data (convex hulls,
     motion bounds) is cached per robot, so a checker for new obstacles is cheap. Every distance
-    is computed by coal (see the module docstring).
+    is computed by coal (see docs/decisions.md#verdict-geometry).
     """
 
     def __init__(self, robot: Robot, obstacles: Sequence[tuple[str, Any, Any]] = (), *,
@@ -907,7 +800,7 @@ class CollisionChecker:
     def configurations(self, q: Any, max_motion: float = 0.005) -> Subdivision:
         """The configurations a check visits: the support states of q (T, n) and, on each
         segment, equally spaced ones so that no link point moves more than max_motion [m]
-        between consecutive configurations (bound of the module docstring)."""
+        between consecutive configurations (bound of docs/decisions.md#verdict-geometry)."""
         q = self._trajectory(q)
         max_motion = self._number(max_motion, "max_motion", positive=True)
         T = len(q)
@@ -1148,7 +1041,7 @@ class CollisionChecker:
         time (T,) [s] (strictly increasing) or None: only used to report when the nearest
         contact happens. margin [m]: ``collision`` is min_distance < margin. max_motion [m]:
         largest motion of any link point between two checked configurations. resolution [m]:
-        the certified check between them ("Resolution" in the module docstring); None: only
+        the certified check between them ("Resolution" in docs/decisions.md#verdict-geometry); None: only
         bound the motion in between (report.lower_bound), e.g. to measure support states alone.
         A coal failure gives a report with ``fault`` set (a collision), not an exception.
         """

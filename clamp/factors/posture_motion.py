@@ -9,8 +9,8 @@ which holds each configuration near the free plan's): the reference's joint GP (
 joint's velocity change by ~0.4 rad/s per 0.16 s step at no cost, so around an obstacle the
 arm swung its wrist out and back within a few states. Penalising the acceleration of the
 deviation, not of the motion itself, keeps the free plan as it is (its own accelerations cost
-nothing here) and makes the detour smooth and short: measured on 40 scene-benchmark problems
-(Jaco), joint path 3.3x -> 1.7x the free plan's, TOPP-RA duration 2.4x -> 1.2x.
+nothing here) and makes the detour smooth and short (measurements:
+docs/decisions.md#posture_qc).
 """
 from __future__ import annotations
 

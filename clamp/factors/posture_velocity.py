@@ -7,9 +7,8 @@ acceleration, so a deviation that keeps a constant velocity costs nothing: once 
 set a joint moving (the Jaco's last joint, which does not move the end-effector point), it
 kept turning to the end of the plan (6 rad of wrist spin) wherever the posture tie was loose
 or absent (the untied restarts). Summed over the states this is the squared excess joint
-speed, the quantity behind the joint path's excess over the free plan: on the fidelity
-benchmark (200 problems, Jaco) joint path median / p90 1.54x / 4.16x -> 1.36x / 2.22x the free
-plan's with it at 0.03 rad/s (and the skill tube constraint, which changed 1 of 100 plans).
+speed, the quantity behind the joint path's excess over the free plan (measurements:
+docs/decisions.md#posture_velocity_sigma).
 """
 from __future__ import annotations
 

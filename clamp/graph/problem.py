@@ -1,6 +1,6 @@
 """The planning problem: factor families over T support states, plus any GTSAM factors of the caller.
 
-One model, two faces (see ``DESIGN.md``):
+One model, two faces (see docs/concepts.md#two-faces-gtsam-and-the-fast-solver):
 
 - :meth:`PlanningProblem.graph` / :meth:`PlanningProblem.values` give a real
   ``gtsam.NonlinearFactorGraph`` and ``gtsam.Values`` (adapters from

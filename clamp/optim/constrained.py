@@ -12,7 +12,7 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
    start whose initial trajectory runs through an obstacle first takes one loose solve with the
    obstacle hinges ``soft_start`` times softer (:data:`SOFT_START_TOLERANCE`): the first
    penalty of the schedule, letting the path slide around the obstacle before stiff hinges pin
-   it (box_closing + box on the Jaco: 43 -> 8 iterations);
+   it (see docs/decisions.md#soft_start);
 2. judge the optimum; stop when every check holds;
 3. otherwise update every violated constraint family (its check fails): the multipliers,
    lambda <- max(0, lambda + mu g), i.e. the shift s = lambda / mu becomes the hinge's current
@@ -20,20 +20,17 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
    residuals) did not fall below :data:`PROGRESS` times the previous round's (always at its first
    update: a weight too weak to move the optimum leaves the multipliers too small to move it
    either), its penalty mu grows by :data:`STIFFEN` ** 2 (noise / STIFFEN, shifts /
-   STIFFEN ** 2). A constraint a
-   check finds violated that the problem does not yet hold (``lazy``: self-collision, whose
-   sphere pairs cost ~3x the obstacle hinges per iteration; the skill's tube) joins here at its
-   configured noise;
+   STIFFEN ** 2). A constraint a check finds violated that the problem does not yet hold
+   (``lazy``: self-collision, the skill's tube; see docs/decisions.md#lazy-constraints) joins
+   here at its configured noise;
 4. re-solve from the optimum with the solver's warm-start rule; at most ``rounds`` updates per
    candidate (one more when a lazy constraint joins on the last).
 
 Candidates: the problem as built, then the restarts the caller generates from what the loop
 found so far (the untied problem, detours around the obstacle met, a straight line). The
 planner gives its tied problem (obstacles, tied to the free plan) one solve (``first_rounds``
-0) and the restarts the rounds: on the fidelity benchmark (200 problems per arm) the tied
-problem's rounds mostly ended where the untied restart then succeeded at its first solve (Jaco:
-12 plans of 4 solves), and planning time p95 fell from 16x to 9.1x the free plan's (Sawyer 12x
--> 8.7x), joint path and completions unchanged. Once :data:`WANTED` candidates are feasible, or
+0) and the restarts the rounds (see docs/decisions.md#the-tied-problems-one-solve). Once
+:data:`WANTED` candidates are feasible, or
 one is and the next candidate would exceed the rounds it took, the loop stops and keeps the
 feasible one of least prior cost (graph error of the cost families). The result's problem is
 the one the chosen optimum solves, shifts and weights included: its GTSAM graph at the plan is
@@ -56,17 +53,17 @@ from clamp.optim.solver import WarmStart
 
 log = logging.getLogger(__name__)
 
-#: a constraint family's violation must fall below this fraction of the previous round's, or
-#: its penalty grows
+#: a constraint family's violation must fall below this fraction (dimensionless) of the
+#: previous round's, or its penalty grows (see docs/decisions.md#progress-and-stiffen)
 PROGRESS = 0.25
-#: noise divisor of a constraint family whose violation did not fall enough (penalty x16)
+#: noise divisor of a constraint family whose violation did not fall enough (penalty x16;
+#: see docs/decisions.md#progress-and-stiffen)
 STIFFEN = 4.0
 #: feasible candidates after which the restarts stop (1: the first feasible restart is kept;
-#: 2 -> 1 on 80 scene-benchmark Jaco problems (Qc 1e-3, 3 rounds): the same completions and
-#: path measures, planning time p95 13.6x -> 10.8x the free plan's)
+#: see docs/decisions.md#wanted)
 WANTED = 1
-#: relative error decrease below which the soft first solve stops (after one such step; 3e-2
-#: took fewer iterations than 1e-2 and 3e-3 on box_closing with random boxes, both arms)
+#: relative error decrease (dimensionless) below which the soft first solve stops, after one
+#: such step (see docs/decisions.md#soft_start_tolerance)
 SOFT_START_TOLERANCE = 3e-2
 
 

@@ -45,12 +45,11 @@ from robots.collision_check import CollisionReport
 from robots.self_collision import SelfCollisionReport, self_collision_report
 from skillplan.validation import as_instance
 
-#: configurations checked between two states by the self-collision hinges (a link swept
-#: through another between states is caught)
+#: configurations checked between two states by the self-collision hinges (a count; see
+#: docs/decisions.md#self_collision_between)
 SELF_COLLISION_BETWEEN = 8
 #: [m] the self-collision check's tolerance on a clear plan's clearance (collisions and depths
-#: exact): Jaco plans whose wrist passes within ~7 cm of its forearm took 800 exact mesh
-#: queries (0.7 s) to pin the clearance exactly
+#: exact; see docs/decisions.md#self_clearance_tolerance)
 SELF_CLEARANCE_TOLERANCE = 0.01
 
 
@@ -170,9 +169,8 @@ def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
     """Other starts when the problem as built fails its checks (see :mod:`clamp.optim.constrained`),
     all without the posture tie (the free plan's posture is what led into the obstacles; a
     tied detour is pulled back into it): the configured initialisation, detours of the initial
-    path around the obstacle nearest the closest optimum, a straight line in joint space.
-    Measured on 80 scene-benchmark problems (Jaco): tied restarts failed where the untied
-    configured initialisation succeeded at once with a lower prior cost."""
+    path around the obstacle nearest the closest optimum, a straight line in joint space (see
+    docs/decisions.md#untied-restarts)."""
     prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
                                             model.request, model.config)
     problem, init = model.problem, model.initialisation
