@@ -157,7 +157,7 @@ import numpy as np
 import pinocchio as pin
 
 from .contact import Contact, time_at
-from .distance_search import PairSearch, motion_lower_bounds  # noqa: F401 (motion_lower_bounds: re-exported)
+from .distance_search import PairSearch
 from .errors import CollisionCheckError
 from .robot import Robot
 from .validation import as_array

@@ -11,7 +11,7 @@ import clamp.planning.clearance as clearance
 from robots import collision_check, self_collision
 from robots.collision_check import CollisionChecker
 from robots.contact import Contact, collision_reason, describe_contact
-from robots.distance_search import PairSearch, motion_lower_bounds
+from robots.distance_search import PairSearch
 from robots.self_collision import SelfContact, self_collision_report
 from scenes import Box
 from scenes.coal_shapes import coal_obstacles
@@ -56,4 +56,3 @@ def test_one_wording_for_both_kinds_of_contact():
 
 def test_both_checks_run_the_one_search():
     assert issubclass(collision_check._Search, PairSearch) and issubclass(self_collision._Search, PairSearch)
-    assert collision_check.motion_lower_bounds is motion_lower_bounds

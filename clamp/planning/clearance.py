@@ -24,9 +24,12 @@ import numpy as np
 
 from clamp.planning.request import has_obstacles
 from robots.collision_check import RESOLUTION, CollisionChecker, CollisionReport
-from robots.contact import Contact, collision_reason, describe_contact  # noqa: F401 (the verdict's wording)
+from robots.contact import Contact, collision_reason, describe_contact
 from robots.errors import CollisionCheckError
 from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
+
+__all__ = ["MAX_MOTION", "checker", "check_clearance", "state_clearance", "contact_obstacle",
+           "describe_contact", "collision_reason"]       # the last two: robots.contact's, re-exported
 
 log = logging.getLogger(__name__)
 
