@@ -7,13 +7,13 @@ from .ik import IKResult, IKTrajectoryResult
 from .kinematics import EndEffectorKinematics
 from .robot import Robot
 from .sphere_model import SphereModel
-from .registry import available_robots, load_robot
+from .registry import available_robots, load_robot, resolve_robot
 from .retiming import RetimingReport, check_limits, retime, uniform_scaling
 from .self_collision import SelfCollisionReport, disabled_pairs, self_collision_report
 from .trajectory import JointTrajectory, RetimingLimits, load_trajectory
 
 __all__ = [
-    "Robot", "load_robot", "available_robots", "EndEffectorKinematics", "SphereModel",
+    "Robot", "load_robot", "resolve_robot", "available_robots", "EndEffectorKinematics", "SphereModel",
     "IKResult", "IKTrajectoryResult", "JointTrajectory", "RetimingLimits", "load_trajectory", "retime",
     "RetimingReport", "check_limits", "uniform_scaling",
     "self_collision_report", "SelfCollisionReport", "disabled_pairs",

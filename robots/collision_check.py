@@ -49,6 +49,8 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from .contact import Contact, time_at
+from .distance_search import PairSearch
 from .errors import CollisionCheckError
 from .robot import Robot
 from .validation import as_array
@@ -481,28 +483,6 @@ def _parse_obstacles(obstacles: Any) -> _Obstacles:
 
 # =================================================================================== report
 @dataclass(frozen=True)
-class Contact:
-    """The nearest (or deepest) link-obstacle pair of a check.
-
-    link: frame name of the link; geometry: name of its collision object (or sphere);
-    obstacle: obstacle name; index: fractional support-state index (12.25 = a quarter of the way
-    from state 12 to 13); time [s] at that point when time stamps were given, else None;
-    distance [m]: coal's distance on the collision geometry, negative when overlapping.
-    """
-
-    link: str
-    geometry: str
-    obstacle: str
-    index: float
-    time: float | None
-    distance: float
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"link": self.link, "geometry": self.geometry, "obstacle": self.obstacle,
-                "index": self.index, "time": self.time, "distance": self.distance}
-
-
-@dataclass(frozen=True)
 class CollisionReport:
     """Result of :meth:`CollisionChecker.check` (lengths in metres).
 
@@ -606,84 +586,43 @@ class _Poses:
                 yield (chunk, *self._checker._poses(self._qs[chunk]))
 
 
-def motion_lower_bounds(known: np.ndarray, travel: np.ndarray) -> np.ndarray:
-    """Lower bounds (K, P) of every configuration's distance from the known ones: a distance h
-    at configuration a bounds the distance at every k by h - |travel(k) - travel(a)|. known
-    (K, P) distances, -inf where unknown; travel (K, P) accumulated motion [m] along the
-    configurations of the column's geometry."""
-    forward = np.maximum.accumulate(known + travel, axis=0) - travel
-    backward = np.maximum.accumulate((known - travel)[::-1], axis=0)[::-1] + travel
-    return np.maximum(forward, backward)
-
-
-class _Search:
-    """The queries of one check: pairs (configuration k, column c) with column c standing for
-    (geometry col_g[c], obstacle col_o[c]); lower (K, P) their lower bounds, raised by every
-    hull distance through the motion bound (travel (K, P): accumulated motion of the column's
-    geometry); hull / exact (K, P) the coal distances made so far (queried / measured)."""
+class _Search(PairSearch):
+    """The obstacle check's :class:`robots.distance_search.PairSearch`: column c stands for
+    (geometry col_g[c], obstacle col_o[c]); rows are the configurations offset.. of the
+    window (poses: of every configuration); support (K,) bool marks its support states;
+    nearest: (configuration, geometry, obstacle). Its policy: :meth:`CollisionChecker._search`,
+    :meth:`states`, :meth:`settle`."""
 
     def __init__(self, checker: "CollisionChecker", poses: _Poses, col_g: np.ndarray, col_o: np.ndarray,
                  travel: np.ndarray, lower: np.ndarray, margin: float, offset: int = 0,
                  best: float = math.inf, nearest: tuple[int, int, int] | None = None):
+        super().__init__(lower, travel, checker._geo.exact[col_g], best, nearest)
         self.checker, self.poses, self.col_g, self.col_o = checker, poses, col_g, col_o
-        self.margin = margin
+        self.margin, self.offset = margin, offset
         self.support = np.zeros(len(lower), dtype=bool)   # rows that are support states
-        self.travel, self.lower, self.offset = travel, lower, offset
-        self.col_exact = checker._geo.exact[col_g]
-        self.hull = np.full(lower.shape, np.nan)
-        self.exact = np.full(lower.shape, np.nan)
-        self.queried = np.zeros(lower.shape, dtype=bool)
-        self.measured = np.zeros(lower.shape, dtype=bool)
-        self.best, self.nearest = best, nearest           # least exact distance, (k, g, o), k in poses
         self.seconds = {"hull": 0.0, "exact": 0.0}
 
-    def _offer(self, k: np.ndarray, g: np.ndarray, o: np.ndarray, values: np.ndarray) -> None:
-        m = int(np.argmin(values))
-        if values[m] < self.best:
-            self.best, self.nearest = float(values[m]), (int(k[m]) + self.offset, int(g[m]), int(o[m]))
+    def where(self, k: int, c: int) -> tuple[int, int, int]:
+        return k + self.offset, int(self.col_g[c]), int(self.col_o[c])
 
-    def _query(self, shapes: list, k: np.ndarray, g: np.ndarray, o: np.ndarray, kind: str) -> np.ndarray:
+    def bound_values(self, k: np.ndarray, c: np.ndarray) -> np.ndarray:
         start = _clock.perf_counter()
-        values = self.checker._query(shapes, self.poses, k + self.offset, g, o)
-        self.seconds[kind] += _clock.perf_counter() - start
+        values = self.checker._query(self.checker._geo.bounds, self.poses, k + self.offset, self.col_g[c],
+                                     self.col_o[c])
+        self.seconds["hull"] += _clock.perf_counter() - start
         return values
 
-    def bounds(self) -> np.ndarray:
-        """Best lower bound (K, P) of every pair's exact distance known so far."""
-        return np.where(self.measured, self.exact, np.where(self.queried, np.fmax(self.hull, self.lower), self.lower))
-
-    def measure(self, k: np.ndarray, c: np.ndarray) -> None:
-        """Exact distances (coal on the collision geometry) of pairs (k, c), exact where the
-        search needs them: below the least distance so far, and at support states below the
-        margin too (state values). A mesh measured as pieces stops there (a value at or above
-        that cutoff is a lower bound, which never becomes the least or a state value below the
-        margin)."""
-        g, o = self.col_g[c], self.col_o[c]
+    def exact_values(self, k: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Exact distances (coal on the collision geometry) where the search needs them: below
+        the least distance so far, and at support states below the margin too (state values).
+        A mesh measured as pieces stops there (a value at or above that cutoff is a lower
+        bound, which never becomes the least or a state value below the margin)."""
         start = _clock.perf_counter()
         cutoff = np.where(self.support[k], max(self.best, self.margin), self.best)
-        values = self.checker._query(self.checker._geo.pieces, self.poses, k + self.offset, g, o, cutoff)
+        values = self.checker._query(self.checker._geo.pieces, self.poses, k + self.offset, self.col_g[c],
+                                     self.col_o[c], cutoff)
         self.seconds["exact"] += _clock.perf_counter() - start
-        self.exact[k, c] = values
-        self.measured[k, c] = True
-        self._offer(k, g, o, values)
-
-    def hulls(self, k: np.ndarray, c: np.ndarray) -> None:
-        """Bound distances (coal on the convex bounds) of pairs (k, c), exact where the bound is
-        the geometry itself; then the motion bound raises the lower bounds of their columns."""
-        g, o = self.col_g[c], self.col_o[c]
-        values = self._query(self.checker._geo.bounds, k, g, o, "hull")
-        self.hull[k, c] = values
-        self.queried[k, c] = True
-        on_exact = self.col_exact[c]
-        if on_exact.any():
-            ke, ce, ve = k[on_exact], c[on_exact], values[on_exact]
-            self.exact[ke, ce] = ve
-            self.measured[ke, ce] = True
-            self._offer(ke, self.col_g[ce], self.col_o[ce], ve)
-        cols = np.unique(c)
-        known = np.where(self.queried[:, cols], self.hull[:, cols], -np.inf)
-        self.lower[:, cols] = np.maximum(self.lower[:, cols],
-                                         motion_lower_bounds(known, self.travel[:, cols]))
+        return values
 
     def states(self, S: np.ndarray, fixed_least: float) -> np.ndarray:
         """Value (T,) of each support state: least exact, else hull, distance of its queried pairs."""
@@ -1156,11 +1095,7 @@ class CollisionChecker:
                                    {"total": _clock.perf_counter() - start}, self.tally["hull"] - tally["hull"],
                                    resolution, fixed_overlaps)
         gg, oo = nearest[1], nearest[2]
-        when = None
-        if time is not None:
-            i = min(int(math.floor(where)), T - 1)
-            when = float(time[i] + (where - i) * (time[i + 1] - time[i])) if i < T - 1 else float(time[i])
-        contact = Contact(geo.links[gg], geo.names[gg], obs.names[oo], where, when, best)
+        contact = Contact(geo.links[gg], geo.names[gg], obs.names[oo], where, time_at(where, time), best)
         end = _clock.perf_counter()
         # hull / exact: time in coal queries (also those of the certification, which is timed whole)
         timings = {"subdivide": t_sub - start, **seconds, "total": end - start}
@@ -1186,14 +1121,7 @@ class CollisionChecker:
             elif candidate.any():
                 # hull distances: both ends of every run of candidates of a pair (conservative
                 # advancement), and the most promising candidate of every support state
-                before = np.zeros_like(candidate)
-                before[1:] = candidate[:-1]
-                after = np.zeros_like(candidate)
-                after[:-1] = candidate[1:]
-                pick = candidate & ~(before & after)
-                rows = np.flatnonzero(candidate[S].any(axis=1))
-                pick[S[rows], np.argmin(np.where(candidate[S[rows]], search.lower[S[rows]], np.inf), axis=1)] = True
-                search.hulls(*np.nonzero(pick))
+                search.advance(candidate, S)
             elif not search.settle(S, state, margin):
                 break
 

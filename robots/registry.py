@@ -2,8 +2,9 @@
 from __future__ import annotations
 
 import importlib.metadata
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 from skillplan.validation import as_instance
 
@@ -66,3 +67,37 @@ def load_robot(name: str) -> Robot:
     if override.is_file():
         robot.spheres = override
     return robot
+
+
+#: the fields of a robot spec naming an arm by its URDF (resolve_robot)
+URDF_FIELDS = ("urdf", "end_effector", "base_frame", "package_dirs", "spheres")
+
+
+def resolve_robot(spec: str | Mapping[str, Any], base: str | Path | None = None) -> Robot:
+    """The robot a command line or a problem names, the one loader of both: a registered name
+    (``"jaco"`` or ``{"name": "jaco"}``, :func:`load_robot`) or any arm from its URDF,
+    ``{"urdf": PATH, "end_effector": FRAME}`` with optional ``"base_frame"`` (planning frame,
+    default the URDF root), ``"package_dirs"`` (folders of package:// meshes) and ``"spheres"``
+    (a collision sphere file; default fitted from the URDF), see :meth:`Robot.from_urdf`. A
+    relative URDF path (``~`` expanded) is read against ``base`` when given. A spec naming
+    neither raises RobotError; a bad name UnknownRobotError; a bad file URDFParseError."""
+    if isinstance(spec, str):
+        spec = {"name": spec}
+    as_instance(spec, "robot", Mapping, "a robot name or a {'name': ..} / {'urdf': .., 'end_effector': ..} "
+                "mapping", RobotTypeError)
+    if "name" in spec:
+        if set(spec) != {"name"}:
+            raise RobotError(f"robot: a registered robot takes no other fields, got {sorted(set(spec) - {'name'})}")
+        return load_robot(spec["name"])
+    if "urdf" not in spec or "end_effector" not in spec:
+        raise RobotError(f"robot: expected {{'name': NAME}} or {{'urdf': PATH, 'end_effector': FRAME}}, "
+                         f"got fields {sorted(spec)}")
+    extra = set(spec) - set(URDF_FIELDS)
+    if extra:
+        raise RobotError(f"robot: unknown field(s) {sorted(extra)}")
+    urdf = spec["urdf"]
+    if base is not None:
+        urdf = Path(urdf).expanduser()
+        urdf = urdf if urdf.is_absolute() else Path(base) / urdf
+    return Robot.from_urdf(urdf, spec["end_effector"], package_dirs=spec.get("package_dirs"),
+                           spheres=spec.get("spheres"), base_frame=spec.get("base_frame"))

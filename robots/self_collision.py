@@ -56,7 +56,7 @@ from __future__ import annotations
 import math
 import time as _clock
 import weakref
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from itertools import combinations
 from typing import Any
 
@@ -65,7 +65,9 @@ import numpy as np
 
 from skillplan.validation import as_time
 
-from .collision_check import SLACK, CollisionChecker, motion_lower_bounds
+from .collision_check import SLACK, CollisionChecker
+from .contact import Contact, collision_reason, time_at
+from .distance_search import PairSearch
 from .errors import CollisionCheckError
 from .robot import Robot
 from .validation import as_array, as_scalar
@@ -91,26 +93,10 @@ _SPHERE_PAIRS: "weakref.WeakKeyDictionary[Robot, tuple]" = weakref.WeakKeyDictio
 
 
 # =================================================================================== report
-@dataclass(frozen=True)
-class SelfContact:
-    """The nearest (or deepest) pair of links of a self-collision check.
-
-    link_a, link_b: link (frame) names; geometry_a, geometry_b: their collision objects;
-    index: fractional support-state index (12.25 = a quarter of the way from state 12 to 13);
-    time [s] there when time stamps were given, else None; distance [m]: coal's signed distance
-    (negative = depth).
-    """
-
-    link_a: str
-    link_b: str
-    geometry_a: str
-    geometry_b: str
-    index: float
-    time: float | None
-    distance: float
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+#: the self-collision check's contact is the one contact record of the robot's checks
+#: (link, geometry, other = the other link, other_geometry, index, time, distance; link_a,
+#: link_b, geometry_a, geometry_b read the same fields)
+SelfContact = Contact
 
 
 @dataclass(frozen=True)
@@ -130,7 +116,7 @@ class SelfCollisionReport:
     geometry: str
     max_motion: float
     min_distance: float
-    nearest: SelfContact | None
+    nearest: Contact | None
     collision: bool
     states_in_collision: np.ndarray
     num_configurations: int
@@ -143,14 +129,9 @@ class SelfCollisionReport:
 
     @property
     def reason(self) -> str | None:
-        """One line naming both links, the state and the depth in mm; None when clear."""
-        if not self.collision or self.nearest is None:
-            return None
-        c = self.nearest
-        when = f" (t = {c.time:.2f} s)" if c.time is not None else ""
-        count = int(self.states_in_collision.sum())
-        return (f"self-collision: {c.link_a} and {c.link_b} overlap by {-1e3 * c.distance:.1f} mm at state "
-                f"{c.index:.2f}{when}; {count} support state{'s' if count != 1 else ''} in collision")
+        """One line naming both links, the state and the depth in mm; None when clear
+        (:func:`robots.contact.collision_reason`)."""
+        return collision_reason(self)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (states in collision as a list of indices)."""
@@ -401,47 +382,26 @@ def self_collision_spheres(robot: Robot) -> SelfCollisionSpheres:
 
 
 # ================================================================================== search
-class _Search:
-    """Hull and exact queries of one check over configurations (K) x checked pairs (P)."""
+class _Search(PairSearch):
+    """The self-collision check's :class:`robots.distance_search.PairSearch`: configurations (K)
+    x checked pairs (P), column c the geometries (a[c], b[c]) at poses R, t; nearest (k, c).
+    Its policy: :meth:`run` (within a tolerance), :meth:`settle_states`."""
 
     def __init__(self, queries: _PairQueries, R, t, a, b, lower, travel, tolerance: float = 0.0):
+        super().__init__(lower, travel, queries.exact[a] & queries.exact[b])
         self.q, self.R, self.t, self.a, self.b = queries, R, t, a, b
         self.tolerance = tolerance
-        self.lower, self.travel = lower, travel                  # (K, P)
-        self.pair_exact = queries.exact[a] & queries.exact[b]
-        self.hull = np.full(lower.shape, np.nan)
-        self.exact = np.full(lower.shape, np.nan)
-        self.queried = np.zeros(lower.shape, dtype=bool)
-        self.measured = np.zeros(lower.shape, dtype=bool)
-        self.best, self.nearest = math.inf, None
         self.count = {"hull": 0, "exact": 0}
 
-    def _record(self, k: np.ndarray, c: np.ndarray, values: np.ndarray) -> None:
-        self.exact[k, c] = values
-        self.measured[k, c] = True
-        if len(values):
-            m = int(np.argmin(values))
-            if values[m] < self.best:
-                self.best, self.nearest = float(values[m]), (int(k[m]), int(c[m]))
-
-    def hulls(self, k: np.ndarray, c: np.ndarray) -> None:
-        """Hull distances at (k, c); the motion bound then raises the lower bounds of column c."""
-        values = self.q.hull(self.R, self.t, k, self.a[c], self.b[c])
-        self.hull[k, c] = values
-        self.queried[k, c] = True
-        exact = self.pair_exact[c]
+    def bound_values(self, k: np.ndarray, c: np.ndarray) -> np.ndarray:
+        exact = self.col_exact[c]
         self.count["hull"] += int((~exact).sum())
         self.count["exact"] += int(exact.sum())
-        self._record(k[exact], c[exact], values[exact])
-        cols = np.unique(c)
-        known = np.where(self.queried[:, cols], self.hull[:, cols], -np.inf)
-        self.lower[:, cols] = np.maximum(self.lower[:, cols],
-                                         motion_lower_bounds(known, self.travel[:, cols]))
+        return self.q.hull(self.R, self.t, k, self.a[c], self.b[c])
 
-    def measure(self, k: np.ndarray, c: np.ndarray) -> None:
-        """Exact signed distances at (k, c)."""
+    def exact_values(self, k: np.ndarray, c: np.ndarray) -> np.ndarray:
         self.count["exact"] += len(k)
-        self._record(k, c, self.q.signed(self.R, self.t, k, self.a[c], self.b[c]))
+        return self.q.signed(self.R, self.t, k, self.a[c], self.b[c])
 
     def target(self) -> float:
         """The distance [m] below which a pair must be resolved: the best exact distance found,
@@ -458,12 +418,7 @@ class _Search:
             candidate = ~self.queried & (self.lower < self.target() + SLACK)
             if candidate.any():
                 # both ends of every run of candidates of a pair, and each pair's lowest bound
-                inner = np.zeros_like(candidate)
-                inner[1:-1] = candidate[:-2] & candidate[2:]
-                pick = candidate & ~inner
-                cols = np.flatnonzero(candidate.any(axis=0))
-                pick[np.argmin(np.where(candidate[:, cols], self.lower[:, cols], np.inf), axis=0), cols] = True
-                self.hulls(*np.nonzero(pick))
+                self.advance(candidate)
                 if math.isfinite(self.best):
                     continue
             pending = self.queried & ~self.measured & (self.hull < self.target() - SLACK)
@@ -530,12 +485,9 @@ def self_collision_report(robot: Robot, q: Any, time: Any = None, max_motion: fl
     states = search.settle_states(sub.support)
     kk, c = search.nearest
     index = float(sub.index[kk])
-    when = None
-    if time is not None:
-        i = min(int(math.floor(index)), T - 1)
-        when = float(time[i] + (index - i) * (time[i + 1] - time[i])) if i < T - 1 else float(time[i])
     ga, gb = int(a[c]), int(b[c])
-    contact = SelfContact(geo.links[ga], geo.links[gb], geo.names[ga], geo.names[gb], index, when, search.best)
+    contact = Contact(geo.links[ga], geo.names[ga], geo.links[gb], index, time_at(index, time), search.best,
+                      geo.names[gb])
     end = _clock.perf_counter()
     timings = {"broad_phase": t_broad - start, "search": end - t_broad, "total": end - start}
     return SelfCollisionReport(geo.source, max_motion, search.best, contact, search.best < 0.0, states, K, P,

@@ -16,7 +16,7 @@ be stored in a file, sent to another process or machine and kept next to its res
   "num_demos": M, "num_points": T}`` (``scenes.make_demonstrations``; defaults 0, 6, 250);
 - ``robot``: ``{"name": "jaco"}`` (``robots.load_robot``; the string ``"jaco"`` is read as
   that) or ``{"urdf": PATH, "end_effector": FRAME, "base_frame": FRAME | null}``
-  (``Robot.from_urdf``);
+  (``Robot.from_urdf``); both loaded by ``robots.resolve_robot``, as the command lines' robots;
 - ``scene``: null, a scene object in the scene-file format of :mod:`scenes.scene`, or the path
   of a scene file;
 - ``start``, ``goal``: an end-effector position [x, y, z] (m) or a joint configuration (n,)

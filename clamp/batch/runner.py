@@ -75,8 +75,7 @@ from clamp.prior.learning import learn_prior
 from clamp.prior.linear_gaussian import WorkspacePrior
 from scenes import make_demonstrations
 from scenes import load_demonstrations
-from robots import Robot
-from robots import load_robot as builtin
+from robots import resolve_robot
 from clamp.config import PlannerConfig
 from scenes import Scene
 from clamp.planning.planner import plan
@@ -128,13 +127,11 @@ def load_prior(spec: dict[str, Any], base: Path) -> Any:
 
 
 def load_robot(spec: dict[str, Any], base: Path) -> Any:
-    """The robot a problem names: built-in by name, or a URDF with its end-effector frame."""
+    """The robot a problem names: built-in by name, or a URDF (relative to ``base``) with its
+    end-effector frame (:func:`robots.resolve_robot`, the command lines' loader too)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        if "name" in spec:
-            return builtin(spec["name"])
-        return Robot.from_urdf(_path(spec["urdf"], base), end_effector=spec["end_effector"],
-                               base_frame=spec["base_frame"])
+        return resolve_robot(spec, base)
 
 
 def resolve(problem: Problem, base: Path) -> dict[str, Any]:

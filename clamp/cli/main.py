@@ -40,7 +40,7 @@ from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, ato
 from skillplan.progress import progress
 from robots.retiming import DEFAULT_ACCELERATION_LIMIT
 from robots.errors import RetimingError
-from robots import Robot, available_robots, load_robot
+from robots import available_robots, resolve_robot
 from clamp.prior.learning import learn_prior
 from scenes import Box, Scene, load_demonstrations, make_demonstrations
 from scenes.bags import is_bag
@@ -199,7 +199,8 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
 
 
 def load_robot_from_args(args: argparse.Namespace) -> Any:
-    """The robot of ``--robot NAME`` or ``--urdf FILE --end-effector FRAME``."""
+    """The robot of ``--robot NAME`` or ``--urdf FILE --end-effector FRAME`` (the arguments
+    checked here, the robot loaded by :func:`robots.resolve_robot`, as a batch problem's)."""
     if args.urdf is None:
         if args.end_effector is not None:
             raise InvalidParameterError("--end-effector: only with --urdf (a registered robot "
@@ -208,12 +209,12 @@ def load_robot_from_args(args: argparse.Namespace) -> Any:
             raise InvalidParameterError(f"--robot: unknown robot {args.robot!r} (registered: "
                                         f"{', '.join(available_robots())}); for any other arm pass "
                                         f"--urdf FILE --end-effector FRAME [--package-dir DIR]")
-        return load_robot(args.robot)
+        return resolve_robot(args.robot)
     if args.end_effector is None:
         raise InvalidParameterError("--end-effector: required with --urdf (the frame to plan "
                                     "for, e.g. the tool or the last link)")
-    return Robot.from_urdf(args.urdf, args.end_effector, package_dirs=args.package_dir,
-                           spheres=args.spheres, base_frame=args.base_frame)
+    return resolve_robot({"urdf": args.urdf, "end_effector": args.end_effector, "package_dirs": args.package_dir,
+                          "spheres": args.spheres, "base_frame": args.base_frame})
 
 
 def _plan_all(prior: Any, robot: Any, start: np.ndarray,

@@ -7,7 +7,8 @@ support state and in between (segments subdivided so that no link point moves mo
 :data:`MAX_MOTION` between checks, and the motion between checks certified to the checker's
 RESOLUTION, 0.2 mm: a clear verdict means no link comes more than 0.1 mm into an obstacle
 anywhere along the motion). A check that cannot be made (coal fails on a geometry) gives a
-report with a fault, which the verdict states as its reason. A robot without collision geometry falls back to its
+report with a fault, which the verdict states as its reason (worded by :mod:`robots.contact`, as
+the self-collision check's). A robot without collision geometry falls back to its
 collision spheres (``report.geometry == "spheres"``, which the result repeats).
 
 One checker is built per (robot, scene) and kept while both live (a scene is immutable), so a
@@ -22,9 +23,13 @@ from typing import Any
 import numpy as np
 
 from clamp.planning.request import has_obstacles
-from robots.collision_check import RESOLUTION, CollisionChecker, CollisionReport, Contact
+from robots.collision_check import RESOLUTION, CollisionChecker, CollisionReport
+from robots.contact import Contact, collision_reason, describe_contact
 from robots.errors import CollisionCheckError
 from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
+
+__all__ = ["MAX_MOTION", "checker", "check_clearance", "state_clearance", "contact_obstacle",
+           "describe_contact", "collision_reason"]       # the last two: robots.contact's, re-exported
 
 log = logging.getLogger(__name__)
 
@@ -75,24 +80,3 @@ def contact_obstacle(robot: Any, scene: Any, contact: Contact) -> Any:
     """The scene obstacle a contact of :func:`check_clearance` names."""
     triple = checker(robot, scene).obstacle_names.index(contact.obstacle)
     return scene.obstacles[coal_obstacle_owners(scene)[triple]]
-
-
-def describe_contact(contact: Contact, geometry: str) -> str:
-    """One phrase naming link, obstacle, where and how far, e.g. "link j2s6s200_link_finger_tip_1
-    1.2 mm inside box_0 at state 12.25 (t = 3.10 s), on the URDF collision geometry"."""
-    depth = contact.distance * 1000.0
-    how = f"{-depth:.1f} mm inside" if depth < 0 else f"{depth:.1f} mm from"
-    index = f"{round(contact.index, 2):g}"
-    when = "" if contact.time is None else f" (t = {contact.time:.2f} s)"
-    source = ("the URDF collision geometry" if geometry == "urdf"
-              else "the collision spheres (the robot has no collision geometry)")
-    return f"link {contact.link} {how} {contact.obstacle} at state {index}{when}, on {source}"
-
-
-def collision_reason(report: CollisionReport | None) -> str | None:
-    """The verdict's reason when ``report`` found a collision, else None."""
-    if report is None or not report.collision:
-        return None
-    if report.fault is not None:
-        return f"collision check failed: {report.fault}"
-    return f"collision: {describe_contact(report.nearest, report.geometry)}"

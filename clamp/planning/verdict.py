@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from clamp.planning.clearance import check_clearance, collision_reason, describe_contact
+from clamp.planning.clearance import check_clearance
 from clamp.config import PlannerConfig
 from clamp.planning.limit_report import limit_violations
 from clamp.errors import ClampTypeError
@@ -22,6 +22,7 @@ from clamp.planning.request import Request, as_scene, has_obstacles
 from clamp.planning.result import PlanInputs, PlanResult
 from clamp.planning.targets import constraint_violations, inside_obstacle
 from clamp.validation import as_scalar
+from robots.contact import collision_reason, describe_contact
 from robots.self_collision import self_collision_report
 from skillplan.validation import as_instance
 
