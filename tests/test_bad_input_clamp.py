@@ -16,7 +16,6 @@ from clamp.viz.animation import write_animation
 from clamp.batch.runner import LocalPool, plan_many, read_results
 from clamp.batch.report import reason_key, summarize, summary_table
 from clamp.prior.conditioning import condition_prior
-from clamp.planning.reference import planning_prior
 from clamp.errors import (ClampTypeError, ClampError, DegenerateDemonstrationsError,
                           InsufficientDemonstrationsError, InvalidParameterError, NonFiniteError,
                           PriorFileError, ShapeError)
@@ -303,12 +302,6 @@ CATALOGUE: list[Case] = [
     Case("condition-position-1e200", lambda fx: condition_prior(fx.prior, [(0, [1e200, 0, 0])]), P,
          "observations[0] position"),
     Case("condition-sigma", lambda fx: condition_prior(fx.prior, [(0, START)], sigma=0), P, "sigma"),
-    Case("planning-prior-type", lambda fx: planning_prior("prior", fx.robot, None, PlannerConfig()), T,
-         "prior"),
-    Case("planning-prior-request", lambda fx: planning_prior(fx.prior, fx.robot, {"goal": START},
-                                                             PlannerConfig()), T, "request"),
-    Case("planning-prior-config", lambda fx: planning_prior(fx.prior, fx.robot, _request(fx), "fast"), T,
-         "config"),
     # --- obstacle weighting and learning modes
     Case("weighting-eps-negative", lambda fx: ObstacleWeighting(eps=-1), P, "eps"),
     Case("weighting-sigma-zero", lambda fx: ObstacleWeighting(sigma=0), P, "sigma"),

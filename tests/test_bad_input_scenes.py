@@ -8,6 +8,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+
+from skillplan.errors import ArgumentTypeError
 import scipy.io
 
 from bad_input import Case, cases, check
@@ -100,6 +102,7 @@ def _csv_demo(label: int, count: int, step: float = 0.1, t0: float = 0.0) -> lis
             for k in range(count)]
 
 
+AT = ArgumentTypeError          # skillplan's: the plumbing's own wrong-kind error
 E, IA, O, SF, DF, DE = (ScenesTypeError, InvalidArgumentError, InvalidObstacleError,
                          SceneFileError, DemonstrationFileError, InvalidDemonstrationsError)
 
@@ -321,28 +324,28 @@ CATALOGUE: list[Case] = [
     Case("load-npz-junk", lambda fx: Demonstrations.load_npz(_write(fx, "junk.npz", b"junk")), DF,
          "junk.npz"),
     # --- command-line helpers and progress bars (skillplan.command_line, skillplan.progress)
-    Case("output-directory-type", lambda fx: output_directory(42), E, "--out"),
+    Case("output-directory-type", lambda fx: output_directory(42), AT, "--out"),
     Case("output-directory-file", lambda fx: output_directory(_write(fx, "a.txt", "x")), OutputPathError,
          "--out"),
     Case("output-directory-not-empty", lambda fx: output_directory(fx.tmp), OutputPathError, "--out"),
-    Case("output-file-type", lambda fx: output_file(42), E, "--out"),
+    Case("output-file-type", lambda fx: output_file(42), AT, "--out"),
     Case("output-file-exists", lambda fx: output_file(_write(fx, "b.txt", "x")), OutputPathError, "--out"),
     Case("output-file-folder", lambda fx: output_file(fx.tmp), OutputPathError, "--out"),
     Case("output-file-no-parent", lambda fx: output_file(fx.tmp / "none" / "c.txt"), OutputPathError,
          "--out"),
-    Case("atomic-write-type", lambda fx: atomic_write(42, lambda handle: handle.write(b"y")), E, "path"),
+    Case("atomic-write-type", lambda fx: atomic_write(42, lambda handle: handle.write(b"y")), AT, "path"),
     Case("atomic-write-exists", lambda fx: atomic_write(_write(fx, "d.txt", "x"),
                                                         lambda handle: handle.write(b"y")),
          OutputPathError, "path"),
-    Case("atomic-write-function", lambda fx: atomic_write(fx.tmp / "e.txt", b"y"), E, "write"),
+    Case("atomic-write-function", lambda fx: atomic_write(fx.tmp / "e.txt", b"y"), AT, "write"),
     Case("atomic-write-no-folder", lambda fx: atomic_write(fx.tmp / "none" / "f.txt",
                                                            lambda handle: handle.write(b"y")),
          OutputPathError, "folder"),
-    Case("atomic-write-text-type", lambda fx: atomic_write_text(fx.tmp / "g.txt", 42), E, "text"),
-    Case("integer-at-least-minimum", lambda fx: integer_at_least("1"), E, "minimum"),
-    Case("progress-description", lambda fx: progress([1], description=5), E, "description"),
+    Case("atomic-write-text-type", lambda fx: atomic_write_text(fx.tmp / "g.txt", 42), AT, "text"),
+    Case("integer-at-least-minimum", lambda fx: integer_at_least("1"), AT, "minimum"),
+    Case("progress-description", lambda fx: progress([1], description=5), AT, "description"),
     Case("progress-total", lambda fx: progress([1], description="x", total=-1), IA, "total"),
-    Case("set-progress-text", lambda fx: set_progress("yes"), E, "enabled"),
+    Case("set-progress-text", lambda fx: set_progress("yes"), AT, "enabled"),
     # --- skillplan.validation helpers (the one helper the packages wrap)
     Case("validation-seed-negative", lambda fx: as_seed(-1, "seed"), IA, "seed"),
     Case("validation-seed-float", lambda fx: as_seed(1.5, "seed"), IA, "seed"),

@@ -10,7 +10,7 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("robots", "scenes", "clamp", "tlgc")
+PACKAGES = ("skillplan", "robots", "scenes", "clamp", "tlgc")
 
 
 def imported_modules() -> set[str]:

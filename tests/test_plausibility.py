@@ -308,7 +308,7 @@ def test_argument_errors(synthetic_prior):
     prior, x = synthetic_prior, synthetic_prior.mean
     T = prior.T
     cases = [
-        (dict(prior="prior", x=x), errors.InvalidParameterError, "prior"),
+        (dict(prior="prior", x=x), errors.ClampTypeError, "prior"),
         (dict(x=x[:-1]), errors.ShapeError, "x"),
         (dict(x=x[:, :3]), errors.ShapeError, "x"),
         (dict(x=np.zeros((2, 2, T, 6))), errors.ShapeError, "x"),
