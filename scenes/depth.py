@@ -26,6 +26,7 @@ surfaces, so its points lie on or outside the links.
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 from typing import Any
 
 import numpy as np

@@ -130,34 +130,32 @@ def created_output_directory(path: Any, force: bool) -> Iterator[Path]:
         raise
 
 
+def _limits(values: Any, option: str, unit: str, robot: Any, no_retime: bool) -> float | np.ndarray:
+    """The values of a per-joint limit option ``option`` [``unit``]: one positive number for every
+    joint or one per joint; not with --no-retime (a limit is what the trajectory is retimed to)."""
+    if no_retime:
+        raise InvalidParameterError(f"{option}: not with --no-retime (the limit is what the "
+                                    "trajectory is retimed to)")
+    array = np.array(values, dtype=float)
+    if len(array) not in (1, robot.n) or np.any(array <= 0.0):
+        raise InvalidParameterError(f"{option}: expected one positive limit [{unit}] or one per "
+                                    f"joint of {robot.name} ({robot.n}), got {values}")
+    return float(array[0]) if len(array) == 1 else array
+
+
 def acceleration_limits(args: argparse.Namespace, robot: Any) -> float | np.ndarray:
-    """The --acc-limit values [rad/s^2]: one for every joint or one per joint, positive
-    (default robots.retiming.DEFAULT_ACCELERATION_LIMIT)."""
+    """The --acc-limit values [rad/s^2] (default robots.retiming.DEFAULT_ACCELERATION_LIMIT)."""
     if args.acc_limit is None:
         return DEFAULT_ACCELERATION_LIMIT
-    if args.no_retime:
-        raise InvalidParameterError("--acc-limit: not with --no-retime (the limit is what the "
-                                    "trajectory is retimed to)")
-    values = np.array(args.acc_limit, dtype=float)
-    if len(values) not in (1, robot.n) or np.any(values <= 0.0):
-        raise InvalidParameterError(f"--acc-limit: expected one positive limit [rad/s^2] or one per "
-                                    f"joint of {robot.name} ({robot.n}), got {args.acc_limit}")
-    return float(values[0]) if len(values) == 1 else values
+    return _limits(args.acc_limit, "--acc-limit", "rad/s^2", robot, args.no_retime)
 
 
 def jerk_limits(args: argparse.Namespace, robot: Any) -> float | np.ndarray | None:
-    """The --jerk-limit values [rad/s^3]: one for every joint or one per joint, positive; None
-    when not given (the trajectory is then not jerk-limited)."""
+    """The --jerk-limit values [rad/s^3]; None when not given (the trajectory is then not
+    jerk-limited)."""
     if args.jerk_limit is None:
         return None
-    if args.no_retime:
-        raise InvalidParameterError("--jerk-limit: not with --no-retime (the limit is what the "
-                                    "trajectory is retimed to)")
-    values = np.array(args.jerk_limit, dtype=float)
-    if len(values) not in (1, robot.n) or np.any(values <= 0.0):
-        raise InvalidParameterError(f"--jerk-limit: expected one positive limit [rad/s^3] or one per "
-                                    f"joint of {robot.name} ({robot.n}), got {args.jerk_limit}")
-    return float(values[0]) if len(values) == 1 else values
+    return _limits(args.jerk_limit, "--jerk-limit", "rad/s^3", robot, args.no_retime)
 
 
 def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
