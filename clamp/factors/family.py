@@ -80,15 +80,17 @@ class Family:
     first (F,) first support state of every factor; dim m residual size; sigma: isotropic noise
     standard deviation (scalar, or (F,) per factor) in the residual's units, or
     sqrt_information (F, m, m) / (m, m) for correlated noise (exactly one of the two).
-    Subclasses set ``name``, ``arity`` and ``cost`` (0: no kinematics, 1: end-effector
-    kinematics, 2: collision spheres) and implement :meth:`residual`; ``linear = True`` declares
+    Subclasses set ``name``, ``arity`` and ``kinematics`` (the kinematics tier its kernel
+    needs: 0 none, 1 end-effector, 2 collision spheres; a problem's error sums the cheapest
+    tiers first) and implement :meth:`residual`; ``linear = True`` declares
     a residual affine in theta (constant Jacobian, every requested row returned), whose
     Jacobian and J^T J the fast solver then assembles once.
     """
 
     name: str = "family"
     arity: int = 1
-    cost: int = 1
+    #: kinematics its kernel needs: 0 none (joint space), 1 end-effector, 2 collision spheres
+    kinematics: int = 1
     linear: bool = False
     #: "cost" or "constraint" (a hinge family with a shift; see the module docstring)
     role: str = "cost"

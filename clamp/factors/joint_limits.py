@@ -22,7 +22,7 @@ class JointLimitFamily(Family):
 
     name = "joint_limits"
     arity = 1
-    cost = 0
+    kinematics = 0
     role = "constraint"
 
     def __init__(self, indices: Sequence[int], lower: np.ndarray, upper: np.ndarray,

@@ -29,7 +29,7 @@ class ObstacleFamily(Family):
 
     name = "obstacle"
     arity = 1
-    cost = 2
+    kinematics = 2
     role = "constraint"
 
     def __init__(self, indices: Sequence[int], radii: np.ndarray, query: DistanceQuery,

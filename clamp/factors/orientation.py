@@ -51,7 +51,7 @@ class OrientationFamily(Family):
 
     name = "orientation"
     arity = 1
-    cost = 1
+    kinematics = 1
     role = "constraint"
 
     def __init__(self, indices: Sequence[int], *, tolerance: float,

@@ -45,7 +45,7 @@ class SelfCollisionFamily(Family):
 
     name = "self_collision"
     arity = 2
-    cost = 2
+    kinematics = 2
     role = "constraint"
 
     def __init__(self, indices: Sequence[int], spheres: SelfCollisionSpheres, epsilon: float, sigma: float,

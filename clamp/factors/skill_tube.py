@@ -40,7 +40,7 @@ class SkillTubeFamily(Family):
 
     name = "skill_tube"
     arity = 1
-    cost = 1
+    kinematics = 1
     role = "constraint"
 
     def __init__(self, reference: Any, limit: Any, sigma: float):
