@@ -33,10 +33,10 @@ def problem_file(name: str) -> str:
 
 def config_changes(config: Any) -> dict[str, Any]:
     """The fields of a PlannerConfig that differ from ``PlannerConfig()`` (field -> value)."""
-    from clamp.config import PlannerConfig
+    from clamp.config import GROUPS, PlannerConfig
     default = PlannerConfig()
     return {f.name: getattr(getattr(config, group), f.name)
-            for group in ("model", "optimizer", "checks") for f in fields(getattr(config, group))
+            for group in GROUPS for f in fields(getattr(config, group))
             if getattr(getattr(config, group), f.name) != getattr(getattr(default, group), f.name)}
 
 
