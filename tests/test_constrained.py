@@ -64,6 +64,18 @@ def test_a_shift_moves_the_hinge_and_keeps_its_jacobian(setup):
             0.5 * float(np.sum(b * b)), rel=1e-9)
 
 
+def test_the_base_class_applies_every_shift(setup):
+    """A constraint family gives its unshifted g (``constraint``); the hinge and its shift are
+    Family.residual's alone: no constraint family overrides it."""
+    from clamp.factors import Family
+    _, _, families, _ = setup
+    constraints = [f for f in families if f.role == "constraint"]
+    assert {f.name for f in constraints} >= {"obstacle", "joint_limits", "orientation",
+                                             "self_collision", "skill_tube"}
+    for family in constraints:
+        assert type(family).residual is Family.residual, family.name
+
+
 def test_cost_families_have_no_shifts(setup):
     _, _, families, _ = setup
     cost = next(f for f in families if f.role == "cost")

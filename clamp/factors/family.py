@@ -20,14 +20,17 @@ A family's ``role`` says how the solve treats it: ``"cost"`` (a term of the post
 constraint g(theta) <= 0 (a sphere's reach into an obstacle, a joint beyond its limit) and a
 shift s >= 0 (:attr:`Family.shift`, zero unless set), which the augmented-Lagrangian solve of
 :mod:`clamp.optim.constrained` sets to lambda / mu (the multiplier over the penalty weight mu, the
-squared whitening). Such a family is also judged by the verdict (its own check: the real
-collision geometry, the limits, ``violation(robot, q)``), which decides when its constraint
-holds. A kernel may leave out factors whose residual and Jacobian are exactly zero (inactive
-hinges): :class:`Linearization` lists the rows it describes.
+squared whitening). A constraint family implements :meth:`Family.constraint` (g and its
+Jacobian) instead of :meth:`Family.residual`: the base class adds the shift and takes the hinge,
+in one place for every constraint family. Such a family is also judged by the verdict (its own
+check: the real collision geometry, the limits, ``violation(robot, q)``), which decides when
+its constraint holds. A kernel may leave out factors whose residual and Jacobian are exactly
+zero (inactive hinges): :class:`Linearization` lists the rows it describes.
 """
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import gtsam
@@ -51,6 +54,20 @@ class Linearization:
     rows: np.ndarray
     error: np.ndarray
     jacobian: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """Unshifted constraint values of some factors of a constraint family (the hinge's g).
+
+    value (R, m): g of the R factors requested (-inf where a hinge cannot be active, e.g. an
+    infinite joint limit); jacobian(states, active) -> (A, m, arity 2n): d g / d [theta_first,
+    ...] of the requested factors ``states`` (A,) (indices into the R), zero where ``active``
+    (A, m) is False; None when Jacobians were not requested.
+    """
+
+    value: np.ndarray
+    jacobian: Callable[[np.ndarray, np.ndarray], np.ndarray] | None
 
 
 def square_root_information(cov: np.ndarray) -> np.ndarray:
@@ -158,7 +175,30 @@ class Family:
         return self.whitening.ndim == 1
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
-        """Residuals (and Jacobians) of factors ``rows`` at ``window`` (which holds their states)."""
+        """Residuals (and Jacobians) of factors ``rows`` at ``window`` (which holds their states).
+
+        A cost family implements it. A constraint family's is the hinge of its
+        :meth:`constraint`, made here: e = max(0, g + s) with the shifts s (the one place they
+        are applied), factors with no active component left out, the Jacobian of g where a
+        component is active (zero elsewhere)."""
+        if self.role != "constraint":
+            raise NotImplementedError(f"{type(self).__name__}: a cost family implements residual")
+        g = self.constraint(window, rows, jacobians)
+        hinge = g.value + self.offset(rows)
+        active = hinge > 0.0
+        states = np.flatnonzero(np.any(active, axis=1))
+        error = np.where(active[states], hinge[states], 0.0)
+        if not jacobians:
+            return Linearization(rows[states], error, None)
+        if not len(states):
+            return Linearization(rows[states], error,
+                                 np.zeros((0, self.dim, self.arity * window.theta.shape[1])))
+        return Linearization(rows[states], error, g.jacobian(states, active[states]))
+
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
+        """A constraint family's unshifted g of factors ``rows`` at ``window`` (see
+        :class:`Constraint`): the hinge, shift and activity are :meth:`residual`'s. A kernel may
+        read the shifts (:meth:`offset`) to skip work no active hinge needs, never add them."""
         raise NotImplementedError
 
     def whiten(self, rows: np.ndarray, values: np.ndarray) -> np.ndarray:

@@ -1,8 +1,9 @@
 """Joint-limit family: hinges on the joint positions and velocities of every support state.
 
-e = [max(0, lo + m - q) + max(0, q - (hi - m)),  max(0, |qdot| - (vmax - mv))]  (2n,)
-with margins m [rad], mv [rad/s]; infinite limits (continuous joints) give zero rows. Only
-states with an active hinge are returned (the others are exactly zero).
+e = [max(0, max(lo + m - q, q - (hi - m))),  max(0, |qdot| - (vmax - mv))]  (2n,)
+with margins m [rad], mv [rad/s] (the nearer limit's hinge: the two sides of a joint cannot both
+be out); infinite limits (continuous joints) give zero rows. Only states with an active hinge
+are returned (the others are exactly zero; hinge and shift are the base class's).
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import numpy as np
 from clamp.errors import InvalidParameterError
 from clamp.validation import as_array, as_scalar
 
-from .family import Family, Linearization
+from .family import Constraint, Family
 from .states import StateWindow
 
 
@@ -46,22 +47,17 @@ class JointLimitFamily(Family):
         self.vmax = velocity_limits - velocity_margin
         super().__init__(indices, 2 * len(self.low), sigma=sigma)
 
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         i = window.local(self.first[rows])
         q, qdot = window.q[i], window.qdot[i]
-        n = q.shape[1]
-        shift = np.broadcast_to(self.offset(rows), (len(rows), 2 * n))
-        below = self.low - q + shift[:, :n]
-        above = q - self.high + shift[:, :n]
-        over = np.abs(qdot) - self.vmax + shift[:, n:]
-        slope = np.concatenate([np.where(below > 0, -1.0, 0.0) + np.where(above > 0, 1.0, 0.0),
-                                np.where(over > 0, np.sign(qdot), 0.0)], axis=1)
-        active = np.any(slope != 0.0, axis=1)
-        error = np.concatenate([np.maximum(below, 0.0) + np.maximum(above, 0.0),
-                                np.maximum(over, 0.0)], axis=1)[active]
-        if not jacobians:
-            return Linearization(rows[active], error, None)
-        d = slope.shape[1]
-        jac = np.zeros((int(active.sum()), d, d))
-        jac[:, np.arange(d), np.arange(d)] = slope[active]
-        return Linearization(rows[active], error, jac)
+        below, above = self.low - q, q - self.high
+        value = np.concatenate([np.maximum(below, above), np.abs(qdot) - self.vmax], axis=1)
+
+        def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
+            side = np.where(below[states] > above[states], -1.0, 1.0)
+            slope = np.where(active, np.concatenate([side, np.sign(qdot[states])], axis=1), 0.0)
+            d = slope.shape[1]
+            jac = np.zeros((len(states), d, d))
+            jac[:, np.arange(d), np.arange(d)] = slope
+            return jac
+        return Constraint(value, jacobian if jacobians else None)

@@ -25,7 +25,7 @@ import numpy as np
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.validation import as_array, as_count, as_indices, as_scalar
 
-from .family import Family, Linearization
+from .family import Constraint, Family
 from .states import StateWindow
 
 
@@ -125,15 +125,14 @@ class OrientationFamily(Family):
         """Largest angle beyond the tolerance [rad] over the window (0.0: met)."""
         return float(max(0.0, np.max(self.angles(robot, q)) - self.tolerance))
 
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         i = window.local(self.first[rows])
         angle, grad = self._angles(window.robot, window.q[i], jacobians)
-        hinge = angle - (self.tolerance - self.margin) + np.reshape(self.offset(rows), -1)
-        active = np.flatnonzero(hinge > 0.0)
-        error = hinge[active, None]
-        if not jacobians:
-            return Linearization(rows[active], error, None)
-        n = window.n
-        jac = np.zeros((len(active), 1, 2 * n))
-        jac[:, 0, :n] = grad[active]
-        return Linearization(rows[active], error, jac)
+
+        def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
+            n = window.n
+            jac = np.zeros((len(states), 1, 2 * n))
+            jac[:, 0, :n] = grad[states]
+            return jac
+        return Constraint((angle - (self.tolerance - self.margin))[:, None],
+                          jacobian if jacobians else None)

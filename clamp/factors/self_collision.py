@@ -29,7 +29,7 @@ from clamp.errors import ClampTypeError, InvalidParameterError
 from robots.self_collision import SPHERE_REACH, SelfCollisionSpheres, self_collision_spheres
 from clamp.validation import as_count, as_scalar
 
-from .family import Family, Linearization
+from .family import Constraint, Family
 from .states import StateWindow
 
 #: |c_a - c_b| below this [m] counts as coincident centres (the direction u is then +x)
@@ -89,7 +89,7 @@ class SelfCollisionFamily(Family):
         offset = centres[..., self.spheres.first, :] - centres[..., self.spheres.second, :]
         return offset, np.sqrt(np.einsum("...k,...k->...", offset, offset))
 
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         sp, n, C = self.spheres, window.n, len(self.tau)
         i = window.local(self.first[rows])
         q0, q1 = window.q[i], window.q[i + 1]
@@ -104,8 +104,8 @@ class SelfCollisionFamily(Family):
         # motion bound of its two spheres: only steps where that leaves a hinge open are sampled
         motion = np.abs(q1 - q0) @ sp.motion_radius.T                                     # (R, S + B)
         floor = 0.5 * (start + end - motion[:, sp.first] - motion[:, sp.second])
-        reach = self._reach + self.offset(rows)                                           # (R, P)
-        r, p = np.nonzero(floor < reach)                                                  # open (step, pair)
+        # the shift (read, not added: the base class adds it) widens the steps that can be open
+        r, p = np.nonzero(floor < self._reach + self.offset(rows))                        # open (step, pair)
         if r.size and C > 2:
             inside, r = np.unique(r, return_inverse=True)
             qs = q0[inside, None] + self.tau[None, 1:-1, None] * (q1 - q0)[inside, None]  # (R', C - 2, n)
@@ -118,28 +118,27 @@ class SelfCollisionFamily(Family):
             smaller = value < least[inside[r], p]
             least[inside[r[smaller]], p[smaller]] = value[smaller]
             worst[inside[r[smaller]], p[smaller]] = closest[smaller] + 1
-        hinge = reach - least
-        active = hinge > 0.0
-        states = np.flatnonzero(np.any(active, axis=1))
-        error = np.where(active[states], hinge[states], 0.0)
-        if not jacobians or not len(states):
-            return Linearization(rows[states], error, None if not jacobians else np.zeros((0, self.dim, 4 * n)))
-        # centre Jacobians at the worst configuration of every active pair (each one once)
-        r, p = np.nonzero(active[states])
-        c = worst[states[r], p]
-        tau = self.tau[c]
-        configs, index = np.unique(np.stack([states[r], c], axis=1), axis=0, return_inverse=True)
-        q_worst = q0[configs[:, 0]] + self.tau[configs[:, 1], None] * (q1 - q0)[configs[:, 0]]
-        centres, centre_jac = self._centres(window.robot, q_worst, True)
-        index = index.reshape(-1)
-        offset = centres[index, sp.first[p]] - centres[index, sp.second[p]]               # (A, 3)
-        d = np.linalg.norm(offset, axis=1)
-        direction = np.where(d[:, None] > _COINCIDENT, offset / np.maximum(d, _COINCIDENT)[:, None],
-                             np.array([1.0, 0.0, 0.0]))
-        relative = centre_jac[index, sp.first[p]] - centre_jac[index, sp.second[p]]       # (A, 3, n)
-        g = -np.einsum("ak,akj->aj", direction, relative)                                 # (A, n)
-        jac = np.zeros((len(states), self.dim, 4 * n))
-        row = np.searchsorted(states, states[r])
-        jac[row, p, :n] = (1.0 - tau)[:, None] * g
-        jac[row, p, 2 * n:3 * n] = tau[:, None] * g
-        return Linearization(rows[states], error, jac)
+        value = self._reach - least                                                       # (R, P)
+
+        def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
+            # centre Jacobians at the worst configuration of every active pair (each one once)
+            r, p = np.nonzero(active)
+            c = worst[states[r], p]
+            tau = self.tau[c]
+            configs, index = np.unique(np.stack([states[r], c], axis=1), axis=0,
+                                       return_inverse=True)
+            q_worst = q0[configs[:, 0]] + self.tau[configs[:, 1], None] * (q1 - q0)[configs[:, 0]]
+            centres, centre_jac = self._centres(window.robot, q_worst, True)
+            index = index.reshape(-1)
+            offset = centres[index, sp.first[p]] - centres[index, sp.second[p]]           # (A, 3)
+            d = np.linalg.norm(offset, axis=1)
+            direction = np.where(d[:, None] > _COINCIDENT,
+                                 offset / np.maximum(d, _COINCIDENT)[:, None],
+                                 np.array([1.0, 0.0, 0.0]))
+            relative = centre_jac[index, sp.first[p]] - centre_jac[index, sp.second[p]]   # (A, 3, n)
+            g = -np.einsum("ak,akj->aj", direction, relative)                             # (A, n)
+            jac = np.zeros((len(states), self.dim, 4 * n))
+            jac[r, p, :n] = (1.0 - tau)[:, None] * g
+            jac[r, p, 2 * n:3 * n] = tau[:, None] * g
+            return jac
+        return Constraint(value, jacobian if jacobians else None)

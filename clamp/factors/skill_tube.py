@@ -25,7 +25,7 @@ import numpy as np
 from clamp.errors import InvalidParameterError
 from clamp.validation import as_array, as_scalar
 
-from .family import Family, Linearization
+from .family import Constraint, Family
 from .states import StateWindow
 
 #: the hinge starts this fraction of the limit inside it
@@ -53,17 +53,15 @@ class SkillTubeFamily(Family):
         super().__init__(np.arange(T), 1, sigma=as_scalar(sigma, "sigma",
                                                           strictly_positive=True))
 
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         x, dx = window.workspace()
         i = window.local(self.first[rows])
         offset = x[i, :3] - self.reference[self.first[rows]]
         distance = np.linalg.norm(offset, axis=1)
-        hinge = (distance - (1.0 - MARGIN) * self.limit[self.first[rows]]
-                 + np.reshape(self.offset(rows), -1))
-        active = np.flatnonzero((hinge > 0.0) & (distance > _NEAR))
-        error = hinge[active, None]
-        if not jacobians:
-            return Linearization(rows[active], error, None)
-        u = offset[active] / distance[active, None]
-        jac = np.einsum("kj,kjc->kc", u, dx[i[active], :3])[:, None, :]
-        return Linearization(rows[active], error, jac)
+        near = distance > _NEAR
+        value = np.where(near, distance - (1.0 - MARGIN) * self.limit[self.first[rows]], -np.inf)
+
+        def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
+            u = offset[states] / distance[states, None]
+            return np.einsum("kj,kjc->kc", u, dx[i[states], :3])[:, None, :]
+        return Constraint(value[:, None], jacobian if jacobians else None)
