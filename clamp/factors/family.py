@@ -22,16 +22,34 @@ shift s >= 0 (:attr:`Family.shift`, zero unless set), which the augmented-Lagran
 :mod:`clamp.optim.constrained` sets to lambda / mu (the multiplier over the penalty weight mu, the
 squared whitening). A constraint family implements :meth:`Family.constraint` (g and its
 Jacobian) instead of :meth:`Family.residual`: the base class adds the shift and takes the hinge,
-in one place for every constraint family. Such a family is also judged by the verdict (its own
-check: the real collision geometry, the limits, ``violation(robot, q)``), which decides when
-its constraint holds. A kernel may leave out factors whose residual and Jacobian are exactly
-zero (inactive hinges): :class:`Linearization` lists the rows it describes.
+in one place for every constraint family. A kernel may leave out factors whose residual and
+Jacobian are exactly zero (inactive hinges): :class:`Linearization` lists the rows it describes.
+
+A constraint is declared once, in its family's class:
+
+- ``role = "constraint"`` and the kernel (:meth:`Family.constraint`);
+- how its violation is measured: :meth:`Family.check` (context, theta) ->
+  :class:`ConstraintCheck` (violated or not, by how much in its units, the reasons in words and
+  the report to reuse), on whatever the verdict trusts (the real collision geometry, the
+  limits, the tool's angle); ``check_rank`` orders the checks (the order of the verdict's
+  reasons), ``decisive`` stops the judgement at a violation (a colliding plan is not checked
+  further), ``only_if_clear`` runs a check only when every earlier one holds;
+- whether it joins the solve lazily: ``lazy = True`` and :meth:`Family.joining` (context) -> the
+  family, made when its check first fails (its check is then a classmethod: it runs before the
+  family exists). Every such class defined in the :mod:`clamp.factors` package is found there
+  (:func:`clamp.factors.lazy_families`), with no list to register it in.
+
+The planner's judge (:mod:`clamp.planning.pipeline`) runs the checks of the constraint families
+a problem holds and of the lazy ones, each once per optimum; the verdict reuses the final
+plan's records (:mod:`clamp.planning.verdict`).
 """
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import gtsam
 import numpy as np
@@ -68,6 +86,60 @@ class Constraint:
 
     value: np.ndarray
     jacobian: Callable[[np.ndarray, np.ndarray], np.ndarray] | None
+
+
+@dataclass(frozen=True)
+class ConstraintCheck:
+    """What one constraint's check says of a plan: ``name`` the family's; ``violated``;
+    ``amount`` how far beyond the constraint, in the family's units (0.0: met); ``reasons`` the
+    verdict's reasons in words (empty when met); ``report`` the check's own report, reused by
+    the verdict (e.g. a collision report); ``accepted`` False when the plan is refused without a
+    constraint to tighten (the skill not completed: another start is needed); ``clearance`` [m]
+    the least real-geometry clearance to the obstacles when the check measures it (inf
+    otherwise; the solve ranks infeasible optima by it); ``listed``: ``amount`` is one of
+    ``PlanResult.violations`` (False: the result reports the check's figures elsewhere)."""
+
+    name: str
+    violated: bool
+    amount: float = 0.0
+    reasons: tuple[str, ...] = ()
+    report: Any = None
+    accepted: bool = True
+    clearance: float = math.inf
+    listed: bool = True
+
+    @property
+    def reason(self) -> str | None:
+        """The first reason, or None when the constraint is met."""
+        return self.reasons[0] if self.reasons else None
+
+
+@dataclass(frozen=True)
+class CheckContext:
+    """What a check (and a lazy family's :meth:`Family.joining`) may use, made by the planner
+    for one model: ``robot``; ``scene`` (None: no obstacles); ``prior`` the learned workspace
+    prior and ``reference`` it conditioned on the plan's targets (where the skill goes);
+    ``config`` the PlannerConfig; ``time`` (T,) [s] of the support states; ``num_states`` T;
+    ``goal_given``: the caller gave a goal; ``obstacles``: the problem holds obstacle hinges;
+    ``families`` the problem's families as built; ``clearance(q)`` the real-geometry check of
+    joint positions q (T, n) against the scene (a robots.collision_check.CollisionReport, None
+    without obstacles); ``pusher(path)`` -> describe(state) naming what pushed an end-effector
+    path (T, 3) off the skill there (or None); ``final``: the check is the final plan's verdict
+    (True) rather than the solve's judgement of a candidate."""
+
+    robot: Any
+    scene: Any
+    prior: Any
+    reference: Any
+    config: Any
+    time: np.ndarray
+    num_states: int
+    goal_given: bool
+    obstacles: bool
+    families: tuple = ()
+    clearance: Callable[[np.ndarray], Any] = lambda q: None
+    pusher: Callable[[np.ndarray], Any] = lambda path: None
+    final: bool = False
 
 
 def square_root_information(cov: np.ndarray) -> np.ndarray:
@@ -113,6 +185,19 @@ class Family:
     role: str = "cost"
     #: (F, m) shifts s >= 0 of a constraint family's hinges (None: all zero)
     shift: np.ndarray | None = None
+    #: the judge checks it from the start and the family joins the solve only when its check
+    #: first fails (:meth:`joining`; its :meth:`check` is then a classmethod)
+    lazy: bool = False
+    #: order of the checks (lower first; the problem's order among equals): the order of the
+    #: verdict's reasons
+    check_rank: int = 30
+    #: a violation ends the judgement (nothing after it is checked: a colliding plan)
+    decisive: bool = False
+    #: checked only when every check before it holds (the skill: a plan that meets the rest)
+    only_if_clear: bool = False
+    #: the verdict checks every plan with it, whether or not the problem holds the family (its
+    #: :meth:`check` is a classmethod); the solve's judge only when the problem holds it
+    always_checked: bool = False
 
     def __init__(self, first: np.ndarray, dim: int, sigma: float | np.ndarray | None = None,
                  sqrt_information: np.ndarray | None = None):
@@ -194,6 +279,23 @@ class Family:
             return Linearization(rows[states], error,
                                  np.zeros((0, self.dim, self.arity * window.theta.shape[1])))
         return Linearization(rows[states], error, g.jacobian(states, active[states]))
+
+    def check(self, context: CheckContext, theta: np.ndarray) -> ConstraintCheck | None:
+        """The constraint's own check of the plan theta (T, 2n) (see the module docstring);
+        None: nothing to check (a cost family, or the check does not apply: no obstacles)."""
+        return None
+
+    @classmethod
+    def for_verdict(cls, context: CheckContext, theta: np.ndarray,
+                    record: ConstraintCheck) -> ConstraintCheck:
+        """The final plan's record from the solve's ``record`` of it: what the verdict adds
+        (e.g. the skill's score), nothing by default."""
+        return record
+
+    @classmethod
+    def joining(cls, context: CheckContext) -> "Family":
+        """A lazy family as it joins the solve, made from the planning context."""
+        raise NotImplementedError(f"{cls.__name__} is not a lazy family")
 
     def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         """A constraint family's unshifted g of factors ``rows`` at ``window`` (see

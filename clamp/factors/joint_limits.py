@@ -4,18 +4,68 @@ e = [max(0, max(lo + m - q, q - (hi - m))),  max(0, |qdot| - (vmax - mv))]  (2n,
 with margins m [rad], mv [rad/s] (the nearer limit's hinge: the two sides of a joint cannot both
 be out); infinite limits (continuous joints) give zero rows. Only states with an active hinge
 are returned (the others are exactly zero; hinge and shift are the base class's).
+
+Its check (:meth:`JointLimitFamily.check`, which the verdict makes on every plan) is the
+robot's own limits with the checks' tolerances, in words with the numbers
+(:func:`limit_violations`: which joint, at which state, by how much, how many states are out).
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from clamp.errors import InvalidParameterError
 from clamp.validation import as_array, as_scalar
 
-from .family import Constraint, Family
+from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
+
+
+def _worst(excess: np.ndarray) -> tuple[int, int, float] | None:
+    """(state, joint, amount) of the largest positive entry of excess (T, n), or None."""
+    if not np.any(excess > 0):
+        return None
+    state, joint = np.unravel_index(int(np.argmax(excess)), excess.shape)
+    return int(state), int(joint), float(excess[state, joint])
+
+
+def limit_violations(robot: Any, q: np.ndarray, qdot: np.ndarray | None,
+                     position_tolerance: float = 0.0, velocity_tolerance: float = 0.0,
+                     what: str = "plan") -> list[str]:
+    """Reasons (empty when none) for positions q (T, n) [rad] outside
+    [robot.lower_limits, robot.upper_limits] by more than ``position_tolerance`` and
+    velocities qdot (T, n) [rad/s] beyond robot.velocity_limits by more than
+    ``velocity_tolerance``; each names the worst joint, its state, the excess and the limit."""
+    q = np.atleast_2d(q)
+    names = robot.joint_names
+    lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
+    reasons = []
+    below, above = lower - q, q - upper
+    out = (below > position_tolerance) | (above > position_tolerance)
+    worst = _worst(np.where(out, np.maximum(below, above), 0.0))
+    if worst is not None:
+        state, joint, amount = worst
+        side, limit = ("below its lower", lower[joint]) if below[state, joint] > 0 else \
+            ("above its upper", upper[joint])
+        where = "" if len(q) == 1 else (
+            f" at state {state} ({int(np.count_nonzero(out.any(axis=1)))} of {len(q)} states "
+            "outside the position limits)")
+        reasons.append(f"{what}: joint {names[joint]} is {amount:.4g} rad {side} limit "
+                       f"{limit:.4g} rad{where}")
+    if qdot is not None:
+        vmax = np.asarray(robot.velocity_limits)
+        over = np.abs(np.atleast_2d(qdot)) - vmax
+        fast = over > velocity_tolerance
+        worst = _worst(np.where(fast, over, 0.0))
+        if worst is not None:
+            state, joint, amount = worst
+            reasons.append(f"{what}: joint {names[joint]} moves {amount:.4g} rad/s faster than "
+                           f"its limit {vmax[joint]:.4g} rad/s at state {state} "
+                           f"({int(np.count_nonzero(fast.any(axis=1)))} of {len(fast)} states "
+                           "beyond the velocity limits)")
+    return reasons
 
 
 class JointLimitFamily(Family):
@@ -25,6 +75,8 @@ class JointLimitFamily(Family):
     arity = 1
     kinematics = 0
     role = "constraint"
+    check_rank = 20
+    always_checked = True
 
     def __init__(self, indices: Sequence[int], lower: np.ndarray, upper: np.ndarray,
                  velocity_limits: np.ndarray, sigma: float, margin: float = 0.0,
@@ -46,6 +98,20 @@ class JointLimitFamily(Family):
         self.high = upper - margin
         self.vmax = velocity_limits - velocity_margin
         super().__init__(indices, 2 * len(self.low), sigma=sigma)
+
+    @classmethod
+    def check(cls, context: CheckContext, theta: np.ndarray) -> ConstraintCheck:
+        """The robot's limits with the checks' tolerances (:func:`limit_violations`); amount:
+        the largest excess over a limit [rad or rad/s]."""
+        robot, checks = context.robot, context.config.checks
+        q, qdot = theta[:, :robot.n], theta[:, robot.n:]
+        reasons = limit_violations(robot, q, qdot, checks.limit_tolerance,
+                                   checks.velocity_tolerance)
+        excess = max(float(np.max(np.asarray(robot.lower_limits) - q)),
+                     float(np.max(q - np.asarray(robot.upper_limits))),
+                     float(np.max(np.abs(qdot) - np.asarray(robot.velocity_limits))), 0.0)
+        return ConstraintCheck(cls.name, bool(reasons), excess if reasons else 0.0,
+                               tuple(reasons), reasons, listed=False)
 
     def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         i = window.local(self.first[rows])

@@ -8,6 +8,10 @@ the hinge is active, 0 otherwise, 0 for qdot (the hinge and its shift are the ba
 :meth:`clamp.factors.family.Family.residual`). The sphere centres of every state are computed (without Jacobians) to find the active
 hinges; centre Jacobians only for the states that have one (usually a few percent): the other
 factors are exactly zero and left out.
+
+Its check (:meth:`ObstacleFamily.check`) is not the spheres: the verdict measures the plan on the
+robot's own collision geometry against the scene's exact obstacles (``context.clearance``,
+:func:`clamp.planning.clearance.check_clearance`), and a collision there ends the judgement.
 """
 from __future__ import annotations
 
@@ -18,11 +22,34 @@ import numpy as np
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_array, as_scalar
 
-from .family import Constraint, Family
+from robots.collision_check import CollisionReport, Contact
+
+from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
 #: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3))
 DistanceQuery = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+def describe_contact(contact: Contact, geometry: str) -> str:
+    """One phrase naming link, obstacle, where and how far, e.g. "link j2s6s200_link_finger_tip_1
+    1.2 mm inside box_0 at state 12.25 (t = 3.10 s), on the URDF collision geometry"."""
+    depth = contact.distance * 1000.0
+    how = f"{-depth:.1f} mm inside" if depth < 0 else f"{depth:.1f} mm from"
+    index = f"{round(contact.index, 2):g}"
+    when = "" if contact.time is None else f" (t = {contact.time:.2f} s)"
+    source = ("the URDF collision geometry" if geometry == "urdf"
+              else "the collision spheres (the robot has no collision geometry)")
+    return f"link {contact.link} {how} {contact.obstacle} at state {index}{when}, on {source}"
+
+
+def collision_reason(report: CollisionReport | None) -> str | None:
+    """The verdict's reason when ``report`` found a collision, else None."""
+    if report is None or not report.collision:
+        return None
+    if report.fault is not None:
+        return f"collision check failed: {report.fault}"
+    return f"collision: {describe_contact(report.nearest, report.geometry)}"
 
 
 class ObstacleFamily(Family):
@@ -32,6 +59,9 @@ class ObstacleFamily(Family):
     arity = 1
     kinematics = 2
     role = "constraint"
+    check_rank = 0
+    decisive = True
+    always_checked = True
 
     def __init__(self, indices: Sequence[int], radii: np.ndarray, query: DistanceQuery,
                  epsilon: float, sigma: float):
@@ -45,6 +75,19 @@ class ObstacleFamily(Family):
         self.query = query
         self.epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
         super().__init__(indices, len(self.radii), sigma=sigma)
+
+    @classmethod
+    def check(cls, context: CheckContext, theta: np.ndarray) -> ConstraintCheck | None:
+        """The plan on the robot's collision geometry against the scene (None without
+        obstacles); amount [m]: the deepest penetration."""
+        report = context.clearance(theta[:, :context.robot.n])
+        if report is None:
+            return None
+        reason = collision_reason(report)
+        return ConstraintCheck(cls.name, bool(report.collision),
+                               max(0.0, -float(report.min_distance)),
+                               () if reason is None else (reason,), report,
+                               clearance=float(report.min_distance), listed=False)
 
     def penetration(self, window: StateWindow) -> float:
         """Deepest penetration [m] of a sphere into an obstacle over the family's states

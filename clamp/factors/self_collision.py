@@ -18,6 +18,11 @@ collision spheres plus constant ones on the base; the pairs are those of
 :func:`robots.self_collision.self_collision_spheres` (links neither the same body nor parent and
 child, that come within reach in some configuration, not overlapping almost always), computed
 once per robot. Centre Jacobians only for factors with an active hinge; the others are left out.
+
+A lazy constraint: its check (:meth:`SelfCollisionFamily.check`) is the verdict's
+self-collision report on the URDF collision geometry (:func:`robots.self_collision_report`),
+run on every plan; the hinges join the solve (:meth:`SelfCollisionFamily.joining`, checking
+:data:`BETWEEN` configurations in every step) when it first finds a collision.
 """
 from __future__ import annotations
 
@@ -26,14 +31,22 @@ from collections.abc import Sequence
 import numpy as np
 
 from clamp.errors import ClampTypeError, InvalidParameterError
-from robots.self_collision import SPHERE_REACH, SelfCollisionSpheres, self_collision_spheres
+from robots.self_collision import (SPHERE_REACH, SelfCollisionSpheres, self_collision_report,
+                                   self_collision_spheres)
 from clamp.validation import as_count, as_scalar
 
-from .family import Constraint, Family
+from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
 #: |c_a - c_b| below this [m] counts as coincident centres (the direction u is then +x)
 _COINCIDENT = 1e-12
+#: configurations checked between two states by the hinges the planner adds (a link swept
+#: through another between states is caught)
+BETWEEN = 8
+#: [m] the self-collision check's tolerance on a clear plan's clearance (collisions and depths
+#: exact): Jaco plans whose wrist passes within ~7 cm of its forearm took 800 exact mesh
+#: queries (0.7 s) to pin the clearance exactly
+CLEARANCE_TOLERANCE = 0.01
 
 
 class SelfCollisionFamily(Family):
@@ -47,6 +60,8 @@ class SelfCollisionFamily(Family):
     arity = 2
     kinematics = 2
     role = "constraint"
+    lazy = True
+    check_rank = 10
 
     def __init__(self, indices: Sequence[int], spheres: SelfCollisionSpheres, epsilon: float, sigma: float,
                  between: int = 4):
@@ -73,6 +88,24 @@ class SelfCollisionFamily(Family):
         computed once per robot) on the steps i -> i + 1 of the support states i in ``states``
         (``range(T - 1)``: a whole plan of T states). epsilon at most SPHERE_REACH (0.1 m)."""
         return cls(states, self_collision_spheres(robot), epsilon, sigma, between)
+
+    @classmethod
+    def check(cls, context: CheckContext, theta: np.ndarray) -> ConstraintCheck:
+        """The plan's self-collision report on the URDF collision geometry; amount [m]: the
+        deepest overlap."""
+        report = self_collision_report(context.robot, theta[:, :context.robot.n], context.time,
+                                       tolerance=CLEARANCE_TOLERANCE)
+        return ConstraintCheck(cls.name, bool(report.collision),
+                               max(0.0, -float(report.min_distance)) if report.collision else 0.0,
+                               (report.reason,) if report.collision else (), report,
+                               listed=False)
+
+    @classmethod
+    def joining(cls, context: CheckContext) -> "SelfCollisionFamily":
+        """The hinges on every step of the plan, at the configured safety distance and noise."""
+        model = context.config.model
+        return cls.for_robot(context.robot, range(context.num_states - 1),
+                             model.self_collision_epsilon, model.self_collision_sigma, BETWEEN)
 
     def _centres(self, robot, q: np.ndarray, jacobians: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """Centres (M, S + B, 3) of the robot's and the fixed spheres at q (M, n), and their

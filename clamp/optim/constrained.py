@@ -47,12 +47,12 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from clamp.config import ConstraintConfig, PlannerConfig
-from clamp.factors import Family, ObstacleFamily
+from clamp.factors import ConstraintCheck, Family, ObstacleFamily
 from clamp.optim.optimizers import Optimized, optimize
 from clamp.graph.problem import PlanningProblem
 from clamp.optim.solver import WarmStart
@@ -63,18 +63,24 @@ log = logging.getLogger(__name__)
 class Feasibility:
     """What the verdict's checks say of one optimum: the constraint families found violated
     (by name, e.g. "obstacle", "joint_limits", "self_collision", "skill_tube"), whether the
-    skill checks accept it (the skill completed), and the check reports to reuse (``reports``:
-    e.g. "obstacle" -> the collision report, "self_collision" -> the self-collision report)."""
+    skill checks accept it (the skill completed), and every check's record to reuse
+    (``checks``: :class:`clamp.factors.ConstraintCheck`, in the order they ran; ``reports``:
+    name -> the check's report, e.g. "obstacle" -> the collision report)."""
 
     violated: tuple[str, ...]
     accepted: bool = True
-    reports: Mapping[str, object] = field(default_factory=dict)
+    checks: tuple[ConstraintCheck, ...] = ()
     #: [m] the least real-geometry clearance to the obstacles (inf without)
     clearance: float = float("inf")
 
     @property
     def ok(self) -> bool:
         return not self.violated and self.accepted
+
+    @property
+    def reports(self) -> Mapping[str, object]:
+        """The checks' reports by family name."""
+        return {check.name: check.report for check in self.checks}
 
 
 #: theta (T, 2n) -> what the checks say of it

@@ -21,12 +21,17 @@ from typing import Any
 
 import numpy as np
 
+from clamp.factors.obstacle import collision_reason, describe_contact
 from clamp.planning.request import has_obstacles
 from robots.collision_check import RESOLUTION, CollisionChecker, CollisionReport, Contact
 from robots.errors import CollisionCheckError
 from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
 
 log = logging.getLogger(__name__)
+
+#: the obstacle check's words, with the family (:mod:`clamp.factors.obstacle`)
+__all__ = ["checker", "check_clearance", "state_clearance", "contact_obstacle", "pusher",
+           "describe_contact", "collision_reason", "MAX_MOTION"]
 
 #: [m] largest motion of any link point between two checked configurations of a segment
 MAX_MOTION = 0.005
@@ -77,22 +82,23 @@ def contact_obstacle(robot: Any, scene: Any, contact: Contact) -> Any:
     return scene.obstacles[coal_obstacle_owners(scene)[triple]]
 
 
-def describe_contact(contact: Contact, geometry: str) -> str:
-    """One phrase naming link, obstacle, where and how far, e.g. "link j2s6s200_link_finger_tip_1
-    1.2 mm inside box_0 at state 12.25 (t = 3.10 s), on the URDF collision geometry"."""
-    depth = contact.distance * 1000.0
-    how = f"{-depth:.1f} mm inside" if depth < 0 else f"{depth:.1f} mm from"
-    index = f"{round(contact.index, 2):g}"
-    when = "" if contact.time is None else f" (t = {contact.time:.2f} s)"
-    source = ("the URDF collision geometry" if geometry == "urdf"
-              else "the collision spheres (the robot has no collision geometry)")
-    return f"link {contact.link} {how} {contact.obstacle} at state {index}{when}, on {source}"
-
-
-def collision_reason(report: CollisionReport | None) -> str | None:
-    """The verdict's reason when ``report`` found a collision, else None."""
-    if report is None or not report.collision:
+def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
+    """describe(state) -> what pushed ``path`` (T, 3) away from ``reference`` (T, 3) at that
+    state: the obstacle nearest to where the skill goes, when it is within the plan's departure
+    plus the safety distance ``epsilon`` [m] ("box_0 (the skill's path runs 27 mm inside it
+    there)"), else that no obstacle is near; None without obstacles."""
+    if not has_obstacles(scene):
         return None
-    if report.fault is not None:
-        return f"collision check failed: {report.fault}"
-    return f"collision: {describe_contact(report.nearest, report.geometry)}"
+
+    def describe(state: int) -> str:
+        point = reference[state][None]
+        gaps = [float(o.distance(point)[0]) for o in scene.obstacles]
+        k = int(np.argmin(gaps))
+        name = f"{scene.obstacles[k].kind}_{k}"
+        if gaps[k] > np.linalg.norm(path[state] - reference[state]) + epsilon:
+            return (f"no obstacle (the nearest, {name}, is {1000 * gaps[k]:.0f} mm from the "
+                    "skill's path there): the plan's other factors")
+        where = (f"the skill's path runs {-1000 * gaps[k]:.0f} mm inside it there" if gaps[k] < 0
+                 else f"{1000 * gaps[k]:.0f} mm from the skill's path there")
+        return f"{name} ({where})"
+    return describe
