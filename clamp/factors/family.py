@@ -280,6 +280,12 @@ class Family:
                                  np.zeros((0, self.dim, self.arity * window.theta.shape[1])))
         return Linearization(rows[states], error, g.jacobian(states, active[states]))
 
+    def for_plan(self, num_states: int, robot: Any) -> "Family":
+        """This family for a plan of ``num_states`` support states of ``robot``: itself, or for
+        one made without them (e.g. ``TablePlaneFamily(height=0.1)`` in
+        ``clamp.plan(extra_factors=...)``) the family over that plan's states and robot."""
+        return self
+
     def check(self, context: CheckContext, theta: np.ndarray) -> ConstraintCheck | None:
         """The constraint's own check of the plan theta (T, 2n) (see the module docstring);
         None: nothing to check (a cost family, or the check does not apply: no obstacles)."""

@@ -142,7 +142,7 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
     robot and config (the validation at the boundary), ``scene`` a scenes.Scene or None,
     ``extra_factors`` checked by :func:`as_extras`. What :func:`clamp.plan` runs."""
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
-    extra_families, foreign = split_extras(extra_factors, T)
+    extra_families, foreign = split_extras(extra_factors, T, robot)
     if model_prior is None:                       # the prior conditioned on the targets
         model_prior = planning_prior(prior, robot, request, config)
     reach = config.model.epsilon + float(np.max(robot.spheres.radii, initial=0.0))
