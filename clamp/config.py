@@ -1,4 +1,5 @@
-"""Planner settings in three small groups: the model (factor graph), the optimizer, the checks.
+"""Planner settings in four small groups: the model (factor graph), the optimizer, the
+constrained solve's augmented Lagrangian, the checks.
 
 ``PlannerConfig()`` holds the one set of defaults used by the Python API and the command line.
 Every group is a frozen dataclass; ``dataclasses.replace`` or :meth:`PlannerConfig.with_` make
@@ -112,13 +113,34 @@ class OptimizerConfig:
     #: fails a check; 0: the weighted solve only (see docs/decisions.md#constraint_rounds)
     constraint_rounds: int = 2
     #: a fresh plan whose initial trajectory runs through an obstacle first solves with the
-    #: obstacle hinge noise multiplied by this (a factor >= 1), loosely
-    #: (:data:`clamp.optim.constrained.SOFT_START_TOLERANCE`); 1: the configured weight directly
-    #: (see docs/decisions.md#soft_start)
+    #: obstacle hinge noise multiplied by this (a factor >= 1), loosely (``soft_start_tolerance``
+    #: of :class:`ConstraintConfig`); 1: the configured weight directly (see
+    #: docs/decisions.md#soft_start)
     soft_start: float = 4.0
     #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
     #: workspace states (0 = plain LM; see docs/decisions.md#workspace_correction)
     workspace_correction: int = 2
+
+
+@dataclass(frozen=True)
+class ConstraintConfig:
+    """The augmented-Lagrangian schedule of the constrained solve (:mod:`clamp.optim.constrained`;
+    how many updates per start and the soft first solve's weight are ``constraint_rounds`` and
+    ``soft_start`` of :class:`OptimizerConfig`)."""
+
+    #: a constraint family's violation must fall below this fraction of the previous round's,
+    #: or its penalty grows
+    progress: float = 0.25
+    #: noise divisor of a constraint family whose violation did not fall enough (penalty x
+    #: stiffen ** 2)
+    stiffen: float = 4.0
+    #: feasible candidates after which the restarts stop (1: the first feasible restart is
+    #: kept; 2 -> 1 on 80 scene-benchmark Jaco problems (Qc 1e-3, 3 rounds): the same
+    #: completions and path measures, planning time p95 13.6x -> 10.8x the free plan's)
+    wanted: int = 1
+    #: relative error decrease below which the soft first solve stops (after one such step;
+    #: 3e-2 took fewer iterations than 1e-2 and 3e-3 on box_closing with random boxes, both arms)
+    soft_start_tolerance: float = 3e-2
 
 
 @dataclass(frozen=True)
@@ -141,7 +163,7 @@ class CheckConfig:
 
 @dataclass(frozen=True, init=False)
 class PlannerConfig:
-    """All planner settings: ``model``, ``optimizer`` and ``checks`` groups.
+    """All planner settings: ``model``, ``optimizer``, ``constraints`` and ``checks`` groups.
 
     ``PlannerConfig(sigma_obs=0.01)`` is ``PlannerConfig().with_(sigma_obs=0.01)``: any field
     of any group by name. Every configuration is checked when made (InvalidParameterError
@@ -151,20 +173,24 @@ class PlannerConfig:
     model: ModelConfig
     optimizer: OptimizerConfig
     checks: CheckConfig
+    constraints: ConstraintConfig
 
     def __init__(self, model: ModelConfig | None = None, optimizer: OptimizerConfig | None = None,
-                 checks: CheckConfig | None = None, **changes: Any) -> None:
+                 checks: CheckConfig | None = None, constraints: ConstraintConfig | None = None,
+                 **changes: Any) -> None:
         if isinstance(optimizer, str):   # PlannerConfig(optimizer="gtsam"): the optimizer's name
             optimizer, changes = None, {**changes, "optimizer": optimizer}
         self._assign({"model": ModelConfig() if model is None else model,
                       "optimizer": OptimizerConfig() if optimizer is None else optimizer,
-                      "checks": CheckConfig() if checks is None else checks}, changes)
+                      "checks": CheckConfig() if checks is None else checks,
+                      "constraints": ConstraintConfig() if constraints is None else constraints},
+                     changes)
 
     def _assign(self, groups: dict[str, Any], changes: dict[str, Any]) -> None:
-        """Set the three groups with ``changes`` (field name -> value) applied, then validate."""
+        """Set the groups with ``changes`` (field name -> value) applied, then validate."""
         for group, value in groups.items():
-            if not isinstance(value, _GROUPS[group]):
-                raise InvalidParameterError(f"config.{group}: expected {_GROUPS[group].__name__}, "
+            if not isinstance(value, GROUPS[group]):
+                raise InvalidParameterError(f"config.{group}: expected {GROUPS[group].__name__}, "
                                             f"got {type(value).__name__}")
         owner = {f.name: g for g, obj in groups.items() for f in fields(obj)}
         updates: dict[str, dict[str, Any]] = {g: {} for g in groups}
@@ -181,8 +207,7 @@ class PlannerConfig:
     def with_(self, **changes: Any) -> "PlannerConfig":
         """A copy with fields of any group changed by name, e.g. ``with_(sigma_obs=0.005)``."""
         new = object.__new__(PlannerConfig)
-        new._assign({"model": self.model, "optimizer": self.optimizer, "checks": self.checks},
-                    changes)
+        new._assign({group: getattr(self, group) for group in GROUPS}, changes)
         return new
 
     @classmethod
@@ -201,7 +226,7 @@ class PlannerConfig:
 
     def validate(self) -> "PlannerConfig":
         """Check every field; raises InvalidParameterError naming the bad one."""
-        m, o, c = self.model, self.optimizer, self.checks
+        m, o, c, a = self.model, self.optimizer, self.checks, self.constraints
         for name in ("epsilon", "limit_margin", "velocity_margin", "posture_sigma", "posture_Qc",
                      "posture_velocity_sigma", "self_collision_epsilon"):
             as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
@@ -236,10 +261,16 @@ class PlannerConfig:
             as_scalar(getattr(c, name), f"config.checks.{name}", minimum=0.0)
         for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", strictly_positive=True)
+        as_scalar(a.progress, "config.constraints.progress", strictly_positive=True, maximum=1.0)
+        as_scalar(a.stiffen, "config.constraints.stiffen", minimum=1.0)
+        as_count(a.wanted, "config.constraints.wanted", minimum=1)
+        as_scalar(a.soft_start_tolerance, "config.constraints.soft_start_tolerance", minimum=0.0)
         return self
 
 
-_GROUPS = {"model": ModelConfig, "optimizer": OptimizerConfig, "checks": CheckConfig}
+#: the groups of a :class:`PlannerConfig`: attribute name -> class
+GROUPS = {"model": ModelConfig, "optimizer": OptimizerConfig, "checks": CheckConfig,
+          "constraints": ConstraintConfig}
 
 
 def as_config(config: Any) -> PlannerConfig:

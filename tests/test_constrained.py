@@ -4,16 +4,18 @@
   (measured from the unshifted kernel wherever it is active), Jacobians still those of g
   (central differences), the GTSAM adapters the same kernel; cost families have no shifts;
 - one multiplier update (:func:`clamp.optim.constrained.augmented`): the shift of a violated family
-  becomes its current residual, its noise is divided by STIFFEN at its first update (and its
-  shifts by STIFFEN^2, so lambda = mu s is the same multiplier), a family the checks did not
-  name is left as it is, a lazy family joins unshifted at its configured noise.
+  becomes its current residual, its noise is divided by the configuration's ``stiffen`` at its
+  first update (and its shifts by stiffen^2, so lambda = mu s is the same multiplier), a family
+  the checks did not name is left as it is, a lazy family joins unshifted at its configured
+  noise; the schedule's constants are the ``constraints`` group of PlannerConfig.
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from clamp.optim.constrained import PROGRESS, STIFFEN, augmented
+from clamp.config import ConstraintConfig, PlannerConfig
+from clamp.optim.constrained import augmented
 from clamp.errors import InvalidParameterError
 from clamp.factors import PostureFamily, SelfCollisionFamily
 from clamp.graph.problem import PlanningProblem
@@ -62,6 +64,18 @@ def test_a_shift_moves_the_hinge_and_keeps_its_jacobian(setup):
             0.5 * float(np.sum(b * b)), rel=1e-9)
 
 
+def test_the_base_class_applies_every_shift(setup):
+    """A constraint family gives its unshifted g (``constraint``); the hinge and its shift are
+    Family.residual's alone: no constraint family overrides it."""
+    from clamp.factors import Family
+    _, _, families, _ = setup
+    constraints = [f for f in families if f.role == "constraint"]
+    assert {f.name for f in constraints} >= {"obstacle", "joint_limits", "orientation",
+                                             "self_collision", "skill_tube"}
+    for family in constraints:
+        assert type(family).residual is Family.residual, family.name
+
+
 def test_cost_families_have_no_shifts(setup):
     _, _, families, _ = setup
     cost = next(f for f in families if f.role == "cost")
@@ -80,6 +94,7 @@ def test_one_multiplier_update(setup):
             for name in ("self_collision", "skill_tube")}
     previous: dict[str, float] = {}
     new = augmented(problem, theta, ["obstacle", "self_collision"], previous, lazy)
+    STIFFEN, PROGRESS = ConstraintConfig().stiffen, ConstraintConfig().progress
 
     obstacle, updated = problem.family("obstacle"), new.family("obstacle")
     # first update: noise / STIFFEN, shift = the residual now / STIFFEN^2 (same multiplier)
@@ -110,3 +125,20 @@ def test_one_multiplier_update(setup):
     assert tube.family("skill_tube").shift is None
     for name in ("obstacle", PostureFamily.name, "self_collision"):
         assert tube.family(name) is again.family(name)
+
+    # the schedule comes from the configuration: another stiffening factor
+    config = PlannerConfig().with_(stiffen=2.0)
+    assert config.constraints.stiffen == 2.0 and config.optimizer == PlannerConfig().optimizer
+    softer = augmented(problem, theta, ["obstacle"], {}, lazy, config.constraints)
+    np.testing.assert_allclose(softer.family("obstacle").whitening, 2.0 * obstacle.whitening)
+
+
+def test_constraint_config_defaults_and_checks():
+    """The schedule's defaults are the constants the solve used before the group existed."""
+    defaults = PlannerConfig().constraints
+    assert (defaults.progress, defaults.stiffen, defaults.wanted,
+            defaults.soft_start_tolerance) == (0.25, 4.0, 1, 3e-2)
+    for bad in ({"progress": 0.0}, {"stiffen": 0.5}, {"wanted": 0},
+                {"soft_start_tolerance": -1.0}):
+        with pytest.raises(InvalidParameterError, match=f"config.constraints.{next(iter(bad))}"):
+            PlannerConfig().with_(**bad)

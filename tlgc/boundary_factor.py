@@ -134,7 +134,7 @@ class BoundaryFamily(Family):
 
     name = "tlgc_boundary"
     arity = 1
-    cost = 1
+    kinematics = 1
 
     def __init__(self, cylinder: Any, num_states: int, margin: float = 0.0,
                  sigma: float = 0.01, states: Any = None) -> None:

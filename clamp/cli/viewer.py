@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from clamp.errors import InvalidParameterError
-from clamp.config import PlannerConfig
+from clamp.config import GROUPS, PlannerConfig
 from clamp.batch.problems import make_problem
 from skillplan.command_line import atomic_write_text
 from clamp.batch.runner import resolve
@@ -46,7 +46,7 @@ def config_changes(config: Any) -> dict[str, Any]:
     """The fields of a PlannerConfig that differ from ``PlannerConfig()`` (field -> value)."""
     default = PlannerConfig()
     return {f.name: getattr(getattr(config, group), f.name)
-            for group in ("model", "optimizer", "checks") for f in fields(getattr(config, group))
+            for group in GROUPS for f in fields(getattr(config, group))
             if getattr(getattr(config, group), f.name) != getattr(getattr(default, group), f.name)}
 
 

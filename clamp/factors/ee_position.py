@@ -19,7 +19,7 @@ class EEPositionFamily(Family):
 
     name = "ee_position"
     arity = 1
-    cost = 1
+    kinematics = 1
 
     def __init__(self, indices: Sequence[int], targets: np.ndarray, sigmas: Sequence[float]):
         indices = as_indices(indices, "indices")

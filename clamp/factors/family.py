@@ -20,15 +20,36 @@ A family's ``role`` says how the solve treats it: ``"cost"`` (a term of the post
 constraint g(theta) <= 0 (a sphere's reach into an obstacle, a joint beyond its limit) and a
 shift s >= 0 (:attr:`Family.shift`, zero unless set), which the augmented-Lagrangian solve of
 :mod:`clamp.optim.constrained` sets to lambda / mu (the multiplier over the penalty weight mu, the
-squared whitening). Such a family is also judged by the verdict (its own check: the real
-collision geometry, the limits, ``violation(robot, q)``), which decides when its constraint
-holds. A kernel may leave out factors whose residual and Jacobian are exactly zero (inactive
-hinges): :class:`Linearization` lists the rows it describes.
+squared whitening). A constraint family implements :meth:`Family.constraint` (g and its
+Jacobian) instead of :meth:`Family.residual`: the base class adds the shift and takes the hinge,
+in one place for every constraint family. A kernel may leave out factors whose residual and
+Jacobian are exactly zero (inactive hinges): :class:`Linearization` lists the rows it describes.
+
+A constraint is declared once, in its family's class:
+
+- ``role = "constraint"`` and the kernel (:meth:`Family.constraint`);
+- how its violation is measured: :meth:`Family.check` (context, theta) ->
+  :class:`ConstraintCheck` (violated or not, by how much in its units, the reasons in words and
+  the report to reuse), on whatever the verdict trusts (the real collision geometry, the
+  limits, the tool's angle); ``check_rank`` orders the checks (the order of the verdict's
+  reasons), ``decisive`` stops the judgement at a violation (a colliding plan is not checked
+  further), ``only_if_clear`` runs a check only when every earlier one holds;
+- whether it joins the solve lazily: ``lazy = True`` and :meth:`Family.joining` (context) -> the
+  family, made when its check first fails (its check is then a classmethod: it runs before the
+  family exists). Every such class defined in the :mod:`clamp.factors` package is found there
+  (:func:`clamp.factors.lazy_families`), with no list to register it in.
+
+The planner's judge (:mod:`clamp.planning.pipeline`) runs the checks of the constraint families
+a problem holds and of the lazy ones, each once per optimum; the verdict reuses the final
+plan's records (:mod:`clamp.planning.verdict`).
 """
 from __future__ import annotations
 
 import copy
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import gtsam
 import numpy as np
@@ -51,6 +72,74 @@ class Linearization:
     rows: np.ndarray
     error: np.ndarray
     jacobian: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """Unshifted constraint values of some factors of a constraint family (the hinge's g).
+
+    value (R, m): g of the R factors requested (-inf where a hinge cannot be active, e.g. an
+    infinite joint limit); jacobian(states, active) -> (A, m, arity 2n): d g / d [theta_first,
+    ...] of the requested factors ``states`` (A,) (indices into the R), zero where ``active``
+    (A, m) is False; None when Jacobians were not requested.
+    """
+
+    value: np.ndarray
+    jacobian: Callable[[np.ndarray, np.ndarray], np.ndarray] | None
+
+
+@dataclass(frozen=True)
+class ConstraintCheck:
+    """What one constraint's check says of a plan: ``name`` the family's; ``violated``;
+    ``amount`` how far beyond the constraint, in the family's units (0.0: met); ``reasons`` the
+    verdict's reasons in words (empty when met); ``report`` the check's own report, reused by
+    the verdict (e.g. a collision report); ``accepted`` False when the plan is refused without a
+    constraint to tighten (the skill not completed: another start is needed); ``clearance`` [m]
+    the least real-geometry clearance to the obstacles when the check measures it (inf
+    otherwise; the solve ranks infeasible optima by it); ``listed``: ``amount`` is one of
+    ``PlanResult.violations`` (False: the result reports the check's figures elsewhere)."""
+
+    name: str
+    violated: bool
+    amount: float = 0.0
+    reasons: tuple[str, ...] = ()
+    report: Any = None
+    accepted: bool = True
+    clearance: float = math.inf
+    listed: bool = True
+
+    @property
+    def reason(self) -> str | None:
+        """The first reason, or None when the constraint is met."""
+        return self.reasons[0] if self.reasons else None
+
+
+@dataclass(frozen=True)
+class CheckContext:
+    """What a check (and a lazy family's :meth:`Family.joining`) may use, made by the planner
+    for one model: ``robot``; ``scene`` (None: no obstacles); ``prior`` the learned workspace
+    prior and ``reference`` it conditioned on the plan's targets (where the skill goes);
+    ``config`` the PlannerConfig; ``time`` (T,) [s] of the support states; ``num_states`` T;
+    ``goal_given``: the caller gave a goal; ``obstacles``: the problem holds obstacle hinges;
+    ``families`` the problem's families as built; ``clearance(q)`` the real-geometry check of
+    joint positions q (T, n) against the scene (a robots.collision_check.CollisionReport, None
+    without obstacles); ``pusher(path)`` -> describe(state) naming what pushed an end-effector
+    path (T, 3) off the skill there (or None); ``final``: the check is the final plan's verdict
+    (True) rather than the solve's judgement of a candidate."""
+
+    robot: Any
+    scene: Any
+    prior: Any
+    reference: Any
+    config: Any
+    time: np.ndarray
+    num_states: int
+    goal_given: bool
+    obstacles: bool
+    families: tuple = ()
+    clearance: Callable[[np.ndarray], Any] = lambda q: None
+    pusher: Callable[[np.ndarray], Any] = lambda path: None
+    final: bool = False
 
 
 def square_root_information(cov: np.ndarray) -> np.ndarray:
@@ -80,20 +169,35 @@ class Family:
     first (F,) first support state of every factor; dim m residual size; sigma: isotropic noise
     standard deviation (scalar, or (F,) per factor) in the residual's units, or
     sqrt_information (F, m, m) / (m, m) for correlated noise (exactly one of the two).
-    Subclasses set ``name``, ``arity`` and ``cost`` (0: no kinematics, 1: end-effector
-    kinematics, 2: collision spheres) and implement :meth:`residual`; ``linear = True`` declares
+    Subclasses set ``name``, ``arity`` and ``kinematics`` (the kinematics tier its kernel
+    needs: 0 none, 1 end-effector, 2 collision spheres; a problem's error sums the cheapest
+    tiers first) and implement :meth:`residual`; ``linear = True`` declares
     a residual affine in theta (constant Jacobian, every requested row returned), whose
     Jacobian and J^T J the fast solver then assembles once.
     """
 
     name: str = "family"
     arity: int = 1
-    cost: int = 1
+    #: kinematics its kernel needs: 0 none (joint space), 1 end-effector, 2 collision spheres
+    kinematics: int = 1
     linear: bool = False
     #: "cost" or "constraint" (a hinge family with a shift; see the module docstring)
     role: str = "cost"
     #: (F, m) shifts s >= 0 of a constraint family's hinges (None: all zero)
     shift: np.ndarray | None = None
+    #: the judge checks it from the start and the family joins the solve only when its check
+    #: first fails (:meth:`joining`; its :meth:`check` is then a classmethod)
+    lazy: bool = False
+    #: order of the checks (lower first; the problem's order among equals): the order of the
+    #: verdict's reasons
+    check_rank: int = 30
+    #: a violation ends the judgement (nothing after it is checked: a colliding plan)
+    decisive: bool = False
+    #: checked only when every check before it holds (the skill: a plan that meets the rest)
+    only_if_clear: bool = False
+    #: the verdict checks every plan with it, whether or not the problem holds the family (its
+    #: :meth:`check` is a classmethod); the solve's judge only when the problem holds it
+    always_checked: bool = False
 
     def __init__(self, first: np.ndarray, dim: int, sigma: float | np.ndarray | None = None,
                  sqrt_information: np.ndarray | None = None):
@@ -156,7 +260,53 @@ class Family:
         return self.whitening.ndim == 1
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
-        """Residuals (and Jacobians) of factors ``rows`` at ``window`` (which holds their states)."""
+        """Residuals (and Jacobians) of factors ``rows`` at ``window`` (which holds their states).
+
+        A cost family implements it. A constraint family's is the hinge of its
+        :meth:`constraint`, made here: e = max(0, g + s) with the shifts s (the one place they
+        are applied), factors with no active component left out, the Jacobian of g where a
+        component is active (zero elsewhere)."""
+        if self.role != "constraint":
+            raise NotImplementedError(f"{type(self).__name__}: a cost family implements residual")
+        g = self.constraint(window, rows, jacobians)
+        hinge = g.value + self.offset(rows)
+        active = hinge > 0.0
+        states = np.flatnonzero(np.any(active, axis=1))
+        error = np.where(active[states], hinge[states], 0.0)
+        if not jacobians:
+            return Linearization(rows[states], error, None)
+        if not len(states):
+            return Linearization(rows[states], error,
+                                 np.zeros((0, self.dim, self.arity * window.theta.shape[1])))
+        return Linearization(rows[states], error, g.jacobian(states, active[states]))
+
+    def for_plan(self, num_states: int, robot: Any) -> "Family":
+        """This family for a plan of ``num_states`` support states of ``robot``: itself, or for
+        one made without them (e.g. ``TablePlaneFamily(height=0.1)`` in
+        ``clamp.plan(extra_factors=...)``) the family over that plan's states and robot."""
+        return self
+
+    def check(self, context: CheckContext, theta: np.ndarray) -> ConstraintCheck | None:
+        """The constraint's own check of the plan theta (T, 2n) (see the module docstring);
+        None: nothing to check (a cost family, or the check does not apply: no obstacles)."""
+        return None
+
+    @classmethod
+    def for_verdict(cls, context: CheckContext, theta: np.ndarray,
+                    record: ConstraintCheck) -> ConstraintCheck:
+        """The final plan's record from the solve's ``record`` of it: what the verdict adds
+        (e.g. the skill's score), nothing by default."""
+        return record
+
+    @classmethod
+    def joining(cls, context: CheckContext) -> "Family":
+        """A lazy family as it joins the solve, made from the planning context."""
+        raise NotImplementedError(f"{cls.__name__} is not a lazy family")
+
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
+        """A constraint family's unshifted g of factors ``rows`` at ``window`` (see
+        :class:`Constraint`): the hinge, shift and activity are :meth:`residual`'s. A kernel may
+        read the shifts (:meth:`offset`) to skip work no active hinge needs, never add them."""
         raise NotImplementedError
 
     def whiten(self, rows: np.ndarray, values: np.ndarray) -> np.ndarray:

@@ -33,7 +33,7 @@ class JointGPFamily(Family):
 
     name = "joint_gp"
     arity = 2
-    cost = 0
+    kinematics = 0
     linear = True
 
     def __init__(self, num_states: int, n: int, dt: float, Qc: float | np.ndarray = 1.0):

@@ -1,20 +1,71 @@
 """Joint-limit family: hinges on the joint positions and velocities of every support state.
 
-e = [max(0, lo + m - q) + max(0, q - (hi - m)),  max(0, |qdot| - (vmax - mv))]  (2n,)
-with margins m [rad], mv [rad/s]; infinite limits (continuous joints) give zero rows. Only
-states with an active hinge are returned (the others are exactly zero).
+e = [max(0, max(lo + m - q, q - (hi - m))),  max(0, |qdot| - (vmax - mv))]  (2n,)
+with margins m [rad], mv [rad/s] (the nearer limit's hinge: the two sides of a joint cannot both
+be out); infinite limits (continuous joints) give zero rows. Only states with an active hinge
+are returned (the others are exactly zero; hinge and shift are the base class's).
+
+Its check (:meth:`JointLimitFamily.check`, which the verdict makes on every plan) is the
+robot's own limits with the checks' tolerances, in words with the numbers
+(:func:`limit_violations`: which joint, at which state, by how much, how many states are out).
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from clamp.errors import InvalidParameterError
 from clamp.validation import as_array, as_scalar
 
-from .family import Family, Linearization
+from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
+
+
+def _worst(excess: np.ndarray) -> tuple[int, int, float] | None:
+    """(state, joint, amount) of the largest positive entry of excess (T, n), or None."""
+    if not np.any(excess > 0):
+        return None
+    state, joint = np.unravel_index(int(np.argmax(excess)), excess.shape)
+    return int(state), int(joint), float(excess[state, joint])
+
+
+def limit_violations(robot: Any, q: np.ndarray, qdot: np.ndarray | None,
+                     position_tolerance: float = 0.0, velocity_tolerance: float = 0.0,
+                     what: str = "plan") -> list[str]:
+    """Reasons (empty when none) for positions q (T, n) [rad] outside
+    [robot.lower_limits, robot.upper_limits] by more than ``position_tolerance`` and
+    velocities qdot (T, n) [rad/s] beyond robot.velocity_limits by more than
+    ``velocity_tolerance``; each names the worst joint, its state, the excess and the limit."""
+    q = np.atleast_2d(q)
+    names = robot.joint_names
+    lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
+    reasons = []
+    below, above = lower - q, q - upper
+    out = (below > position_tolerance) | (above > position_tolerance)
+    worst = _worst(np.where(out, np.maximum(below, above), 0.0))
+    if worst is not None:
+        state, joint, amount = worst
+        side, limit = ("below its lower", lower[joint]) if below[state, joint] > 0 else \
+            ("above its upper", upper[joint])
+        where = "" if len(q) == 1 else (
+            f" at state {state} ({int(np.count_nonzero(out.any(axis=1)))} of {len(q)} states "
+            "outside the position limits)")
+        reasons.append(f"{what}: joint {names[joint]} is {amount:.4g} rad {side} limit "
+                       f"{limit:.4g} rad{where}")
+    if qdot is not None:
+        vmax = np.asarray(robot.velocity_limits)
+        over = np.abs(np.atleast_2d(qdot)) - vmax
+        fast = over > velocity_tolerance
+        worst = _worst(np.where(fast, over, 0.0))
+        if worst is not None:
+            state, joint, amount = worst
+            reasons.append(f"{what}: joint {names[joint]} moves {amount:.4g} rad/s faster than "
+                           f"its limit {vmax[joint]:.4g} rad/s at state {state} "
+                           f"({int(np.count_nonzero(fast.any(axis=1)))} of {len(fast)} states "
+                           "beyond the velocity limits)")
+    return reasons
 
 
 class JointLimitFamily(Family):
@@ -22,8 +73,10 @@ class JointLimitFamily(Family):
 
     name = "joint_limits"
     arity = 1
-    cost = 0
+    kinematics = 0
     role = "constraint"
+    check_rank = 20
+    always_checked = True
 
     def __init__(self, indices: Sequence[int], lower: np.ndarray, upper: np.ndarray,
                  velocity_limits: np.ndarray, sigma: float, margin: float = 0.0,
@@ -46,22 +99,31 @@ class JointLimitFamily(Family):
         self.vmax = velocity_limits - velocity_margin
         super().__init__(indices, 2 * len(self.low), sigma=sigma)
 
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+    @classmethod
+    def check(cls, context: CheckContext, theta: np.ndarray) -> ConstraintCheck:
+        """The robot's limits with the checks' tolerances (:func:`limit_violations`); amount:
+        the largest excess over a limit [rad or rad/s]."""
+        robot, checks = context.robot, context.config.checks
+        q, qdot = theta[:, :robot.n], theta[:, robot.n:]
+        reasons = limit_violations(robot, q, qdot, checks.limit_tolerance,
+                                   checks.velocity_tolerance)
+        excess = max(float(np.max(np.asarray(robot.lower_limits) - q)),
+                     float(np.max(q - np.asarray(robot.upper_limits))),
+                     float(np.max(np.abs(qdot) - np.asarray(robot.velocity_limits))), 0.0)
+        return ConstraintCheck(cls.name, bool(reasons), excess if reasons else 0.0,
+                               tuple(reasons), reasons, listed=False)
+
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         i = window.local(self.first[rows])
         q, qdot = window.q[i], window.qdot[i]
-        n = q.shape[1]
-        shift = np.broadcast_to(self.offset(rows), (len(rows), 2 * n))
-        below = self.low - q + shift[:, :n]
-        above = q - self.high + shift[:, :n]
-        over = np.abs(qdot) - self.vmax + shift[:, n:]
-        slope = np.concatenate([np.where(below > 0, -1.0, 0.0) + np.where(above > 0, 1.0, 0.0),
-                                np.where(over > 0, np.sign(qdot), 0.0)], axis=1)
-        active = np.any(slope != 0.0, axis=1)
-        error = np.concatenate([np.maximum(below, 0.0) + np.maximum(above, 0.0),
-                                np.maximum(over, 0.0)], axis=1)[active]
-        if not jacobians:
-            return Linearization(rows[active], error, None)
-        d = slope.shape[1]
-        jac = np.zeros((int(active.sum()), d, d))
-        jac[:, np.arange(d), np.arange(d)] = slope[active]
-        return Linearization(rows[active], error, jac)
+        below, above = self.low - q, q - self.high
+        value = np.concatenate([np.maximum(below, above), np.abs(qdot) - self.vmax], axis=1)
+
+        def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
+            side = np.where(below[states] > above[states], -1.0, 1.0)
+            slope = np.where(active, np.concatenate([side, np.sign(qdot[states])], axis=1), 0.0)
+            d = slope.shape[1]
+            jac = np.zeros((len(states), d, d))
+            jac[:, np.arange(d), np.arange(d)] = slope
+            return jac
+        return Constraint(value, jacobian if jacobians else None)

@@ -17,7 +17,7 @@ class JointTargetFamily(Family):
 
     name = "joint_target"
     arity = 1
-    cost = 0
+    kinematics = 0
     linear = True
     #: the half of the state [q, qdot] targeted: False the positions, True the velocities
     #: (a subclass's choice, e.g. :class:`~clamp.factors.PostureVelocityFamily`)

@@ -3,10 +3,15 @@
 e_s = max(0, eps + r_s - d(c_s)) for sphere s (centre c_s, radius r_s), d the scene's signed
 distance (the planner's query clips it at eps + the largest radius, beyond which every hinge is
 inactive anyway, so only the obstacles within that reach of the spheres are measured:
-``scenes.Scene.query(points, max_distance)``); d e_s / d q = -grad d(c_s)^T d c_s / d q where the hinge is active, 0 otherwise, 0
-for qdot. The sphere centres of every state are computed (without Jacobians) to find the active
+``scenes.Scene.query(points, max_distance)``); d e_s / d q = -grad d(c_s)^T d c_s / d q where
+the hinge is active, 0 otherwise, 0 for qdot (the hinge and its shift are the base class's,
+:meth:`clamp.factors.family.Family.residual`). The sphere centres of every state are computed (without Jacobians) to find the active
 hinges; centre Jacobians only for the states that have one (usually a few percent): the other
 factors are exactly zero and left out.
+
+Its check (:meth:`ObstacleFamily.check`) is not the spheres: the verdict measures the plan on the
+robot's own collision geometry against the scene's exact obstacles (``context.clearance``,
+:func:`clamp.planning.clearance.check_clearance`), and a collision there ends the judgement.
 """
 from __future__ import annotations
 
@@ -17,7 +22,9 @@ import numpy as np
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_array, as_scalar
 
-from .family import Family, Linearization
+from robots.contact import collision_reason
+
+from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
 #: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3))
@@ -29,8 +36,11 @@ class ObstacleFamily(Family):
 
     name = "obstacle"
     arity = 1
-    cost = 2
+    kinematics = 2
     role = "constraint"
+    check_rank = 0
+    decisive = True
+    always_checked = True
 
     def __init__(self, indices: Sequence[int], radii: np.ndarray, query: DistanceQuery,
                  epsilon: float, sigma: float):
@@ -45,6 +55,19 @@ class ObstacleFamily(Family):
         self.epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
         super().__init__(indices, len(self.radii), sigma=sigma)
 
+    @classmethod
+    def check(cls, context: CheckContext, theta: np.ndarray) -> ConstraintCheck | None:
+        """The plan on the robot's collision geometry against the scene (None without
+        obstacles); amount [m]: the deepest penetration."""
+        report = context.clearance(theta[:, :context.robot.n])
+        if report is None:
+            return None
+        reason = collision_reason(report)
+        return ConstraintCheck(cls.name, bool(report.collision),
+                               max(0.0, -float(report.min_distance)),
+                               () if reason is None else (reason,), report,
+                               clearance=float(report.min_distance), listed=False)
+
     def penetration(self, window: StateWindow) -> float:
         """Deepest penetration [m] of a sphere into an obstacle over the family's states
         (r_s - d(c_s); negative: every sphere is clear by that much, or by at least the
@@ -52,21 +75,16 @@ class ObstacleFamily(Family):
         distance, _ = self.query(window.sphere_centres()[window.local(self.first)])
         return float(np.max(self.radii - distance))
 
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         i = window.local(self.first[rows])
-        centres = window.sphere_centres()[i]
         reach = self.epsilon + self.radii
-        distance, gradient = self.query(centres)
-        hinge = reach - distance + self.offset(rows)
-        active = hinge > 0.0
-        states = np.flatnonzero(np.any(active, axis=1))
-        error = np.where(active[states], hinge[states], 0.0)
-        if not jacobians or not len(states):
-            return Linearization(rows[states], error,
-                                 None if not jacobians else np.zeros((0, len(self.radii), window.theta.shape[1])))
-        centre_jac = window.sphere_jacobians(i[states])                  # (R, S, 3, n)
-        g = gradient[states] * active[states][..., None]
-        n = centre_jac.shape[-1]
-        jac = np.zeros((len(states), len(self.radii), 2 * n))
-        jac[:, :, :n] = -np.einsum("rsk,rskj->rsj", g, centre_jac)
-        return Linearization(rows[states], error, jac)
+        distance, gradient = self.query(window.sphere_centres()[i])
+
+        def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
+            centre_jac = window.sphere_jacobians(i[states])              # (R, S, 3, n)
+            g = gradient[states] * active[..., None]
+            n = centre_jac.shape[-1]
+            jac = np.zeros((len(states), len(self.radii), 2 * n))
+            jac[:, :, :n] = -np.einsum("rsk,rskj->rsj", g, centre_jac)
+            return jac
+        return Constraint(reach - distance, jacobian if jacobians else None)

@@ -13,7 +13,8 @@ Residual (1,) [rad]: the hinge e = max(0, a - (tolerance - margin)); the factor 
 axis: d a / d q_j = -w_j . (z x d) / |z x d| with z = R a_tool; rotation: d a / d q_j =
 (R_target u) . w_j with u the unit axis of R_target^T R; zero for qdot. Inactive factors are
 left out. :meth:`OrientationFamily.angles` gives the angle of every state of the window (the
-violation the planner reports and the figure plots).
+violation the planner reports and the figure plots); the check (:meth:`OrientationFamily.check`)
+is the largest angle beyond the tolerance, :meth:`OrientationFamily.violation`.
 """
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ import numpy as np
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.validation import as_array, as_count, as_indices, as_scalar
 
-from .family import Family, Linearization
+from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
 
@@ -51,7 +52,7 @@ class OrientationFamily(Family):
 
     name = "orientation"
     arity = 1
-    cost = 1
+    kinematics = 1
     role = "constraint"
 
     def __init__(self, indices: Sequence[int], *, tolerance: float,
@@ -125,15 +126,21 @@ class OrientationFamily(Family):
         """Largest angle beyond the tolerance [rad] over the window (0.0: met)."""
         return float(max(0.0, np.max(self.angles(robot, q)) - self.tolerance))
 
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+    def check(self, context: CheckContext, theta: np.ndarray) -> ConstraintCheck:
+        """:meth:`violation` of the plan [rad]: violated when positive."""
+        value = float(self.violation(context.robot, theta[:, :context.robot.n]))
+        reasons = (f"{self.name} constraint violated by {value:.4g} beyond its tolerance "
+                   f"{self.tolerance:.4g}",) if value > 0.0 else ()
+        return ConstraintCheck(self.name, value > 0.0, value, reasons)
+
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         i = window.local(self.first[rows])
         angle, grad = self._angles(window.robot, window.q[i], jacobians)
-        hinge = angle - (self.tolerance - self.margin) + np.reshape(self.offset(rows), -1)
-        active = np.flatnonzero(hinge > 0.0)
-        error = hinge[active, None]
-        if not jacobians:
-            return Linearization(rows[active], error, None)
-        n = window.n
-        jac = np.zeros((len(active), 1, 2 * n))
-        jac[:, 0, :n] = grad[active]
-        return Linearization(rows[active], error, jac)
+
+        def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
+            n = window.n
+            jac = np.zeros((len(states), 1, 2 * n))
+            jac[:, 0, :n] = grad[states]
+            return jac
+        return Constraint((angle - (self.tolerance - self.margin))[:, None],
+                          jacobian if jacobians else None)

@@ -18,6 +18,11 @@ collision spheres plus constant ones on the base; the pairs are those of
 :func:`robots.self_collision.self_collision_spheres` (links neither the same body nor parent and
 child, that come within reach in some configuration, not overlapping almost always), computed
 once per robot. Centre Jacobians only for factors with an active hinge; the others are left out.
+
+A lazy constraint: its check (:meth:`SelfCollisionFamily.check`) is the verdict's
+self-collision report on the URDF collision geometry (:func:`robots.self_collision_report`),
+run on every plan; the hinges join the solve (:meth:`SelfCollisionFamily.joining`, checking
+:data:`BETWEEN` configurations in every step) when it first finds a collision.
 """
 from __future__ import annotations
 
@@ -26,14 +31,21 @@ from collections.abc import Sequence
 import numpy as np
 
 from clamp.errors import ClampTypeError, InvalidParameterError
-from robots.self_collision import SPHERE_REACH, SelfCollisionSpheres, self_collision_spheres
+from robots.self_collision import (SPHERE_REACH, SelfCollisionSpheres, self_collision_report,
+                                   self_collision_spheres)
 from clamp.validation import as_count, as_scalar
 
-from .family import Family, Linearization
+from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
 #: |c_a - c_b| below this [m] counts as coincident centres (the direction u is then +x)
 _COINCIDENT = 1e-12
+#: configurations checked between two states by the hinges the planner adds (a count; see
+#: docs/decisions.md#self_collision_between)
+BETWEEN = 8
+#: [m] the self-collision check's tolerance on a clear plan's clearance (collisions and depths
+#: exact; see docs/decisions.md#self_clearance_tolerance)
+CLEARANCE_TOLERANCE = 0.01
 
 
 class SelfCollisionFamily(Family):
@@ -45,8 +57,10 @@ class SelfCollisionFamily(Family):
 
     name = "self_collision"
     arity = 2
-    cost = 2
+    kinematics = 2
     role = "constraint"
+    lazy = True
+    check_rank = 10
 
     def __init__(self, indices: Sequence[int], spheres: SelfCollisionSpheres, epsilon: float, sigma: float,
                  between: int = 4):
@@ -74,6 +88,24 @@ class SelfCollisionFamily(Family):
         (``range(T - 1)``: a whole plan of T states). epsilon at most SPHERE_REACH (0.1 m)."""
         return cls(states, self_collision_spheres(robot), epsilon, sigma, between)
 
+    @classmethod
+    def check(cls, context: CheckContext, theta: np.ndarray) -> ConstraintCheck:
+        """The plan's self-collision report on the URDF collision geometry; amount [m]: the
+        deepest overlap."""
+        report = self_collision_report(context.robot, theta[:, :context.robot.n], context.time,
+                                       tolerance=CLEARANCE_TOLERANCE)
+        return ConstraintCheck(cls.name, bool(report.collision),
+                               max(0.0, -float(report.min_distance)) if report.collision else 0.0,
+                               (report.reason,) if report.collision else (), report,
+                               listed=False)
+
+    @classmethod
+    def joining(cls, context: CheckContext) -> "SelfCollisionFamily":
+        """The hinges on every step of the plan, at the configured safety distance and noise."""
+        model = context.config.model
+        return cls.for_robot(context.robot, range(context.num_states - 1),
+                             model.self_collision_epsilon, model.self_collision_sigma, BETWEEN)
+
     def _centres(self, robot, q: np.ndarray, jacobians: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """Centres (M, S + B, 3) of the robot's and the fixed spheres at q (M, n), and their
         Jacobians (M, S + B, 3, n) (zero for the fixed ones) if asked."""
@@ -89,7 +121,7 @@ class SelfCollisionFamily(Family):
         offset = centres[..., self.spheres.first, :] - centres[..., self.spheres.second, :]
         return offset, np.sqrt(np.einsum("...k,...k->...", offset, offset))
 
-    def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
+    def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         sp, n, C = self.spheres, window.n, len(self.tau)
         i = window.local(self.first[rows])
         q0, q1 = window.q[i], window.q[i + 1]
@@ -104,8 +136,8 @@ class SelfCollisionFamily(Family):
         # motion bound of its two spheres: only steps where that leaves a hinge open are sampled
         motion = np.abs(q1 - q0) @ sp.motion_radius.T                                     # (R, S + B)
         floor = 0.5 * (start + end - motion[:, sp.first] - motion[:, sp.second])
-        reach = self._reach + self.offset(rows)                                           # (R, P)
-        r, p = np.nonzero(floor < reach)                                                  # open (step, pair)
+        # the shift (read, not added: the base class adds it) widens the steps that can be open
+        r, p = np.nonzero(floor < self._reach + self.offset(rows))                        # open (step, pair)
         if r.size and C > 2:
             inside, r = np.unique(r, return_inverse=True)
             qs = q0[inside, None] + self.tau[None, 1:-1, None] * (q1 - q0)[inside, None]  # (R', C - 2, n)
@@ -118,28 +150,27 @@ class SelfCollisionFamily(Family):
             smaller = value < least[inside[r], p]
             least[inside[r[smaller]], p[smaller]] = value[smaller]
             worst[inside[r[smaller]], p[smaller]] = closest[smaller] + 1
-        hinge = reach - least
-        active = hinge > 0.0
-        states = np.flatnonzero(np.any(active, axis=1))
-        error = np.where(active[states], hinge[states], 0.0)
-        if not jacobians or not len(states):
-            return Linearization(rows[states], error, None if not jacobians else np.zeros((0, self.dim, 4 * n)))
-        # centre Jacobians at the worst configuration of every active pair (each one once)
-        r, p = np.nonzero(active[states])
-        c = worst[states[r], p]
-        tau = self.tau[c]
-        configs, index = np.unique(np.stack([states[r], c], axis=1), axis=0, return_inverse=True)
-        q_worst = q0[configs[:, 0]] + self.tau[configs[:, 1], None] * (q1 - q0)[configs[:, 0]]
-        centres, centre_jac = self._centres(window.robot, q_worst, True)
-        index = index.reshape(-1)
-        offset = centres[index, sp.first[p]] - centres[index, sp.second[p]]               # (A, 3)
-        d = np.linalg.norm(offset, axis=1)
-        direction = np.where(d[:, None] > _COINCIDENT, offset / np.maximum(d, _COINCIDENT)[:, None],
-                             np.array([1.0, 0.0, 0.0]))
-        relative = centre_jac[index, sp.first[p]] - centre_jac[index, sp.second[p]]       # (A, 3, n)
-        g = -np.einsum("ak,akj->aj", direction, relative)                                 # (A, n)
-        jac = np.zeros((len(states), self.dim, 4 * n))
-        row = np.searchsorted(states, states[r])
-        jac[row, p, :n] = (1.0 - tau)[:, None] * g
-        jac[row, p, 2 * n:3 * n] = tau[:, None] * g
-        return Linearization(rows[states], error, jac)
+        value = self._reach - least                                                       # (R, P)
+
+        def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
+            # centre Jacobians at the worst configuration of every active pair (each one once)
+            r, p = np.nonzero(active)
+            c = worst[states[r], p]
+            tau = self.tau[c]
+            configs, index = np.unique(np.stack([states[r], c], axis=1), axis=0,
+                                       return_inverse=True)
+            q_worst = q0[configs[:, 0]] + self.tau[configs[:, 1], None] * (q1 - q0)[configs[:, 0]]
+            centres, centre_jac = self._centres(window.robot, q_worst, True)
+            index = index.reshape(-1)
+            offset = centres[index, sp.first[p]] - centres[index, sp.second[p]]           # (A, 3)
+            d = np.linalg.norm(offset, axis=1)
+            direction = np.where(d[:, None] > _COINCIDENT,
+                                 offset / np.maximum(d, _COINCIDENT)[:, None],
+                                 np.array([1.0, 0.0, 0.0]))
+            relative = centre_jac[index, sp.first[p]] - centre_jac[index, sp.second[p]]   # (A, 3, n)
+            g = -np.einsum("ak,akj->aj", direction, relative)                             # (A, n)
+            jac = np.zeros((len(states), self.dim, 4 * n))
+            jac[r, p, :n] = (1.0 - tau)[:, None] * g
+            jac[r, p, 2 * n:3 * n] = tau[:, None] * g
+            return jac
+        return Constraint(value, jacobian if jacobians else None)

@@ -20,7 +20,7 @@ class WorkspaceGPFamily(Family):
 
     name = "workspace_gp"
     arity = 2
-    cost = 1
+    kinematics = 1
 
     def __init__(self, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray):
         self.Phi = as_array(Phi, "Phi", ("K", 6, 6))

@@ -26,7 +26,7 @@ class WorkspaceStartFamily(Family):
 
     name = "workspace_start"
     arity = 1
-    cost = 1
+    kinematics = 1
 
     def __init__(self, mean: np.ndarray, cov: np.ndarray, index: int = 0):
         self.mean = as_array(mean, "mean", (6,)).reshape(1, 6)

@@ -71,7 +71,7 @@ class PlanningProblem:
         self.initial = initial
         self._window: StateWindow | None = None
         self._constant: tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None = None
-        self._by_cost = sorted(self.families, key=lambda f: f.cost)
+        self._by_kinematics = sorted(self.families, key=lambda f: f.kinematics)
 
     # ------------------------------------------------------------------------------ structure
     def _check_foreign(self) -> list[list[int]] | None:
@@ -164,7 +164,7 @@ class PlanningProblem:
         families are skipped (cheapest first) and a value >= bound is returned."""
         total = self._foreign_error(theta) if self.foreign else 0.0
         window = self.window(theta)
-        for family in self._by_cost:
+        for family in self._by_kinematics:
             if total >= bound:
                 break
             total += family.error(window)

@@ -10,19 +10,19 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
 
 1. solve the problem (each constraint family at its configured noise, shifts zero). A fresh
    start whose initial trajectory runs through an obstacle first takes one loose solve with the
-   obstacle hinges ``soft_start`` times softer (:data:`SOFT_START_TOLERANCE`): the first
+   obstacle hinges ``soft_start`` times softer (stopping at ``soft_start_tolerance``): the first
    penalty of the schedule, letting the path slide around the obstacle before stiff hinges pin
    it (see docs/decisions.md#soft_start);
 2. judge the optimum; stop when every check holds;
 3. otherwise update every violated constraint family (its check fails): the multipliers,
    lambda <- max(0, lambda + mu g), i.e. the shift s = lambda / mu becomes the hinge's current
    residual max(0, g + s); and when the family's own violation (the largest max(0, g) over its
-   residuals) did not fall below :data:`PROGRESS` times the previous round's (always at its first
+   residuals) did not fall below ``progress`` times the previous round's (always at its first
    update: a weight too weak to move the optimum leaves the multipliers too small to move it
-   either), its penalty mu grows by :data:`STIFFEN` ** 2 (noise / STIFFEN, shifts /
-   STIFFEN ** 2). A constraint a check finds violated that the problem does not yet hold
-   (``lazy``: self-collision, the skill's tube; see docs/decisions.md#lazy-constraints) joins
-   here at its configured noise;
+   either), its penalty mu grows by ``stiffen`` ** 2 (noise / stiffen, shifts / stiffen ** 2).
+   A constraint a check finds violated that the problem does not yet hold (``lazy``:
+   self-collision, the skill's tube; see docs/decisions.md#lazy-constraints) joins here at its
+   configured noise;
 4. re-solve from the optimum with the solver's warm-start rule; at most ``rounds`` updates per
    candidate (one more when a lazy constraint joins on the last).
 
@@ -30,59 +30,54 @@ Candidates: the problem as built, then the restarts the caller generates from wh
 found so far (the untied problem, detours around the obstacle met, a straight line). The
 planner gives its tied problem (obstacles, tied to the free plan) one solve (``first_rounds``
 0) and the restarts the rounds (see docs/decisions.md#the-tied-problems-one-solve). Once
-:data:`WANTED` candidates are feasible, or
+``wanted`` candidates are feasible, or
 one is and the next candidate would exceed the rounds it took, the loop stops and keeps the
 feasible one of least prior cost (graph error of the cost families). The result's problem is
 the one the chosen optimum solves, shifts and weights included: its GTSAM graph at the plan is
 the one the solver finished on.
+
+The schedule's constants (progress, stiffen, wanted, soft_start_tolerance) are the
+``constraints`` group of the configuration (:class:`clamp.config.ConstraintConfig`).
 """
 from __future__ import annotations
 
 import logging
 import time
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from clamp.config import PlannerConfig
-from clamp.factors import Family, ObstacleFamily
+from clamp.config import ConstraintConfig, PlannerConfig
+from clamp.factors import ConstraintCheck, Family, ObstacleFamily
 from clamp.optim.optimizers import Optimized, optimize
 from clamp.graph.problem import PlanningProblem
 from clamp.optim.solver import WarmStart
 
 log = logging.getLogger(__name__)
 
-#: a constraint family's violation must fall below this fraction (dimensionless) of the
-#: previous round's, or its penalty grows (see docs/decisions.md#progress-and-stiffen)
-PROGRESS = 0.25
-#: noise divisor of a constraint family whose violation did not fall enough (penalty x16;
-#: see docs/decisions.md#progress-and-stiffen)
-STIFFEN = 4.0
-#: feasible candidates after which the restarts stop (1: the first feasible restart is kept;
-#: see docs/decisions.md#wanted)
-WANTED = 1
-#: relative error decrease (dimensionless) below which the soft first solve stops, after one
-#: such step (see docs/decisions.md#soft_start_tolerance)
-SOFT_START_TOLERANCE = 3e-2
-
-
 @dataclass(frozen=True)
 class Feasibility:
     """What the verdict's checks say of one optimum: the constraint families found violated
     (by name, e.g. "obstacle", "joint_limits", "self_collision", "skill_tube"), whether the
-    skill checks accept it (the skill completed), and the check reports to reuse (``reports``:
-    e.g. "obstacle" -> the collision report, "self_collision" -> the self-collision report)."""
+    skill checks accept it (the skill completed), and every check's record to reuse
+    (``checks``: :class:`clamp.factors.ConstraintCheck`, in the order they ran; ``reports``:
+    name -> the check's report, e.g. "obstacle" -> the collision report)."""
 
     violated: tuple[str, ...]
     accepted: bool = True
-    reports: Mapping[str, object] = field(default_factory=dict)
+    checks: tuple[ConstraintCheck, ...] = ()
     #: [m] the least real-geometry clearance to the obstacles (inf without)
     clearance: float = float("inf")
 
     @property
     def ok(self) -> bool:
         return not self.violated and self.accepted
+
+    @property
+    def reports(self) -> Mapping[str, object]:
+        """The checks' reports by family name."""
+        return {check.name: check.report for check in self.checks}
 
 
 #: theta (T, 2n) -> what the checks say of it
@@ -162,9 +157,11 @@ def _violation(family: Family, window) -> tuple[np.ndarray, float]:
 
 
 def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[str],
-              previous: dict[str, float], lazy: Lazy) -> PlanningProblem:
+              previous: dict[str, float], lazy: Lazy,
+              schedule: ConstraintConfig = ConstraintConfig()) -> PlanningProblem:
     """The next round's problem (see the module docstring, step 3), starting at theta (T, 2n);
-    previous: each constraint family's violation of the round before (updated in place)."""
+    previous: each constraint family's violation of the round before (updated in place);
+    schedule: ``progress`` and ``stiffen`` (the configuration's ``constraints`` group)."""
     violated = set(violated)
     families = list(problem.families)
     present = {f.name for f in families}
@@ -180,9 +177,9 @@ def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[st
             previous[family.name] = np.inf
             continue
         shift, violation = _violation(family, window)
-        if violation > PROGRESS * previous.get(family.name, 0.0):
-            family = family.reweighted(STIFFEN)
-            shift /= STIFFEN ** 2
+        if violation > schedule.progress * previous.get(family.name, 0.0):
+            family = family.reweighted(schedule.stiffen)
+            shift /= schedule.stiffen ** 2
         previous[family.name] = violation
         out.append(family.with_shift(shift))
     return problem.with_families(out, theta)
@@ -254,7 +251,7 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
                 soft = optimize(current.with_families(
                     _scaled(current.families, ObstacleFamily.name, 1.0 / factor),
                     current.initial),
-                    config.with_(relative_error_tol=SOFT_START_TOLERANCE,
+                    config.with_(relative_error_tol=config.constraints.soft_start_tolerance,
                                  convergence_patience=1))
                 if not found:    # the first solve: the problem as asked, at its initial
                     initial_error = current.error(current.initial)
@@ -272,14 +269,15 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
             if (_faulted(verdict) or not verdict.violated
                     or (r >= budget and not (joins and r == budget))):
                 return None       # a refused skill needs another start, not stiffer hinges
-            current = augmented(current, out.theta, verdict.violated, previous, lazy)
+            current = augmented(current, out.theta, verdict.violated, previous, lazy,
+                                config.constraints)
             warm, r = WarmStart(), r + 1
 
     first_ok = run(Candidate("configured", problem), warm_start,
                    rounds if first_rounds is None else min(int(first_rounds), rounds))
     if first_ok is None and rounds > 0 and not _faulted(found[-1][2]):
         for candidate in restarts(progress):
-            if progress.feasible >= WANTED:
+            if progress.feasible >= config.constraints.wanted:
                 break
             ok = run(candidate, None, rounds if first_ok is None else first_ok)
             first_ok = ok if first_ok is None else first_ok

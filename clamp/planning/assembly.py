@@ -121,13 +121,15 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
     return families
 
 
-def split_extras(extra_factors: Sequence[ExtraFactor], T: int
+def split_extras(extra_factors: Sequence[ExtraFactor], T: int, robot: Any = None
                  ) -> tuple[list[Family], list[gtsam.NonlinearFactor]]:
     """The caller's ``extra_factors`` checked against T states: (families, GTSAM factors), the
-    makers called for every state; InvalidParameterError naming the bad entry."""
+    makers called for every state, every family for this plan (:meth:`Family.for_plan` with T
+    and ``robot``); InvalidParameterError naming the bad entry."""
     families, factors = [], []
     for k, extra in enumerate(as_extras(extra_factors)):
         if isinstance(extra, Family):
+            extra = extra.for_plan(T, robot)
             if len(extra) and (extra.first.min() < 0 or extra.first.max() + extra.arity > T):
                 raise InvalidParameterError(f"extra_factors[{k}]: family {extra.name!r} uses "
                                             f"states outside 0..{T - 1}")

@@ -28,10 +28,11 @@ from robots.contact import Contact, collision_reason, describe_contact
 from robots.errors import CollisionCheckError
 from scenes.coal_shapes import coal_obstacle_owners, coal_obstacles
 
-__all__ = ["MAX_MOTION", "checker", "check_clearance", "state_clearance", "contact_obstacle",
-           "describe_contact", "collision_reason"]       # the last two: robots.contact's, re-exported
-
 log = logging.getLogger(__name__)
+
+#: describe_contact and collision_reason: robots.contact's wording, re-exported
+__all__ = ["checker", "check_clearance", "state_clearance", "contact_obstacle", "pusher",
+           "describe_contact", "collision_reason", "MAX_MOTION"]
 
 #: [m] largest motion of any link point between two checked configurations of a segment
 MAX_MOTION = 0.005
@@ -80,3 +81,25 @@ def contact_obstacle(robot: Any, scene: Any, contact: Contact) -> Any:
     """The scene obstacle a contact of :func:`check_clearance` names."""
     triple = checker(robot, scene).obstacle_names.index(contact.obstacle)
     return scene.obstacles[coal_obstacle_owners(scene)[triple]]
+
+
+def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
+    """describe(state) -> what pushed ``path`` (T, 3) away from ``reference`` (T, 3) at that
+    state: the obstacle nearest to where the skill goes, when it is within the plan's departure
+    plus the safety distance ``epsilon`` [m] ("box_0 (the skill's path runs 27 mm inside it
+    there)"), else that no obstacle is near; None without obstacles."""
+    if not has_obstacles(scene):
+        return None
+
+    def describe(state: int) -> str:
+        point = reference[state][None]
+        gaps = [float(o.distance(point)[0]) for o in scene.obstacles]
+        k = int(np.argmin(gaps))
+        name = f"{scene.obstacles[k].kind}_{k}"
+        if gaps[k] > np.linalg.norm(path[state] - reference[state]) + epsilon:
+            return (f"no obstacle (the nearest, {name}, is {1000 * gaps[k]:.0f} mm from the "
+                    "skill's path there): the plan's other factors")
+        where = (f"the skill's path runs {-1000 * gaps[k]:.0f} mm inside it there" if gaps[k] < 0
+                 else f"{1000 * gaps[k]:.0f} mm from the skill's path there")
+        return f"{name} ({where})"
+    return describe

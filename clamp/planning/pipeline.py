@@ -14,7 +14,7 @@ inspect ``model(...).problem.graph()`` before solving.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -23,35 +23,26 @@ import numpy as np
 from clamp.planning.assembly import (ExtraFactor, configured_initialisation, distance_query,
                             given_initialisation, planner_families, split_extras,
                             tied_to_free_plan, without_family)
-from clamp.planning.clearance import check_clearance, contact_obstacle
+from clamp.planning.clearance import check_clearance, contact_obstacle, pusher
 from clamp.planning.reference import planning_prior, skill_reference
 from clamp.config import PlannerConfig
 from clamp.optim.constrained import Candidate, Feasibility, Judge, Progress, solve_constrained
 from clamp.planning.detours import detour_restarts
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
-from clamp.factors import ObstacleFamily, PostureFamily, SelfCollisionFamily, SkillTubeFamily
+from clamp.factors import (CheckContext, ConstraintCheck, ObstacleFamily, PostureFamily,
+                           SelfCollisionFamily, lazy_families)
 from clamp.planning.initialisation import Initialisation
 from clamp.optim.optimizers import Optimized
 from clamp.graph.problem import PlanningProblem
 from clamp.config import as_config
 from clamp.planning.request import Request, as_extras, as_scene, check_robot
 from clamp.prior.linear_gaussian import check_prior
-from clamp.prior.skill import TUBE_RATIO, SkillRegion, skill_checks
 from clamp.optim.solver import WarmStart
-from clamp.planning.targets import violated_families
 from clamp.optim.uncertainty import plan_covariances
 from clamp.validation import as_bool
 from robots.collision_check import CollisionReport
-from robots.self_collision import SelfCollisionReport, self_collision_report
+from robots.self_collision import SelfCollisionReport
 from skillplan.validation import as_instance
-
-#: configurations checked between two states by the self-collision hinges (a count; see
-#: docs/decisions.md#self_collision_between)
-SELF_COLLISION_BETWEEN = 8
-#: [m] the self-collision check's tolerance on a clear plan's clearance (collisions and depths
-#: exact; see docs/decisions.md#self_clearance_tolerance)
-SELF_CLEARANCE_TOLERANCE = 0.01
-
 
 @dataclass(frozen=True)
 class Model:
@@ -91,13 +82,16 @@ class Solution:
     restart won: the graph a user gets, ``PlanResult.problem``); ``report``: the obstacle check on the
     robot's collision geometry (None when the model has no obstacle hinges); ``self_report``:
     the self-collision check; ``attempts``: the constrained solve's solves (dicts, see
-    ``PlanResult.attempts``)."""
+    ``PlanResult.attempts``); ``checks``: the records of every check the solve made of the
+    optimum (:class:`clamp.factors.ConstraintCheck`; the verdict reuses them and makes only
+    the others)."""
 
     optimum: Optimized
     problem: PlanningProblem
     report: CollisionReport | None
     self_report: SelfCollisionReport
     attempts: tuple[dict[str, Any], ...]
+    checks: tuple[ConstraintCheck, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -148,7 +142,7 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
     robot and config (the validation at the boundary), ``scene`` a scenes.Scene or None,
     ``extra_factors`` checked by :func:`as_extras`. What :func:`clamp.plan` runs."""
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
-    extra_families, foreign = split_extras(extra_factors, T)
+    extra_families, foreign = split_extras(extra_factors, T, robot)
     if model_prior is None:                       # the prior conditioned on the targets
         model_prior = planning_prior(prior, robot, request, config)
     reach = config.model.epsilon + float(np.max(robot.spheres.radii, initial=0.0))
@@ -193,39 +187,73 @@ def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
     return generate
 
 
+def check_context(model: Model, final: bool = False) -> CheckContext:
+    """What the constraint families' checks (and the lazy families' makers) of ``model`` use
+    (:class:`clamp.factors.CheckContext`); final: the verdict's (the skill scored)."""
+    prior, robot, scene = model.prior, model.robot, model.scene
+    time_ = np.asarray(prior.time, dtype=float)
+    reference = np.asarray(model.reference.mean)[:, :3]
+    epsilon = model.config.model.epsilon
+    return CheckContext(robot, scene, prior, model.reference, model.config, time_,
+                        model.problem.num_states, model.request.goal is not None,
+                        model.problem.has(ObstacleFamily.name), tuple(model.problem.families),
+                        clearance=lambda q: check_clearance(robot, scene, q, time_),
+                        pusher=lambda path: pusher(scene, reference, path, epsilon), final=final)
+
+
+def ordered_checks(checkers: Iterable[Any]) -> list[Any]:
+    """Constraint families (instances or classes) with a check, one per name (the first),
+    in check order (``check_rank``; their given order among equals)."""
+    seen, out = set(), []
+    for checker in checkers:
+        if checker.role == "constraint" and checker.name not in seen:
+            seen.add(checker.name)
+            out.append(checker)
+    return sorted(out, key=lambda checker: checker.check_rank)
+
+
+def run_checks(context: CheckContext, checkers: Sequence[Any], theta: np.ndarray,
+               done: Mapping[str, ConstraintCheck] | None = None) -> list[ConstraintCheck]:
+    """The records of ``checkers`` (:func:`ordered_checks`) on theta (T, 2n), each check run at
+    most once. In the solve a decisive violation (a collision) ends the run and a check
+    ``only_if_clear`` runs only when every earlier one holds; the verdict (``context.final``)
+    runs them all. ``done``: records already made of this theta, reused (completed by
+    :meth:`clamp.factors.Family.for_verdict` when ``context.final``)."""
+    records: list[ConstraintCheck] = []
+    gated = not context.final
+    for checker in checkers:
+        if gated and checker.only_if_clear and any(r.violated for r in records):
+            continue
+        record = None if done is None else done.get(checker.name)
+        if record is None:
+            record = checker.check(context, theta)
+        elif context.final:
+            record = checker.for_verdict(context, theta, record)
+        if record is None:
+            continue
+        records.append(record)
+        if gated and record.violated and checker.decisive:
+            break
+    return records
+
+
 def _judge(model: Model) -> Judge:
     """The verdict's checks of an optimum theta (T, 2n), as the constrained solve needs them:
-    obstacle collision on the robot's collision geometry (first: the others only run on a clear
-    plan), the joint limits and constraint families (:func:`clamp.planning.targets.violated_families`),
-    self-collision, and with obstacles the skill checks of a plan that meets all of these: one
-    that leaves the skill's tube violates the ``skill_tube`` constraint (whose hinges then join,
-    :class:`~clamp.factors.SkillTubeFamily`), one that does not complete the skill is not
-    accepted (another start is tried)."""
-    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
-                                            model.request, model.config)
-    families, obstacles = model.problem.families, model.problem.has(ObstacleFamily.name)
-    time_ = np.asarray(prior.time, dtype=float)
+    the own check of every constraint family the problem holds and of the lazy ones
+    (:func:`clamp.factors.lazy_families`), in check order: obstacle collision on the robot's
+    collision geometry (first: the others only run on a clear plan), self-collision, the joint
+    limits, constraint families such as orientation, and with obstacles the skill checks of a
+    plan that meets all of these: one that leaves the skill's tube violates the ``skill_tube``
+    constraint (whose hinges then join, :class:`~clamp.factors.SkillTubeFamily`), one that does
+    not complete the skill is not accepted (another start is tried)."""
+    context = check_context(model)
+    checkers = ordered_checks([*model.problem.families, *lazy_families()])
 
     def judge(theta: np.ndarray) -> Feasibility:
-        q, reports, clearance = theta[:, :robot.n], {}, math.inf
-        if obstacles:
-            report = check_clearance(robot, scene, q, time_)
-            reports[ObstacleFamily.name], clearance = report, float(report.min_distance)
-            if report.collision:
-                return Feasibility((ObstacleFamily.name,), True, reports, clearance)
-        violated = violated_families(families, robot, theta, config)
-        own = self_collision_report(robot, q, time_, tolerance=SELF_CLEARANCE_TOLERANCE)
-        reports[SelfCollisionFamily.name] = own
-        if own.collision:
-            violated.append(SelfCollisionFamily.name)
-        accepted = True
-        if obstacles and not violated:
-            skill = skill_checks(prior, model.reference, robot.fk(q), request.goal is not None,
-                                 score=False)
-            if not skill.within_tube:
-                violated.append(SkillTubeFamily.name)
-            accepted = skill.completed
-        return Feasibility(tuple(violated), accepted, reports, clearance)
+        records = run_checks(context, checkers, theta)
+        return Feasibility(tuple(r.name for r in records if r.violated),
+                           all(r.accepted for r in records), tuple(records),
+                           min((r.clearance for r in records), default=math.inf))
     return judge
 
 
@@ -234,34 +262,30 @@ def solve(model: Model, warm_start: WarmStart | None = None) -> Solution:
     solver or the configured GTSAM optimizer; ``warm_start``: the fast solver's warm-start
     rule, for a start near the optimum) with every constraint inside one constrained solve
     (:func:`clamp.optim.constrained.solve_constrained`: an augmented Lagrangian on the constraint
-    families, judged by the verdict's checks: obstacles on the robot's collision geometry,
-    self-collision, whose hinges join when the plan collides with itself, limits, constraint
-    families and, with obstacles, the skill, whose tube hinges join when the plan leaves it;
-    restarts when the problem as built fails)."""
+    families, judged by their own checks (:func:`_judge`): obstacles on the robot's collision
+    geometry, self-collision, whose hinges join when the plan collides with itself, limits,
+    constraint families and, with obstacles, the skill, whose tube hinges join when the plan
+    leaves it; restarts when the problem as built fails)."""
     as_instance(model, "model", Model, "a clamp.planning.pipeline.Model (from clamp.planning.pipeline.model)",
                 ClampTypeError)
     if warm_start is not None:
         as_instance(warm_start, "warm_start", WarmStart, "a clamp.optim.solver.WarmStart or None",
                     ClampTypeError)
-    robot, problem, m = model.robot, model.problem, model.config.model
-    lazy = {SelfCollisionFamily.name: lambda: SelfCollisionFamily.for_robot(
-                robot, range(problem.num_states - 1), m.self_collision_epsilon,
-                m.self_collision_sigma, SELF_COLLISION_BETWEEN),
-            SkillTubeFamily.name: lambda: SkillTubeFamily(
-                np.asarray(model.reference.mean)[:, :3],
-                TUBE_RATIO * SkillRegion.of(model.prior).tube, m.sigma_obs)}
+    problem = model.problem
+    context = check_context(model)
+    lazy = {cls.name: (lambda cls=cls: cls.joining(context)) for cls in lazy_families()}
     restarts = _restarts(model) if problem.has(ObstacleFamily.name) else (lambda _: ())
     # the tied problem: one solve, its rounds go to the untied restart (clamp.optim.constrained)
     solved = solve_constrained(problem, model.config, _judge(model), restarts, lazy, warm_start,
                                first_rounds=0 if problem.has(PostureFamily.name) else None)
-    reports = solved.feasibility.reports
-    own = reports.get(SelfCollisionFamily.name)
+    checks = solved.feasibility.checks
+    own = next((c for c in checks if c.name == SelfCollisionFamily.name), None)
     if own is None:             # the chosen optimum collides with an obstacle: not yet checked
-        own = self_collision_report(robot, solved.out.theta[:, :robot.n],
-                                    np.asarray(model.prior.time, dtype=float),
-                                    tolerance=SELF_CLEARANCE_TOLERANCE)
-    return Solution(solved.out, solved.problem, reports.get(ObstacleFamily.name), own,
-                    tuple(asdict(a) for a in solved.attempts))
+        own = SelfCollisionFamily.check(context, solved.out.theta)
+        checks = (*checks, own)
+    obstacle = next((c for c in checks if c.name == ObstacleFamily.name), None)
+    return Solution(solved.out, solved.problem, None if obstacle is None else obstacle.report,
+                    own.report, tuple(asdict(a) for a in solved.attempts), checks)
 
 
 # -------------------------------------------------------------------------------- posterior

@@ -1,5 +1,5 @@
-"""Targets and constraints of a plan: reachability of the goal and via points, checked before
-planning, and the violations of constraint families (orientation), checked after.
+"""Targets of a plan: reachability of the goal and via points, checked before planning (the
+constraint families' violations after planning are their own checks, :mod:`clamp.factors.family`).
 
 An end-effector target (goal or via point) that inverse kinematics cannot reach within the
 check's tolerance cannot be met by any plan: the plan fails at once with a reason naming the
@@ -15,8 +15,6 @@ from typing import Any
 import numpy as np
 
 from clamp.config import PlannerConfig
-from clamp.factors import JointLimitFamily
-from clamp.planning.limit_report import limit_violations
 from clamp.planning.request import Request, Target, has_obstacles
 
 
@@ -56,35 +54,3 @@ def target_problems(robot: Any, request: Request, config: PlannerConfig,
     reasons = [inside_obstacle(scene, name, target) or _problem(robot, name, target, tol, request.q_start)
                for name, target, tol in named]
     return [r for r in reasons if r is not None]
-
-
-def constraint_violations(families: Any, robot: Any, q: np.ndarray
-                          ) -> tuple[dict[str, float], list[str]]:
-    """Violation of every family that reports one (a ``violation(robot, q)`` method, e.g.
-    :class:`clamp.factors.OrientationFamily`: how far beyond its tolerance, in its units) at
-    the plan's joint positions q (T, n), and a reason for each one that is violated."""
-    violations, reasons = {}, []
-    for family in families:
-        if callable(getattr(family, "violation", None)):
-            value = float(family.violation(robot, q))
-            violations[family.name] = value
-            if value > 0.0:
-                reasons.append(f"{family.name} constraint violated by {value:.4g} beyond its "
-                               f"tolerance {getattr(family, 'tolerance', float('nan')):.4g}")
-    return violations, reasons
-
-
-def violated_families(families: Any, robot: Any, theta: np.ndarray, config: PlannerConfig
-                      ) -> list[str]:
-    """Names of the soft constraint families the plan theta (T, 2n) violates as the verdict
-    judges them: the joint-limit family when a position or velocity is out of its limit by more
-    than the checks' tolerances (:func:`clamp.planning.limit_report.limit_violations`), and every family
-    :func:`constraint_violations` finds violated."""
-    n, checks = robot.n, config.checks
-    q, qdot = theta[:, :n], theta[:, n:]
-    violations, _ = constraint_violations(families, robot, q)
-    names = [name for name, value in violations.items() if value > 0.0]
-    if (any(isinstance(f, JointLimitFamily) for f in families)
-            and limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)):
-        names.insert(0, JointLimitFamily.name)
-    return names

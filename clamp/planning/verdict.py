@@ -16,11 +16,13 @@ from clamp.planning.clearance import check_clearance
 from clamp.config import PlannerConfig
 from clamp.planning.limit_report import limit_violations
 from clamp.errors import ClampTypeError
-from clamp.planning.pipeline import Model, Posterior, Solution
-from clamp.prior.skill import skill_checks
+from clamp.factors import (JointLimitFamily, ObstacleFamily, SelfCollisionFamily, SkillTubeFamily,
+                           declared_families, lazy_families)
+from clamp.planning.pipeline import (Model, Posterior, Solution, check_context, ordered_checks,
+                                     run_checks)
 from clamp.planning.request import Request, as_scene, has_obstacles
 from clamp.planning.result import PlanInputs, PlanResult
-from clamp.planning.targets import constraint_violations, inside_obstacle
+from clamp.planning.targets import inside_obstacle
 from clamp.validation import as_scalar
 from robots.contact import collision_reason, describe_contact
 from robots.self_collision import self_collision_report
@@ -78,28 +80,6 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     return reasons
 
 
-def pusher(scene: Any, reference: np.ndarray, path: np.ndarray, epsilon: float):
-    """describe(state) -> what pushed ``path`` (T, 3) away from ``reference`` (T, 3) at that
-    state: the obstacle nearest to where the skill goes, when it is within the plan's departure
-    plus the safety distance ``epsilon`` [m] ("box_0 (the skill's path runs 27 mm inside it
-    there)"), else that no obstacle is near; None without obstacles."""
-    if not has_obstacles(scene):
-        return None
-
-    def describe(state: int) -> str:
-        point = reference[state][None]
-        gaps = [float(o.distance(point)[0]) for o in scene.obstacles]
-        k = int(np.argmin(gaps))
-        name = f"{scene.obstacles[k].kind}_{k}"
-        if gaps[k] > np.linalg.norm(path[state] - reference[state]) + epsilon:
-            return (f"no obstacle (the nearest, {name}, is {1000 * gaps[k]:.0f} mm from the "
-                    "skill's path there): the plan's other factors")
-        where = (f"the skill's path runs {-1000 * gaps[k]:.0f} mm inside it there" if gaps[k] < 0
-                 else f"{1000 * gaps[k]:.0f} mm from the skill's path there")
-        return f"{name} ({where})"
-    return describe
-
-
 def plan_inputs(model: Model) -> PlanInputs:
     """What ``model`` was asked, for ``PlanResult.inputs`` (:func:`clamp.replan` plans it again):
     start, goal and via points as the request's validated values."""
@@ -125,17 +105,25 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
     as_instance(solution, "solution", Solution, "a clamp.planning.pipeline.Solution", ClampTypeError)
     as_instance(posterior, "posterior", Posterior, "a clamp.planning.pipeline.Posterior",
                 ClampTypeError)
-    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
-                                            model.request, model.config)
-    problem, out, report = solution.problem, solution.optimum, solution.report
-    self_report, reference = solution.self_report, model.reference
+    prior, robot, request, config = model.prior, model.robot, model.request, model.config
+    problem, out = solution.problem, solution.optimum
     n, checks = robot.n, config.checks
     q, qdot = out.theta[:, :n], out.theta[:, n:]
     x, _ = problem.window(out.theta).workspace()
     position = x[:, :3]
     families = problem.family_errors(out.theta)
-    if report is None:
-        report = check_clearance(robot, scene, q, np.asarray(prior.time, dtype=float))
+    # every constraint's check of the final plan: the solve's records reused, the others made
+    # here (after a collision, the checks the solve skipped; the skill's score)
+    checkers = ordered_checks([*problem.families, *lazy_families(),
+                               *(cls for cls in declared_families() if cls.always_checked)])
+    records = run_checks(check_context(model, final=True), checkers, out.theta,
+                         {record.name: record for record in solution.checks})
+    found = {record.name: record for record in records}
+    report = found[ObstacleFamily.name].report if ObstacleFamily.name in found else None
+    self_report = found[SelfCollisionFamily.name].report
+    limits = list(found[JointLimitFamily.name].reasons)
+    skill = found[SkillTubeFamily.name].report
+    violations = {record.name: record.amount for record in records if record.listed}
     clearance = math.inf if report is None else float(report.min_distance)
     start = request.start
     start_error = float(np.linalg.norm((position[0] if start.kind == "position" else q[0])
@@ -146,11 +134,7 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
         goal_error = float(np.linalg.norm(reached - request.goal.value))
     via_errors = [float(np.linalg.norm((position[i] if t.kind == "position" else q[i]) - t.value))
                   for i, t in request.vias]
-    limits = limit_violations(robot, q, qdot, checks.limit_tolerance, checks.velocity_tolerance)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
-    skill = skill_checks(prior, reference, position, goal_given=request.goal is not None,
-                         describe_pusher=pusher(scene, np.asarray(reference.mean)[:, :3], position,
-                                                config.model.epsilon))
 
     reasons = list(posterior.faults)
     if not np.isfinite(out.final_error):
@@ -163,15 +147,8 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
         if error > checks.via_tolerance:
             reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
                            f"{checks.via_tolerance:.4g}")
-    collision = collision_reason(report)
-    if collision:
-        reasons.append(collision)
-    if self_report.collision:
-        reasons.append(self_report.reason)
-    reasons += limits
-    violations, broken = constraint_violations(problem.families, robot, q)
-    reasons += broken
-    reasons += skill.reasons
+    for record in records:                # in check order: collision, self-collision,
+        reasons += record.reasons         # limits, constraint families, the skill
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float),
                       iterations=out.iterations, initial_error=out.initial_error,
