@@ -7,7 +7,8 @@ than :func:`clamp.problem_sets.scene_benchmark` makes, as plain problem dicts
   regression tests do; the synthetic reach_from_above, pick_place, curved_reach; 6 demos, seed
   0, 250 states); start = the demonstrations' mean start moved 5-15 cm in a uniformly random
   direction (drawn again while out of the arm's reach); 1-3 boxes, edges 4-12 cm, each
-  overlapping the 3 cm neighbourhood of a point of the prior's mean path at 25-90 % of it (a
+  centred in the 3 cm neighbourhood of a point of the prior's mean path at 25-90 % of it
+  (uniform in the ball: the box overlaps the neighbourhood and mostly covers the path; a
   box is drawn again while it comes within 2 cm of the mean end point: a skill whose end lies
   in a box is impossible by construction and teaches nothing). Boxes may cover the start:
   such problems carry ``meta["start_blocked"]`` (the start configuration, the planner's IK of
@@ -153,14 +154,19 @@ def _hard_spec(skill: str, arm: str) -> dict[str, Any]:
     return {"skill": skill, "seed": 0, "num_demos": 6, "num_points": 250}
 
 
-def _hard_box(rng: np.random.Generator, point: np.ndarray, goal: np.ndarray) -> Any:
-    """A box (edges 4-12 cm) overlapping the NEIGHBOURHOOD of ``point``, GOAL_CLEAR from goal."""
+def _hard_box(rng: np.random.Generator, path: np.ndarray, goal: np.ndarray) -> Any:
+    """A box (edges 4-12 cm) centred within NEIGHBOURHOOD of a point of ``path`` (T, 3) at
+    25-90 % of it, GOAL_CLEAR from goal (the point drawn again when its boxes come too near)."""
     from scenes import Box
-    for _ in range(1000):
+    T = len(path)
+    for attempt in range(1000):
+        if attempt % 20 == 0:
+            point = path[rng.integers(int(0.25 * T), int(0.9 * T) + 1)]
         size = rng.uniform(0.04, 0.12, size=3)
-        centre = point + rng.uniform(-1.0, 1.0, size=3) * (size / 2 + NEIGHBOURHOOD)
+        direction = rng.normal(size=3)
+        centre = point + direction / np.linalg.norm(direction) * NEIGHBOURHOOD * rng.random() ** (1 / 3)
         box = Box(centre, size)
-        if box.distance(point[None])[0] < NEIGHBOURHOOD and box.distance(goal[None])[0] >= GOAL_CLEAR:
+        if box.distance(goal[None])[0] >= GOAL_CLEAR:
             return box
     raise RuntimeError("no box overlaps the path point and keeps the goal clear")
 
@@ -184,9 +190,7 @@ def hard_problems(count: int, arm: str, seed: int = 0,
             q_start, error = start_configuration(robot, start)
             if error <= 1e-3:
                 break
-        T = len(path)
-        boxes = [_hard_box(rng, path[rng.integers(int(0.25 * T), int(0.9 * T) + 1)], goal)
-                 for _ in range(rng.integers(1, 4))]
+        boxes = [_hard_box(rng, path, goal) for _ in range(rng.integers(1, 4))]
         meta = {"skill": skill, "index": k, "seed": seed,
                 "start_blocked": start_blocked(robot, boxes, q_start)}
         out.append(_problem(f"hard/{arm}/{k:04d}", "hard", spec, arm, boxes, start, goal, meta))
