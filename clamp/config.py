@@ -90,6 +90,12 @@ class ModelConfig:
     self_collision_sigma: float = 5e-4
     #: [m] grid cell for scenes that need a grid signed distance (primitives are exact)
     sdf_cell_size: float = 0.01
+    #: uniform time scale k >= 1 of the skill (the plan lasts k times the demonstrations; None:
+    #: automatic, 1 unless the arm cannot follow the demonstrations' speed, see
+    #: :mod:`clamp.time_scale`)
+    time_scale: float | None = None
+    #: [s] the plan lasts at most this long (bounds the automatic time scale; None: unbounded)
+    max_duration: float | None = None
 
 
 @dataclass(frozen=True)
@@ -154,6 +160,9 @@ class CheckConfig:
     limit_tolerance: float = 1e-4
     #: [rad/s] joint velocity limits
     velocity_tolerance: float = 1e-3
+    #: [rad/s^2] joint acceleration limit the automatic time scale also keeps (finite
+    #: differences of the plan's velocities; None: velocity limits only, URDFs carry none)
+    acceleration_limit: float | None = None
 
 
 @dataclass(frozen=True, init=False)
@@ -250,6 +259,12 @@ class PlannerConfig:
             if getattr(o, name) not in valid:
                 raise InvalidParameterError(f"config.optimizer.{name}: unknown "
                                             f"{getattr(o, name)!r}; valid: {', '.join(valid)}")
+        from clamp.time_scale import as_max_duration, as_time_scale
+        as_time_scale(m.time_scale, "config.model.time_scale")
+        as_max_duration(m.max_duration, "config.model.max_duration")
+        if c.acceleration_limit is not None:
+            as_scalar(c.acceleration_limit, "config.checks.acceleration_limit",
+                      strictly_positive=True)
         for name in ("limit_tolerance", "velocity_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", minimum=0.0)
         for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance"):
