@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
+import numpy as np
+
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_bool, as_count, as_scalar
 from scenes.sdf import DEFAULT_CELL_SIZE
@@ -80,6 +82,12 @@ class ModelConfig:
     self_collision_sigma: float = 5e-4
     #: [m] grid cell for scenes that need a grid signed distance (primitives are exact)
     sdf_cell_size: float = 0.01
+    #: uniform time scale k >= 1 of the skill (the plan lasts k times the demonstrations; None:
+    #: automatic, 1 unless the arm cannot follow the demonstrations' speed, see
+    #: :mod:`clamp.planning.time_scale`)
+    time_scale: float | None = None
+    #: [s] the plan lasts at most this long (bounds the automatic time scale; None: unbounded)
+    max_duration: float | None = None
 
 
 @dataclass(frozen=True)
@@ -159,6 +167,9 @@ class CheckConfig:
     limit_tolerance: float = 1e-4
     #: [rad/s] joint velocity limits
     velocity_tolerance: float = 1e-3
+    #: [rad/s^2] joint acceleration limit the automatic time scale also keeps (finite
+    #: differences of the plan's velocities; None: velocity limits only, URDFs carry none)
+    acceleration_limit: float | None = None
 
 
 @dataclass(frozen=True, init=False)
@@ -257,6 +268,11 @@ class PlannerConfig:
             if getattr(o, name) not in valid:
                 raise InvalidParameterError(f"config.optimizer.{name}: unknown "
                                             f"{getattr(o, name)!r}; valid: {', '.join(valid)}")
+        as_time_scale(m.time_scale, "config.model.time_scale")
+        as_max_duration(m.max_duration, "config.model.max_duration")
+        if c.acceleration_limit is not None:
+            as_scalar(c.acceleration_limit, "config.checks.acceleration_limit",
+                      strictly_positive=True)
         for name in ("limit_tolerance", "velocity_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", minimum=0.0)
         for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance"):
@@ -283,3 +299,32 @@ def as_config(config: Any) -> PlannerConfig:
                                 f"PlannerConfig().with_(sigma_obs=0.005)), got "
                                 f"{type(config).__name__}")
     return config
+
+
+def as_time_scale(value: Any, name: str = "time_scale") -> float | None:
+    """``value`` as a time scale: None (automatic) or a finite number >= 1; raises
+    InvalidParameterError naming ``name`` otherwise."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InvalidParameterError(f"{name}: expected None or a number >= 1 (1: the "
+                                    f"demonstrations' speed), got {type(value).__name__} {value!r:.40}")
+    k = float(value)
+    if not np.isfinite(k) or k < 1.0:
+        raise InvalidParameterError(f"{name}: expected None or a number >= 1 (1: the "
+                                    f"demonstrations' speed; a plan is never faster), got {k!r}")
+    return k
+
+
+def as_max_duration(value: Any, name: str = "max_duration") -> float | None:
+    """``value`` as a maximum plan duration [s]: None or a finite number > 0; raises
+    InvalidParameterError naming ``name`` otherwise."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InvalidParameterError(f"{name}: expected None or a duration > 0 [s], got "
+                                    f"{type(value).__name__} {value!r:.40}")
+    d = float(value)
+    if not np.isfinite(d) or d <= 0.0:
+        raise InvalidParameterError(f"{name}: expected None or a duration > 0 [s], got {d!r}")
+    return d

@@ -26,6 +26,8 @@ from clamp.planning.request import as_extras, as_scene, make_request
 from clamp.planning.result import PlanResult
 from clamp.optim.solver import WarmStart
 from clamp.planning.targets import target_problems
+from clamp.config import as_max_duration, as_time_scale
+from clamp.planning.time_scale import plan_time_scaled
 from clamp.validation import as_bool
 from clamp.planning.verdict import evaluate, failed_result, start_problems
 from skillplan.threads import single_blas_thread
@@ -56,18 +58,23 @@ def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: An
 def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
          via_points: Sequence[tuple[int, Any]] = (), extra_factors: Sequence[ExtraFactor] = (),
          config: PlannerConfig | None = None, sdf: Any = None,
-         initial: np.ndarray | None = None, covariance: bool = True) -> PlanResult:
+         initial: np.ndarray | None = None, covariance: bool = True,
+         time_scale: float | None = None, max_duration: float | None = None) -> PlanResult:
     """Reproduce the skill of ``prior`` with ``robot`` from ``start`` in ``scene``.
 
     Arguments as for :func:`build`; covariance: compute the posterior covariance of every
     state (``PlanResult.state_covariance`` / ``ee_covariance``). A start that is out of reach
     or in collision gives ``success=False`` with a reason (no exception); bad input raises
     ClampError subclasses. The stages (:mod:`clamp.planning.pipeline`): request -> model -> solution ->
-    posterior -> verdict, timed ("build", "optimize", "marginals", "total").
+    posterior -> verdict, timed ("build", "optimize", "marginals", "total"). time_scale (>= 1)
+    / max_duration [s]: plan the skill that many times slower / at most that long (None:
+    ``config.model``'s; by default as slow as the arm's velocity limits need,
+    ``PlanResult.time_scale``; :mod:`clamp.planning.time_scale`).
     """
     started = time.perf_counter()
     config, scene = as_config(config), as_scene(scene)
     covariance = as_bool(covariance, "covariance")
+    time_scale, max_duration = as_time_scale(time_scale), as_max_duration(max_duration)
     with single_blas_thread():  # small products only: one BLAS thread (see skillplan.threads)
         request = make_request(prior, robot, start, goal, via_points, config)
         reasons = (start_problems(robot, scene, request, config)
@@ -76,9 +83,12 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
             T = prior.Phi.shape[0] + 1
             return failed_result(prior, robot, np.repeat(request.q_start[None], T, axis=0),
                                  reasons, started, request.start_ik_error, config)
-        planned = build_model(prior, robot, scene, request, config, tuple(as_extras(extra_factors)),
-                              sdf, initial)
-        return plan_model(planned, covariance, started=started)
+
+        def plan_at(scaled_prior: Any, scaled_config: PlannerConfig) -> PlanResult:
+            planned = build_model(scaled_prior, robot, scene, request, scaled_config,
+                                  tuple(as_extras(extra_factors)), sdf, initial)
+            return plan_model(planned, covariance, started=started)
+        return plan_time_scaled(plan_at, prior, robot, config, time_scale, max_duration)
 
 
 def plan_model(planned: Model, covariance: bool = True, warm_start: WarmStart | None = None,

@@ -101,4 +101,6 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         replanned = build_model(prior, robot, scene, request, config, inputs.extra_factors,
                                 inputs.sdf if scene is inputs.scene else None,
                                 shifted_plan(previous, robot, shift), model_prior=model_prior)
-        return plan_model(replanned, covariance, WarmStart(), started)
+        result = plan_model(replanned, covariance, WarmStart(), started)
+        result.time_scale = previous.time_scale   # the inputs are the scaled prior and config
+        return result

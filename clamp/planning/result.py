@@ -117,6 +117,9 @@ class PlanResult:
     self_clearance: float = float("inf")
     self_contact: dict[str, Any] | None = None
     fixed_overlaps: list[tuple[str, str, float]] = field(default_factory=list)
+    #: uniform time scale k >= 1 the skill was planned at (``time`` is the demonstrations'
+    #: times k; :mod:`clamp.planning.time_scale`)
+    time_scale: float = 1.0
     #: what the plan was asked (for clamp.replan and the viewer; left out of to_dict)
     inputs: PlanInputs | None = field(default=None, compare=False, repr=False)
     #: the clamp.PlanningProblem the plan solves: ``problem.graph()`` at the plan is the graph
@@ -145,6 +148,8 @@ class PlanResult:
                 "self_clearance_m": number(self.self_clearance),
                 "self_contact": self.self_contact,
                 "fixed_overlaps": [list(item) for item in self.fixed_overlaps],
+                "time_scale": float(self.time_scale),
+                "duration_s": float(self.time[-1] - self.time[0]),
                 "skill": {k: number(v) if isinstance(v, float) else v
                           for k, v in self.skill.items()}}
 

@@ -1,0 +1,140 @@
+"""Time scaled to the arm (issue 27, clamp.planning.time_scale): a skill demonstrated faster than the arm
+can follow is planned slower on the same geometry; a skill within the limits is untouched."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from clamp import PlannerConfig, learn_prior, plan
+from clamp.errors import ClampError
+from clamp.planning.time_scale import time_scaled_prior
+from scenes import make_demonstrations
+
+SKILL, STATES, STEP = "reach_from_above", 60, 0.16     # 60 states of 0.16 s: ~9.4 s
+FASTER = 3.0                # the fast demonstrations need this many times the arm's speed
+VELOCITY_TOLERANCE = PlannerConfig().checks.velocity_tolerance      # [rad/s]
+
+
+def _demos(dt: float):
+    return make_demonstrations(SKILL, num_demos=6, num_points=STATES, dt=dt, seed=0)
+
+
+@pytest.fixture(scope="module")
+def slow(jaco):
+    """The skill at its demonstrated speed (well within the Jaco's limits) and its plan."""
+    prior = learn_prior(_demos(STEP))
+    return prior, plan(prior, jaco, None, np.asarray(prior.mean)[0, :3])
+
+
+@pytest.fixture(scope="module")
+def fast(jaco, slow):
+    """The same skill demonstrated so fast that following it needs FASTER x the arm's velocity
+    limit (the time step shrunk by the slow plan's peak velocity ratio / FASTER), and its plan."""
+    _, result = slow
+    step = np.abs(np.diff(result.q, axis=0)) / np.diff(result.time)[:, None]
+    ratio = float((step / np.asarray(jaco.velocity_limits)).max())
+    demos = _demos(STEP * ratio / FASTER)
+    prior = learn_prior(demos)
+    return demos, prior, plan(prior, jaco, None, np.asarray(prior.mean)[0, :3])
+
+
+def _finite_difference_velocities(q: np.ndarray, time: np.ndarray) -> np.ndarray:
+    return np.abs(np.diff(q, axis=0)) / np.diff(time)[:, None]
+
+
+def test_a_skill_faster_than_the_arm_is_planned_slower_within_the_limits(jaco, fast):
+    demos, prior, result = fast
+    assert result.success, result.reasons
+    assert 2.5 <= result.time_scale <= 3.5
+    # the time stamps are the demonstrations' times the scale, in the result and the trajectory
+    np.testing.assert_allclose(result.time, np.asarray(prior.time) * result.time_scale)
+    trajectory = result.to_joint_trajectory(jaco, retime=False)
+    np.testing.assert_allclose(trajectory.time_from_start, result.time - result.time[0])
+    assert result.verdict()["time_scale"] == result.time_scale
+    assert result.verdict()["duration_s"] == pytest.approx(prior.time[-1] * result.time_scale)
+    # independent check: finite differences of q over the scaled time, the arm's limits
+    vmax = np.asarray(jaco.velocity_limits)
+    assert np.all(_finite_difference_velocities(result.q, result.time) <= vmax + VELOCITY_TOLERANCE)
+    assert np.all(np.abs(result.qdot) <= vmax + VELOCITY_TOLERANCE)
+    # it ends where the demonstrations end (forward kinematics of q, not the planner's path)
+    ends = np.asarray(demos.positions)[:, -1]
+    radius = 2.0 * max(float(np.linalg.norm(ends - ends.mean(axis=0), axis=1).max()), 0.005)
+    assert np.linalg.norm(jaco.fk(result.q)[-1] - ends.mean(axis=0)) <= radius
+
+
+def test_at_the_demonstrated_speed_the_fast_skill_exceeds_the_limits(jaco, fast):
+    _, prior, _ = fast
+    result = plan(prior, jaco, None, np.asarray(prior.mean)[0, :3], time_scale=1.0)
+    assert result.time_scale == 1.0
+    np.testing.assert_array_equal(result.time, prior.time)
+    assert not result.success and result.reasons        # the limits bend it off the skill
+
+
+def test_a_skill_within_the_limits_keeps_scale_one_bit_identical(jaco, slow):
+    from clamp.planning.pipeline import model
+    from clamp.planning.planner import plan_model
+    from clamp.planning.request import make_request
+    prior, result = slow
+    assert result.success, result.reasons
+    assert result.time_scale == 1.0
+    assert np.array_equal(result.time, prior.time)
+    start = np.asarray(prior.mean)[0, :3]
+    direct = plan_model(model(prior, jaco, None, make_request(prior, jaco, start), None))
+    assert np.array_equal(direct.q, result.q) and np.array_equal(direct.qdot, result.qdot)
+
+
+def test_a_requested_scale_and_a_maximum_duration(jaco, slow, fast):
+    prior, result = slow
+    start = np.asarray(prior.mean)[0, :3]
+    doubled = plan(prior, jaco, None, start, config=PlannerConfig(time_scale=2.0))
+    assert doubled.success and doubled.time_scale == 2.0
+    np.testing.assert_allclose(doubled.time, 2.0 * np.asarray(prior.time))
+    np.testing.assert_allclose(jaco.fk(doubled.q), jaco.fk(result.q), atol=0.01)   # same path
+    _, fast_prior, _ = fast
+    duration = float(fast_prior.time[-1])
+    bounded = plan(fast_prior, jaco, None, np.asarray(fast_prior.mean)[0, :3],
+                   max_duration=2.0 * duration)
+    assert bounded.time_scale <= 2.0 + 1e-12
+    assert not bounded.success
+    assert any("max_duration" in reason for reason in bounded.reasons), bounded.reasons
+
+
+def test_the_time_scaled_prior_is_the_same_skill_slower(slow):
+    prior, _ = slow
+    scaled = time_scaled_prior(prior, 2.5)
+    np.testing.assert_allclose(scaled.time, 2.5 * np.asarray(prior.time))
+    np.testing.assert_allclose(scaled.mean[:, :3], prior.mean[:, :3], atol=1e-12)
+    np.testing.assert_allclose(scaled.mean[:, 3:], prior.mean[:, 3:] / 2.5, atol=1e-12)
+    np.testing.assert_allclose(scaled.cov[:, :3, :3], prior.cov[:, :3, :3], atol=1e-15)
+    np.testing.assert_allclose(scaled.cov[:, 3:, 3:], prior.cov[:, 3:, 3:] / 2.5**2, atol=1e-15)
+    assert time_scaled_prior(prior, 1.0) is prior
+
+
+@pytest.mark.parametrize("options, name", [
+    ({"time_scale": 0.5}, "time_scale"), ({"time_scale": -2.0}, "time_scale"),
+    ({"time_scale": float("nan")}, "time_scale"), ({"time_scale": "slow"}, "time_scale"),
+    ({"max_duration": -1.0}, "max_duration"), ({"max_duration": 0.0}, "max_duration"),
+    ({"max_duration": 1.0}, "max_duration"),        # shorter than the skill's 9.4 s
+])
+def test_bad_time_scale_or_duration_raises_naming_the_argument(jaco, slow, options, name):
+    prior, _ = slow
+    with pytest.raises(ClampError, match=name):
+        plan(prior, jaco, None, np.asarray(prior.mean)[0, :3], **options)
+
+
+@pytest.mark.parametrize("changes, name", [
+    ({"time_scale": 0.9}, "config.model.time_scale"),
+    ({"max_duration": -3.0}, "config.model.max_duration"),
+    ({"acceleration_limit": 0.0}, "config.checks.acceleration_limit"),
+])
+def test_bad_config_fields_raise_naming_the_field(changes, name):
+    with pytest.raises(ClampError, match=name):
+        PlannerConfig(**changes)
+
+
+def test_a_replan_keeps_the_time_scale(jaco, fast):
+    from clamp import replan
+    _, prior, result = fast
+    again = replan(result)
+    assert again.time_scale == result.time_scale
+    np.testing.assert_allclose(again.time, result.time)
