@@ -4,10 +4,17 @@ A catalogue is a table of :class:`Case` rows: a call that is fed one bad input, 
 error class it must raise (a subclass of ``scenes.errors.InvalidArgumentError``, itself a
 ValueError) and the argument name the message must contain. :func:`cases` turns the table
 into pytest parameters (a row may carry an ``xfail`` reason: strict, so a fix is noticed).
+
+Error tests outside the catalogues use :func:`raises_naming`: the same check (the class, the
+argument's name in the message) as a context manager; a whole sentence is pinned with
+``pytest.raises(..., match=...)`` only where the sentence is the feature (a verdict's reason, a
+documented hint such as "positions look like millimetres: divide by 1000").
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+import re
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,5 +49,26 @@ def check(case: Case, fixtures: Any) -> None:
     with pytest.raises(case.error) as info:
         case.call(fixtures)
     message = str(info.value)
-    assert case.name in message, f"{case.name!r} not named in {message!r}"
+    assert names(message, case.name), f"{case.name!r} not named in {message!r}"
     assert "\n" not in message.strip() or len(message) < 2000, message
+
+
+def names(message: str, name: str) -> bool:
+    """Whether ``message`` names ``name`` as written: the exact text, not inside a longer word
+    (``q`` is not named by ``qdot``, ``points`` not by ``waypoints``)."""
+    before = r"(?<!\w)" if re.match(r"\w", name) else ""
+    after = r"(?!\w)" if re.search(r"\w$", name) else ""
+    return re.search(before + re.escape(name) + after, message) is not None
+
+
+@contextmanager
+def raises_naming(error: type[BaseException], *named: str) -> Iterator[pytest.ExceptionInfo]:
+    """``pytest.raises(error)`` whose message must name each of ``named``: the argument as the
+    user typed it (``"goal"``, ``"--acc-limit"``, ``"observations[0] position"``), or the file's
+    name, or a value the test is about (the valid choices, the offending index)."""
+    assert named, "name the argument the message must contain"
+    with pytest.raises(error) as info:
+        yield info
+    message = str(info.value)
+    for name in named:
+        assert names(message, name), f"{name!r} not named in {message!r}"

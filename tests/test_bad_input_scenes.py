@@ -252,7 +252,7 @@ CATALOGUE: list[Case] = [
     Case("csv-header", lambda fx: load_demonstrations(_write(fx, "h.csv", "a,b\n1,2\n")), DF, "header"),
     Case("csv-empty", lambda fx: load_demonstrations(_write(fx, "e.csv", "")), DF, "header"),
     Case("csv-one-sample", lambda fx: load_demonstrations(_write(
-        fx, "one.csv", _csv(_csv_demo(0, 1) + _csv_demo(1, 1)))), DF, "demo"),
+        fx, "one.csv", _csv(_csv_demo(0, 1) + _csv_demo(1, 1)))), DF, "demonstrations[0]"),
     Case("csv-one-demo", lambda fx: load_demonstrations(_write(
         fx, "onedemo.csv", _csv(_csv_demo(0, 5)))), DF, "demonstrations"),
     Case("csv-nan", lambda fx: load_demonstrations(_write(

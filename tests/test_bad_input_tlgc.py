@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bad_input import Case, cases, check
+from bad_input import Case, cases, check, raises_naming
 from scenes import Box, make_demonstrations
 from tlgc import (GeneralizedCylinder, fit_cylinder, random_starts, ratio_schedule, reproduce,
                   start_coordinates)
@@ -115,7 +115,7 @@ CATALOGUE: list[Case] = [
     Case("ratio-schedule-eta0", lambda fx: ratio_schedule("x", fx.cyl.arc_length, None, 1.0), IA, "eta0"),
     # --- generalization
     Case("tps-landmarks-shape", lambda fx: tps_generalize(fx.cyl, np.zeros((3, 3)), np.zeros((2, 3))), TLGCError,
-         "landmarks"),
+         "source_landmarks"),
     Case("tps-landmarks-nan", lambda fx: tps_generalize(fx.cyl, np.full((4, 3), np.nan), np.zeros((4, 3))),
          TLGCError, "source_landmarks"),
     Case("tps-smoothing", lambda fx: tps_generalize(fx.cyl, fx.cyl.directrix[[0, 10, 20, 39]],
@@ -126,7 +126,7 @@ CATALOGUE: list[Case] = [
     Case("fit-similarity-shape", lambda fx: fit_similarity(np.zeros((3, 3)), np.zeros((4, 3))), TLGCError,
          "target"),
     Case("landmark-constraints-shape", lambda fx: landmark_constraints(fx.cyl, np.zeros((2, 3)), np.zeros((3, 3))),
-         TLGCError, "landmarks"),
+         TLGCError, "source_landmarks"),
     Case("lte-generalize-index", lambda fx: lte_generalize(fx.cyl, {10_000: [0, 0, 0]}), TLGCError, "constraints"),
     Case("lte-generalize-type", lambda fx: lte_generalize(fx.cyl, [[0, 0, 0]]), TLGCError, "constraints"),
     Case("lte-generalize-mode", lambda fx: lte_generalize(fx.cyl, {0: fx.cyl.directrix[0]}, mode="bend"),
@@ -210,5 +210,5 @@ def test_start_on_plane_within_tolerance_is_reproduced(fx) -> None:
     it is refused, with the distance in the message."""
     path = reproduce(fx.cyl, _start(fx, offset=5e-4, outside=0.5))
     assert path.shape == (fx.cyl.num_sections, 3)
-    with pytest.raises(StartOffPlaneError, match="0.2 m"):
+    with raises_naming(StartOffPlaneError, "starts[0]", "0.2 m"):
         reproduce(fx.cyl, _start(fx, offset=0.2, outside=0.5))

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 
+from bad_input import raises_naming
 from clamp.batch.runner import LocalPool, ResultsFile, pending_problems, plan_many, read_results
 from clamp.batch.report import reason_key, summarize
 from clamp.errors import InvalidParameterError
@@ -81,7 +82,7 @@ def test_a_held_results_file_is_refused_naming_the_holder(tmp_path):
                               "r.jsonl"], cwd=tmp_path, env=ENV, capture_output=True, text=True,
                              timeout=300)                             # named as the user typed it
         _one_line_error(run.returncode, run.stderr, "--out: 'r.jsonl'", f"pid {os.getpid()}")
-        with pytest.raises(InvalidParameterError, match=f"pid {os.getpid()}"):
+        with raises_naming(InvalidParameterError, "out", f"pid {os.getpid()}"):
             list(plan_many(_problems(3), out=out))                    # in this process too
     assert _lines(out) == []
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from robots import load_robot
 from clamp.factors import StateWindow
 from tlgc.boundary_factor import (BoundaryFamily, boundary_distance, boundary_residuals,
@@ -37,9 +38,9 @@ def test_section_indices_match_normalised_index():
     np.testing.assert_array_equal(section_indices(np.arange(5), 5, 101), [0, 25, 50, 75, 100])
     np.testing.assert_array_equal(section_indices(np.arange(3), 3, 3), [0, 1, 2])
     assert section_indices(np.array(0), 1, 50) == 0
-    with pytest.raises(TLGCArgumentError, match="index"):
+    with raises_naming(TLGCArgumentError, "index"):
         section_indices(np.array([5]), 5, 10)
-    with pytest.raises(TLGCArgumentError, match="num_states"):
+    with raises_naming(TLGCArgumentError, "num_states"):
         section_indices(np.array([0]), 0, 10)
 
 
@@ -99,13 +100,13 @@ def test_family_restricts_states_and_checks_arguments():
     np.testing.assert_array_equal(family.first, [0, 5])
     np.testing.assert_array_equal(family.sections, section_indices(np.array([0, 5]), T,
                                                                   cyl.num_sections))
-    with pytest.raises(TLGCArgumentError, match="cylinder"):
+    with raises_naming(TLGCArgumentError, "cylinder"):
         BoundaryFamily("tube", T)
-    with pytest.raises(TLGCArgumentError, match="sigma"):
+    with raises_naming(TLGCArgumentError, "sigma"):
         BoundaryFamily(cyl, T, sigma=0.0)
-    with pytest.raises(TLGCArgumentError, match="num_states"):
+    with raises_naming(TLGCArgumentError, "num_states"):
         BoundaryFamily(cyl, 0)
-    with pytest.raises(TLGCArgumentError, match="states"):
+    with raises_naming(TLGCArgumentError, "states"):
         BoundaryFamily(cyl, T, states=["a"])
 
 

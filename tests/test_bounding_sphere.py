@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from scipy.optimize import nnls
 
+from bad_input import raises_naming
 from scenes import Box, Cylinder, Sphere
 from tlgc.bounding_sphere import BoundingSphere, bounding_sphere, minimal_bounding_sphere
 from tlgc.errors import TLGCArgumentError
@@ -56,11 +57,11 @@ def test_primitive_obstacles_match_their_sampled_points():
 
 
 def test_bad_obstacles_raise():
-    with pytest.raises(TLGCArgumentError, match="obstacle"):
+    with raises_naming(TLGCArgumentError, "obstacle"):
         bounding_sphere("rock")
-    with pytest.raises(TLGCArgumentError, match="points"):
+    with raises_naming(TLGCArgumentError, "points"):
         minimal_bounding_sphere(np.zeros((0, 3)))
-    with pytest.raises(TLGCArgumentError, match="NaN"):
+    with raises_naming(TLGCArgumentError, "points"):
         minimal_bounding_sphere([[0, 0, np.nan]])
-    with pytest.raises(TLGCArgumentError, match="radius"):
+    with raises_naming(TLGCArgumentError, "obstacle radius"):
         bounding_sphere(([0, 0, 0], -1.0))

@@ -243,5 +243,6 @@ def test_version_prints_the_package_version(entry, capsys):
 def test_debug_shows_the_traceback(tmp_path):
     from clamp.cli.main import main
     from clamp.errors import InvalidParameterError
-    with pytest.raises(InvalidParameterError, match="epsilon"):
+    from bad_input import raises_naming
+    with raises_naming(InvalidParameterError, "epsilon"):
         main(["demo", "--epsilon", "-1", "--out", str(tmp_path / "o"), "--debug"])

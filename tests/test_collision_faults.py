@@ -9,6 +9,7 @@ import logging
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from clamp.planning.clearance import collision_reason
 from robots import Robot, RobotError, collision_check
 from robots.collision_check import CollisionChecker
@@ -72,7 +73,7 @@ def test_urdf_without_collision_geometry_fits_spheres_to_its_visual_geometry(tmp
     assert report.geometry == "spheres" and report.collision
     assert len(spheres.radii) >= 1
     path.write_text(arm(""))
-    with pytest.raises(RobotError, match="neither collision nor visual"):
+    with raises_naming(RobotError, "spheres", "arm.urdf"):
         Robot.from_urdf(path, end_effector="tool").spheres
 
 

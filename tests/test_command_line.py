@@ -5,6 +5,7 @@ import logging
 
 import pytest
 
+from bad_input import raises_naming
 from skillplan.command_line import (CommandLineParser, atomic_write, atomic_write_text, output_directory,
                                  output_file, run)
 from scenes.errors import InvalidArgumentError, OutputPathError
@@ -29,10 +30,10 @@ def test_interrupted_write_keeps_the_old_file(tmp_path):
 def test_existing_file_is_not_replaced_without_overwrite(tmp_path):
     target = tmp_path / "a.txt"
     target.write_text("mine")
-    with pytest.raises(OutputPathError, match="already exists"):
+    with raises_naming(OutputPathError, "a.txt"):
         atomic_write_text(target, "theirs")
     assert target.read_text() == "mine"
-    with pytest.raises(OutputPathError, match="does not exist"):
+    with raises_naming(OutputPathError, "missing"):
         atomic_write_text(tmp_path / "missing" / "a.txt", "x")
     assert isinstance(OutputPathError("x"), (InvalidArgumentError, FileExistsError))
 
@@ -43,13 +44,13 @@ def test_output_directory_new_empty_or_force(tmp_path):
     assert output_directory(tmp_path / "empty") == tmp_path / "empty"
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "x").write_text("x")
-    with pytest.raises(OutputPathError, match="--force"):
+    with raises_naming(OutputPathError, "--out", "full"):
         output_directory(tmp_path / "full")
     assert output_directory(tmp_path / "full", force=True) == tmp_path / "full"
     (tmp_path / "file").write_text("x")
-    with pytest.raises(OutputPathError, match="--out: expected a folder"):
+    with raises_naming(OutputPathError, "--out", "file"):
         output_directory(tmp_path / "file", force=True)
-    with pytest.raises(OutputPathError, match="--out.*already exists"):
+    with raises_naming(OutputPathError, "--out", "file"):
         output_file(tmp_path / "file")
     assert output_file(tmp_path / "file", force=True) == tmp_path / "file"
 

@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from scenes import Box, Demonstrations, InvalidDemonstrationsError, NOMINAL_DURATION, make_demonstrations
 from scenes.alignment import dtw_cost, dtw_path
 
@@ -22,29 +23,29 @@ def with_value(array, value):
     return out
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda p, v, t: (with_value(p, np.nan), v, t), "positions: contains 1 NaN"),
-    (lambda p, v, t: (p, with_value(v, np.inf), t), "velocities: contains 1 NaN/inf"),
-    (lambda p, v, t: (p[:1], v[:1], t), "at least 2 demonstrations, got 1"),
-    (lambda p, v, t: (p[0], v[0], t), r"rank 3 .* got shape \(20, 3\)"),
-    (lambda p, v, t: (p[..., :2], v[..., :2], t), r"last dimension 3 .* got shape \(3, 20, 2\)"),
-    (lambda p, v, t: (p, v, t[::-1]), "strictly increasing"),
-    (lambda p, v, t: (p, v, np.r_[t[:5], t[4], t[6:]]), r"time\[5\].*<= time\[4\]"),
-    (lambda p, v, t: (p, v[:, :10], t), r"velocities: expected shape \(3, 20, 3\)"),
-    (lambda p, v, t: (p, v, t[:10]), r"time: expected shape \(20,\)"),
-    (lambda p, v, t: (p[:, :1], v[:, :1], t[:1]), "at least 2 time steps"),
-    (lambda p, v, t: ([["a"]], v, t), "positions: expected a numeric array"),
+@pytest.mark.parametrize("change, name", [
+    (lambda p, v, t: (with_value(p, np.nan), v, t), "positions"),
+    (lambda p, v, t: (p, with_value(v, np.inf), t), "velocities"),
+    (lambda p, v, t: (p[:1], v[:1], t), "positions"),
+    (lambda p, v, t: (p[0], v[0], t), "positions"),
+    (lambda p, v, t: (p[..., :2], v[..., :2], t), "positions"),
+    (lambda p, v, t: (p, v, t[::-1]), "time"),
+    (lambda p, v, t: (p, v, np.r_[t[:5], t[4], t[6:]]), "time[5]"),
+    (lambda p, v, t: (p, v[:, :10], t), "velocities"),
+    (lambda p, v, t: (p, v, t[:10]), "time"),
+    (lambda p, v, t: (p[:, :1], v[:, :1], t[:1]), "positions"),
+    (lambda p, v, t: ([["a"]], v, t), "positions"),
 ])
-def test_invalid_arrays_raise_naming_the_problem(change, message):
-    with pytest.raises(InvalidDemonstrationsError, match=message):
+def test_invalid_arrays_raise_naming_the_problem(change, name):
+    with raises_naming(InvalidDemonstrationsError, name):
         Demonstrations(*change(*valid()))
 
 
 def test_obstacles_must_match_demonstration_count():
     p, v, t = valid()
-    with pytest.raises(InvalidDemonstrationsError, match="one list per demonstration"):
+    with raises_naming(InvalidDemonstrationsError, "obstacles"):
         Demonstrations(p, v, t, obstacles=[[Box([0, 0, 0], [1, 1, 1])]])
-    with pytest.raises(InvalidDemonstrationsError, match=r"obstacles\[1\]\[0\]"):
+    with raises_naming(InvalidDemonstrationsError, "obstacles[1][0]"):
         Demonstrations(p, v, t, obstacles=[[], ["box"], []])
 
 
@@ -58,7 +59,7 @@ def test_properties_and_mean_and_translation():
     assert np.allclose(moved.positions - demos.positions, [0.1, -0.2, 0.05])
     assert np.allclose(moved.velocities, demos.velocities)
     assert np.allclose(moved.obstacles[2][0].center, demos.obstacles[2][0].center + [0.1, -0.2, 0.05])
-    with pytest.raises(InvalidDemonstrationsError, match="offset"):
+    with raises_naming(InvalidDemonstrationsError, "offset"):
         demos.translated([1, 2])
 
 
@@ -98,17 +99,17 @@ def test_from_trajectories_rescales_given_velocities():
     assert np.abs(demos.velocities - derivative)[:, 2:-2].max() < 1e-3
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(trajectories=[np.zeros((5, 3))]), "at least 2 demonstrations"),
-    (dict(trajectories=[np.zeros((5, 3)), np.zeros((5, 2))]), r"trajectories\[1\]: expected shape"),
-    (dict(trajectories=[np.zeros((5, 3)), np.full((5, 3), np.nan)]), r"trajectories\[1\]: contains"),
-    (dict(trajectories=[np.zeros((5, 3))] * 2, times=[np.arange(5.0)]), "times: expected 2"),
-    (dict(trajectories=[np.zeros((5, 3))] * 2, times=[np.arange(5.0), np.ones(5)]), r"times\[1\]"),
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(trajectories=[np.zeros((5, 3))]), "trajectories"),
+    (dict(trajectories=[np.zeros((5, 3)), np.zeros((5, 2))]), "trajectories[1]"),
+    (dict(trajectories=[np.zeros((5, 3)), np.full((5, 3), np.nan)]), "trajectories[1]"),
+    (dict(trajectories=[np.zeros((5, 3))] * 2, times=[np.arange(5.0)]), "times"),
+    (dict(trajectories=[np.zeros((5, 3))] * 2, times=[np.arange(5.0), np.ones(5)]), "times[1]"),
     (dict(trajectories=[np.zeros((5, 3))] * 2, num_points=1), "num_points"),
-    (dict(trajectories=[np.zeros((5, 3))] * 2, velocities=[np.zeros((5, 3)), np.zeros((4, 3))]), r"velocities\[1\]"),
+    (dict(trajectories=[np.zeros((5, 3))] * 2, velocities=[np.zeros((5, 3)), np.zeros((4, 3))]), "velocities[1]"),
 ])
-def test_from_trajectories_errors(kwargs, message):
-    with pytest.raises(InvalidDemonstrationsError, match=message):
+def test_from_trajectories_errors(kwargs, name):
+    with raises_naming(InvalidDemonstrationsError, name):
         Demonstrations.from_trajectories(**kwargs)
 
 
@@ -119,7 +120,7 @@ def test_resample_round_trip_on_smooth_data():
     assert np.abs(back.positions - demos.positions).max() < 1e-6
     assert np.abs(back.velocities - demos.velocities).max() < 1e-6
     assert demos.resample(500).T == 500
-    with pytest.raises(InvalidDemonstrationsError, match="T: expected an integer >= 2"):
+    with raises_naming(InvalidDemonstrationsError, "T"):
         demos.resample(1)
 
 
@@ -158,7 +159,7 @@ def test_dtw_cost_matches_brute_force_recursion():
 
 def test_align_dtw_rejects_bad_reference():
     demos = make_demonstrations("pick_place", num_demos=3, num_points=30)
-    with pytest.raises(InvalidDemonstrationsError, match="reference"):
+    with raises_naming(InvalidDemonstrationsError, "reference"):
         demos.align_dtw(reference=3)
 
 
@@ -206,13 +207,13 @@ def test_joint_trajectories_follow_resampling_and_alignment():
                                np.stack([[j[0], j[-1]] for j in joints]), atol=1e-12)
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(joint_positions=np.zeros((3, 20, 2))), "joint_names: expected 2 joint names"),
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(joint_positions=np.zeros((3, 20, 2))), "joint_names"),
     (dict(joint_positions=np.zeros((3, 19, 2)), joint_names=["a", "b"]),
-     r"joint_positions: expected shape \(3, 20, n\)"),
-    (dict(joint_names=["a", "b"]), "joint_names: given without joint_positions"),
+     "joint_positions"),
+    (dict(joint_names=["a", "b"]), "joint_names"),
     (dict(joint_positions=np.zeros((3, 20, 2)), joint_names=["a", 2]), "joint_names"),
 ])
-def test_joint_trajectories_are_checked(kwargs, message):
-    with pytest.raises(InvalidDemonstrationsError, match=message):
+def test_joint_trajectories_are_checked(kwargs, name):
+    with raises_naming(InvalidDemonstrationsError, name):
         Demonstrations(*valid(), **kwargs)

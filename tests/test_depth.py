@@ -6,9 +6,9 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 from scipy.spatial import cKDTree
 
+from bad_input import raises_naming
 from scenes import Box, InvalidArgumentError, PointCloud, Scene, SceneFileError
 
 W, H = 320, 240
@@ -129,7 +129,7 @@ def test_millimetres_with_a_scale():
     cloud = PointCloud.from_depth(millimetres, INTRINSICS, POSE, depth_scale=0.001)
     assert np.abs(BOX.distance(cloud.points)).max() < 1e-3            # 0.5 mm rounding x slant
     assert len(cloud.points) == int((depth > 0).sum())
-    with pytest.raises(InvalidArgumentError, match="depth_scale"):
+    with raises_naming(InvalidArgumentError, "depth_scale"):
         PointCloud.from_depth(millimetres, INTRINSICS, POSE)
 
 
@@ -149,17 +149,17 @@ def test_intrinsics_forms_agree_and_bad_arguments_are_named():
     reference = PointCloud.from_depth(depth, INTRINSICS, POSE).points
     for form in (K, {"fx": fx, "fy": fy, "cx": cx, "cy": cy}, list(INTRINSICS)):
         np.testing.assert_array_equal(PointCloud.from_depth(depth, form, POSE).points, reference)
-    cases = [((depth, (0.0, fy, cx, cy), POSE), "fx"),
+    cases = [((depth, (0.0, fy, cx, cy), POSE), "intrinsics"),
              ((depth, {"fx": fx}, POSE), "intrinsics"),
              ((depth, INTRINSICS, np.eye(3)), "camera_pose"),
              ((depth, INTRINSICS, 2 * np.eye(4)), "camera_pose"),
              ((depth[0], INTRINSICS, POSE), "depth"),
              ((depth, INTRINSICS, POSE, {"voxel": -1.0}), "voxel"),
              ((depth, INTRINSICS, POSE, {"roi": [[1, 1, 1], [0, 0, 0]]}), "roi"),
-             ((np.zeros((H, W)), INTRINSICS, POSE), "no point")]
+             ((np.zeros((H, W)), INTRINSICS, POSE), "PointCloud.from_depth")]
     for args, word in cases:
         kwargs = args[3] if len(args) == 4 else {}
-        with pytest.raises(InvalidArgumentError, match=word):
+        with raises_naming(InvalidArgumentError, word):
             PointCloud.from_depth(*args[:3], **kwargs)
 
 
@@ -248,6 +248,5 @@ def test_a_depth_image_in_a_scene_file(tmp_path):
                        "camera_pose"),
                       ({**entry, "file": "../camera.png"}, "depth_scale")]:
         scene_file.write_text(json.dumps({"obstacles": [bad]}))
-        with pytest.raises(SceneFileError, match=word) as info:
+        with raises_naming(SceneFileError, scene_file.name, "obstacles[0]", word):
             Scene.load(scene_file)
-        assert "obstacles[0]" in str(info.value)

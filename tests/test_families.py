@@ -16,6 +16,7 @@ import gtsam
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
                            ObstacleFamily, OrientationFamily, PostureFamily, PostureMotionFamily,
                            PostureVelocityFamily, SelfCollisionFamily, SkillTubeFamily,
@@ -251,7 +252,7 @@ def test_a_reweighted_family_scales_its_noise_and_nothing_else(setup):
         assert type(stiffer) is type(family) and stiffer.name == family.name
         sigma = family.noise_model(0).sigmas()
         assert np.allclose(stiffer.noise_model(0).sigmas(), sigma / 4.0, rtol=1e-12)
-    with pytest.raises(InvalidParameterError, match="factor: expected a positive"):
+    with raises_naming(InvalidParameterError, "factor"):
         families[0].reweighted(0.0)
 
 

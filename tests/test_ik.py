@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 import scipy.io
 
+from bad_input import raises_naming
 from robots import IKResult, IKTrajectoryResult, RobotError, load_robot
+from robots.errors import InvalidArrayError
 
 
 @pytest.fixture(scope="module", params=["jaco", "sawyer"])
@@ -71,15 +73,15 @@ def test_trajectory_ik_follows_box_closing_mean_path_on_jaco(jaco, shared_datase
 
 
 def test_ik_rejects_bad_input(robot):
-    with pytest.raises(RobotError, match="target"):
+    with raises_naming(InvalidArrayError, "target"):
         robot.ik([0.1, 0.2])
-    with pytest.raises(RobotError, match="target.*NaN"):
+    with raises_naming(InvalidArrayError, "target"):
         robot.ik([0.1, np.nan, 0.2])
-    with pytest.raises(RobotError, match="seed"):
+    with raises_naming(InvalidArrayError, "seed"):
         robot.ik([0.1, 0.2, 0.3], seed=np.zeros(robot.n + 1))
-    with pytest.raises(RobotError, match="targets"):
+    with raises_naming(InvalidArrayError, "targets"):
         robot.ik_trajectory(np.zeros((5, 2)))
-    with pytest.raises(RobotError, match="tol"):
+    with raises_naming(RobotError, "tol"):
         robot.ik([0.1, 0.2, 0.3], tol=-1.0)
-    with pytest.raises(RobotError, match="rng"):
+    with raises_naming(RobotError, "rng"):
         robot.ik([0.1, 0.2, 0.3], rng="seed")

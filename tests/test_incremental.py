@@ -6,6 +6,7 @@ import types
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from clamp import WorkspacePrior, errors, learn_prior
 from clamp.prior.conjugate import K0_SCALE, N0_SCALE
 from scenes import Demonstrations, make_demonstrations
@@ -87,10 +88,10 @@ def test_posterior_survives_save_and_load(demos, tmp_path):
 
 
 def test_update_needs_an_incremental_prior_and_matching_steps(demos):
-    with pytest.raises(errors.InvalidParameterError, match="incremental"):
+    with raises_naming(errors.InvalidParameterError, "prior"):
         learn_prior(demos).update(demos)
     prior = learn_prior(demos, method="incremental")
-    with pytest.raises(errors.ShapeError, match="demos.positions"):
+    with raises_naming(errors.ShapeError, "demos.positions"):
         prior.update(demos.resample(60))
-    with pytest.raises(errors.InvalidParameterError, match="method"):
+    with raises_naming(errors.InvalidParameterError, "method"):
         learn_prior(demos, method="online")

@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from robots import RetimingError, check_limits, load_trajectory, retime
 from robots import retiming as retiming_module
 from robots.trajectory import JointTrajectory
@@ -121,7 +122,7 @@ def test_a_violating_timing_is_redone_or_refused(plans, monkeypatch, caplog):
     assert report.within_limits
     assert_executable(robot, planned, retimed, robot.velocity_limits, ACCELERATION, JERK)
     monkeypatch.setattr(retiming_module, "_path_bounds", lying(10**9))
-    with pytest.raises(RetimingError, match="traj"):
+    with raises_naming(RetimingError, "traj"):
         retime(planned, robot, ACCELERATION, method="ruckig", jerk_limits=JERK)
 
 
@@ -176,7 +177,7 @@ def test_motionless_trajectory_is_left_alone(jaco):
 ])
 def test_bad_jerk_limits(plans, options):
     robot, planned, _ = plans["jaco-free"]
-    with pytest.raises(RetimingError, match="jerk_limits"):
+    with raises_naming(RetimingError, "jerk_limits"):
         retime(planned, robot, **options)
 
 
@@ -191,7 +192,7 @@ def test_plan_result_to_joint_trajectory_with_jerk_limits(plans):
     retimed = result.to_joint_trajectory(robot, jerk_limits=JERK)
     assert retimed.verdict["retiming"]["method"] == "ruckig"
     assert_executable(robot, planned, retimed, robot.velocity_limits, ACCELERATION, JERK)
-    with pytest.raises(RetimingError, match="jerk_limits"):
+    with raises_naming(RetimingError, "jerk_limits"):
         result.to_joint_trajectory(robot, retime=False, jerk_limits=JERK)
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import scipy.io
 
+from bad_input import raises_naming
 from clamp import errors
 from clamp.prior.learning import fit_transitions, learn_joint_prior, learn_prior, state_groups
 from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
@@ -249,11 +250,11 @@ def test_error_catalogue(synthetic):
     positions, velocities, time = synthetic
     kw = dict(positions=positions, velocities=velocities, time=time)
     cases = [
-        (errors.InsufficientDemonstrationsError, "at least 2",
+        (errors.InsufficientDemonstrationsError, "demonstrations",
          dict(kw, positions=positions[:1], velocities=velocities[:1])),
-        (errors.InsufficientDemonstrationsError, "ridge > 0",
+        (errors.InsufficientDemonstrationsError, "demonstrations",
          dict(kw, positions=positions[:2], velocities=velocities[:2], ridge=0.0)),
-        (errors.InsufficientDemonstrationsError, "at least 7",
+        (errors.InsufficientDemonstrationsError, "demonstrations",
          dict(kw, coupled=True, ridge=0.0, positions=positions[:6], velocities=velocities[:6])),
         (errors.NonFiniteError, "positions", dict(kw, positions=np.where(
             np.arange(positions.size).reshape(positions.shape) == 5, np.nan, positions))),
@@ -262,21 +263,21 @@ def test_error_catalogue(synthetic):
         (errors.ShapeError, "positions", dict(kw, positions=positions[..., :2],
                                               velocities=velocities[..., :2])),
         (errors.ShapeError, "time", dict(kw, time=time[:-1])),
-        (errors.InvalidParameterError, "increasing", dict(kw, time=time[::-1].copy())),
+        (errors.InvalidParameterError, "time", dict(kw, time=time[::-1].copy())),
         (errors.InvalidParameterError, "ridge", dict(kw, ridge=-1.0)),
         (errors.InvalidParameterError, "jitter", dict(kw, jitter=float("nan"))),
-        (errors.InvalidParameterError, "or all of", dict(kw, positions=None)),
+        (errors.InvalidParameterError, "demos", dict(kw, positions=None)),
     ]
-    for error, text, kwargs in cases:
-        with pytest.raises(error, match=text):
+    for error, name, kwargs in cases:
+        with raises_naming(error, name):
             learn_prior(**kwargs)
         assert issubclass(error, errors.ClampError) and issubclass(error, ValueError)
-    with pytest.raises(errors.InvalidParameterError, match="not both"):
+    with raises_naming(errors.InvalidParameterError, "demos"):
         learn_prior(types.SimpleNamespace(positions=positions, velocities=velocities,
                                           time=time), time=time)
-    with pytest.raises(errors.ShapeError, match="lacks"):
+    with raises_naming(errors.ShapeError, "demos"):
         learn_prior(types.SimpleNamespace(positions=positions))
-    with pytest.raises(errors.ShapeError, match="qdot"):
+    with raises_naming(errors.ShapeError, "qdot"):
         learn_joint_prior(positions, velocities[..., :2], time)
     with pytest.warns(errors.ClampWarning, match="underdetermined"):
         learn_prior(**dict(kw, coupled=True, positions=positions[:6], velocities=velocities[:6]))
@@ -347,7 +348,7 @@ def test_only_demonstrations_identical_everywhere_are_refused():
     positions, velocities, time = synthetic_states(num_demos=4)
     same = np.broadcast_to(positions[:1], positions.shape)
     same_v = np.broadcast_to(velocities[:1], velocities.shape)
-    with pytest.raises(errors.DegenerateDemonstrationsError, match="identical at all 60 steps"):
+    with raises_naming(errors.DegenerateDemonstrationsError, "demonstrations"):
         learn_prior(positions=same, velocities=same_v, time=time)
     one_step = same.copy()
     one_step[1, 30, 0] += 1e-3                                      # differ at one step only

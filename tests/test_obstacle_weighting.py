@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 import scipy.io
 
+from bad_input import raises_naming
 from clamp import ClampWarning, errors, learn_prior, plan
 from clamp.prior.obstacle_weighting import ObstacleWeighting, demonstration_weights
 from clamp.viz.prior_plots import plot_weighted_priors
-from scenes import (Box, Demonstrations, Scene, load_demonstrations,
+from scenes import (Box, DemonstrationFileError, Demonstrations, Scene, load_demonstrations,
                     make_cluttered_demonstrations, make_demonstrations, save_csv)
 
 DETOUR = 0.08
@@ -92,9 +93,9 @@ def test_weighting_without_obstacles_warns_and_bad_settings_fail():
     demos = make_demonstrations("box_closing", num_demos=4, num_points=30, seed=0)
     with pytest.warns(ClampWarning, match="no recorded obstacles"):
         learn_prior(demos, obstacle_weighting=True)
-    with pytest.raises(errors.ClampError, match="obstacle_weighting.sigma"):
+    with raises_naming(errors.InvalidParameterError, "obstacle_weighting.sigma"):
         learn_prior(demos, obstacle_weighting={"sigma": 0.0})
-    with pytest.raises(errors.InvalidParameterError, match="obstacle_weighting"):
+    with raises_naming(errors.InvalidParameterError, "obstacle_weighting"):
         learn_prior(demos, obstacle_weighting="yes")
 
 
@@ -116,7 +117,7 @@ def test_obstacles_load_from_reference_mat_csv_scene_json_and_npz(cluttered, tmp
             np.testing.assert_allclose(group[0].center, expected[0].center)
             np.testing.assert_allclose(group[0].size, expected[0].size)
     assert load_demonstrations(csv).obstacles is None
-    with pytest.raises(Exception, match="one scene per demonstration"):
+    with raises_naming(DemonstrationFileError, "scenes", "demos.csv"):
         load_demonstrations(csv, scenes=scene_paths[:2])
 
 

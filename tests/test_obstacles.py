@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from bad_input import raises_naming
 from scenes import Box, Capsule, Cylinder, InvalidArgumentError, InvalidObstacleError, Sphere
 from scenes.obstacles import obstacle_from_dict
 
@@ -106,9 +107,9 @@ def test_from_reference_and_translation_and_dict_round_trip():
     (lambda: Box([0, 0, 0], [0.1, 0.0, 0.1]), "Box size"),
     (lambda: Box([0, 0, 0], [0.1, -0.2, 0.1]), "Box size"),
     (lambda: Box.from_reference([0, 0, 0, 0.1, 0.1, -1]), "Box size"),
-    (lambda: Box.from_reference([0, 0, 0, 0.1]), "reference row"),
+    (lambda: Box.from_reference([0, 0, 0, 0.1]), "Box reference"),
     (lambda: Box([0, 0], [1, 1, 1]), "Box center"),
-    (lambda: Box([0, 0, np.nan], [1, 1, 1]), "NaN"),
+    (lambda: Box([0, 0, np.nan], [1, 1, 1]), "Box center"),
     (lambda: Box([0, 0, 0], [1, 1, 1], np.ones((3, 3))), "rotation"),
     (lambda: Sphere([0, 0, 0], 0.0), "Sphere radius"),
     (lambda: Sphere([0, 0, 0], -1), "Sphere radius"),
@@ -122,17 +123,17 @@ def test_from_reference_and_translation_and_dict_round_trip():
     (lambda: Capsule([0, 0, 0, 1], 0.1, 1.0), "Capsule center"),
 ])
 def test_invalid_obstacles_raise(make, field):
-    with pytest.raises(InvalidObstacleError, match=field):
+    with raises_naming(InvalidObstacleError, field):
         make()
 
 
 def test_bad_points_raise():
-    with pytest.raises(ValueError, match=r"points: expected shape \(\.\.\., 3\)"):
+    with raises_naming(InvalidArgumentError, "points"):
         Sphere([0, 0, 0], 1).distance(np.zeros((5, 2)))
     for ob in OBSTACLES:
-        with pytest.raises(InvalidArgumentError, match=r"points: expected shape \(\.\.\., 3\), got \(4,\)"):
+        with raises_naming(InvalidArgumentError, "points"):
             ob.query(np.zeros(4))
-        with pytest.raises(InvalidArgumentError, match="points: contains 1 NaN"):
+        with raises_naming(InvalidArgumentError, "points"):
             ob.query([[0.0, np.nan, 0.0]])
 
 
@@ -319,9 +320,9 @@ def test_capsule_dict_round_trip():
     assert obstacle_from_dict(data) == cap
     assert obstacle_from_dict({"type": "capsule", "center": [0, 0, 0], "radius": 0.1, "height": 0.2}) \
         == Capsule([0, 0, 0], 0.1, 0.2)
-    with pytest.raises(InvalidObstacleError, match=r"capsule is missing field\(s\) \['height'\]"):
+    with raises_naming(InvalidObstacleError, "obstacle", "height"):
         obstacle_from_dict({"type": "capsule", "center": [0, 0, 0], "radius": 0.1})
-    with pytest.raises(InvalidObstacleError, match=r"unknown capsule field\(s\) \['size'\]"):
+    with raises_naming(InvalidObstacleError, "obstacle", "size"):
         obstacle_from_dict({"type": "capsule", "center": [0, 0, 0], "radius": 0.1, "height": 0.2, "size": 1})
 
 

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from bad_input import raises_naming
 from clamp import errors
 from clamp.prior.linear_gaussian import FILE_FORMAT, LinearGaussianPrior, WorkspacePrior
 
@@ -136,58 +137,58 @@ def test_workspace_prior_save_load_round_trip(tmp_path):
     joint = LinearGaussianPrior(**random_system(), kind="joint")
     loaded_joint = LinearGaussianPrior.load(joint.save(tmp_path / "joint.npz"))
     assert type(loaded_joint) is LinearGaussianPrior and loaded_joint.kind == "joint"
-    with pytest.raises(errors.PriorFileError, match="'joint' prior"):
+    with raises_naming(errors.PriorFileError, "joint.npz"):
         WorkspacePrior.load(tmp_path / "joint.npz")
 
 
 def test_load_rejects_bad_files(tmp_path, prior):
-    with pytest.raises(errors.PriorFileError, match="does not exist"):
+    with raises_naming(errors.PriorFileError, "missing.npz"):
         LinearGaussianPrior.load(tmp_path / "missing.npz")
     text = tmp_path / "text.npz"
     text.write_text("not a zip archive")
-    with pytest.raises(errors.PriorFileError, match="readable"):
+    with raises_naming(errors.PriorFileError, "text.npz"):
         LinearGaussianPrior.load(text)
     good = {k: getattr(prior, k) for k in ("time", "Phi", "u", "Q", "mean0", "cov0")}
     meta = dict(format=np.array(FILE_FORMAT), kind=np.array("generic"), info=np.array("{}"),
                 state_names=np.array(prior.state_names))
     np.savez(tmp_path / "old.npz", **{**good, **meta, "format": np.array("other/0")})
-    with pytest.raises(errors.PriorFileError, match="format"):
+    with raises_naming(errors.PriorFileError, "old.npz", "format"):
         LinearGaussianPrior.load(tmp_path / "old.npz")
     np.savez(tmp_path / "short.npz", **{k: v for k, v in {**good, **meta}.items() if k != "Q"})
-    with pytest.raises(errors.PriorFileError, match="lacks"):
+    with raises_naming(errors.PriorFileError, "short.npz", "Q"):
         LinearGaussianPrior.load(tmp_path / "short.npz")
     nan_phi = good["Phi"].copy()
     nan_phi[1, 0, 0] = np.nan
     np.savez(tmp_path / "nan.npz", **{**good, **meta, "Phi": nan_phi})
-    with pytest.raises(errors.PriorFileError, match="Phi"):
+    with raises_naming(errors.PriorFileError, "nan.npz", "Phi"):
         LinearGaussianPrior.load(tmp_path / "nan.npz")
 
 
 def test_constructor_and_argument_errors(system, prior):
     bad = dict(system, Q=system["Q"] - 10.0 * np.eye(4))
-    with pytest.raises(errors.InvalidParameterError, match="positive definite"):
+    with raises_naming(errors.InvalidParameterError, "Q"):
         LinearGaussianPrior(**bad)
     asym = system["cov0"].copy()
     asym[0, 1] += 1.0
-    with pytest.raises(errors.InvalidParameterError, match="symmetric"):
+    with raises_naming(errors.InvalidParameterError, "cov0"):
         LinearGaussianPrior(**dict(system, cov0=asym))
-    with pytest.raises(errors.ShapeError, match="even"):
+    with raises_naming(errors.ShapeError, "Phi"):
         LinearGaussianPrior(**random_system(D=3))
-    with pytest.raises(errors.ShapeError, match="time"):
+    with raises_naming(errors.ShapeError, "time"):
         LinearGaussianPrior(**dict(system, time=system["time"][:-1]))
-    with pytest.raises(errors.ShapeError, match="u"):
+    with raises_naming(errors.ShapeError, "u"):
         LinearGaussianPrior(**dict(system, u=system["u"][:, :3]))
-    with pytest.raises(errors.ShapeError, match="Phi"):
+    with raises_naming(errors.ShapeError, "Phi"):
         WorkspacePrior(**system)
-    with pytest.raises(errors.ShapeError, match="x"):
+    with raises_naming(errors.ShapeError, "x"):
         prior.log_likelihood(np.zeros((prior.T + 1, prior.D)))
-    with pytest.raises(errors.NonFiniteError, match="x"):
+    with raises_naming(errors.NonFiniteError, "x"):
         prior.mahalanobis(np.full((prior.T, prior.D), np.nan))
-    with pytest.raises(errors.InvalidParameterError, match="count"):
+    with raises_naming(errors.InvalidParameterError, "count"):
         prior.sample(0, 1)
-    with pytest.raises(errors.InvalidParameterError, match="rng"):
+    with raises_naming(errors.InvalidParameterError, "rng"):
         prior.sample(2, None)  # type: ignore[arg-type]
-    with pytest.raises(errors.InvalidParameterError, match="level"):
+    with raises_naming(errors.InvalidParameterError, "level"):
         prior.envelope(1.5)
 
 

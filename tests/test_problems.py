@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from clamp.batch.runner import load_prior
 from clamp.batch.report import reason_key, summarize
 from clamp.errors import InvalidParameterError
@@ -55,19 +56,19 @@ def test_structure_errors_name_the_field(tmp_path):
                           ({"prior": {"skill": "a", "path": "b"}}, "prior"),
                           ({"expected": "maybe"}, "expected"), ({"colour": 1}, "colour"),
                           ({"via_points": [[1.5, [0, 0, 0]]]}, "via_points")]:
-        with pytest.raises(ProblemFormatError, match=words):
+        with raises_naming(ProblemFormatError, words):
             Problem.from_dict({**good, **change})
-    with pytest.raises(ProblemFormatError, match="missing field 'start'"):
+    with raises_naming(ProblemFormatError, "start"):
         Problem.from_dict({k: v for k, v in good.items() if k != "start"})
     path = tmp_path / "problems.jsonl"
-    with pytest.raises(ProblemFormatError, match="already used"):
+    with raises_naming(ProblemFormatError, "problems[1]", "p/1"):
         write_problems([_full_problem(), _full_problem()], path)     # never written
     assert not path.exists()
     path.write_text(2 * (_full_problem().to_json() + "\n"))
-    with pytest.raises(ProblemFormatError, match="already used"):
+    with raises_naming(ProblemFormatError, "problems[1]", "p/1"):
         read_problems(path)
     path.write_text(_full_problem().to_json() + "\n{not json\n")
-    with pytest.raises(ProblemFormatError, match=r"problems.jsonl:2"):
+    with raises_naming(ProblemFormatError, "problems.jsonl:2"):
         read_problems(path)
 
 
@@ -76,10 +77,10 @@ def test_file_round_trip(tmp_path):
     path = write_problems(problems, tmp_path / "problems.jsonl")
     assert read_problems(path) == problems
     before = path.read_bytes()
-    with pytest.raises(ProblemFormatError, match="already exists"):
+    with raises_naming(ProblemFormatError, "problems.jsonl"):
         write_problems(problems[:2], path)
     assert path.read_bytes() == before                         # the user's file untouched
-    with pytest.raises(ProblemFormatError, match="does not exist"):
+    with raises_naming(ProblemFormatError, "no folder"):
         write_problems(problems, tmp_path / "no folder" / "problems.jsonl")
     write_problems(problems[:2], path, overwrite=True)
     assert read_problems(path) == problems[:2]
@@ -102,7 +103,7 @@ def test_start_problems_cover_the_start_region():
     assert len(np.unique(grid, axis=0)) == 27
     np.testing.assert_allclose(grid.min(0), low)
     np.testing.assert_allclose(grid.max(0), high)
-    with pytest.raises(InvalidParameterError, match="exactly one"):
+    with raises_naming(InvalidParameterError, "count", "grid"):
         start_problems(base, 5, grid=2)
 
 
@@ -113,7 +114,7 @@ def test_across_robots():
     assert problems[1].robot == Problem.from_dict({**base.to_dict(), "robot": "sawyer"}).robot
     assert problems[1].start == base.start and problems[1].goal == base.goal
     joint = base.replace(start=[0.0] * 6)
-    with pytest.raises(InvalidParameterError, match="joint configuration"):
+    with raises_naming(InvalidParameterError, "start"):
         across_robots(joint, ["sawyer"])
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from scenes import make_demonstrations
 from tlgc.cylinder import fit_cylinder
 from tlgc.errors import TLGCArgumentError
@@ -88,17 +89,17 @@ def test_constraints_combine_and_remove_without_refitting(skill):
 def test_refinement_errors(skill):
     _, cyl = skill
     path = cyl.directrix
-    with pytest.raises(TLGCArgumentError, match="no constraint"):
+    with raises_naming(TLGCArgumentError, "corrected"):
         RefinementConstraint.from_correction(path, path)
-    with pytest.raises(TLGCArgumentError, match="mode"):
+    with raises_naming(TLGCArgumentError, "mode"):
         RefinementConstraint.from_correction(path, path + 0.1, mode="bend")
     c = RefinementConstraint.from_correction(path, path + [0, 0, 0.1])
-    with pytest.raises(TLGCArgumentError, match="reproductions"):
+    with raises_naming(TLGCArgumentError, "reproductions"):
         c.apply(np.zeros((3, 10, 3)))
     s = RefinementSet([c])
-    with pytest.raises(TLGCArgumentError, match="points"):
+    with raises_naming(TLGCArgumentError, "constraint"):
         s.add(RefinementConstraint.from_correction(path[:50], path[:50] + 0.1))
-    with pytest.raises(TLGCArgumentError, match="position"):
+    with raises_naming(TLGCArgumentError, "position"):
         s.remove(3)
 
 
@@ -118,5 +119,5 @@ def test_incremental_refinement_replaces_or_adds_a_demonstration(skill):
     added, refit2 = refine_incrementally(demos, corrected)
     assert added.shape == (len(demos) + 1,) + demos.shape[1:]
     np.testing.assert_allclose(refit2.directrix, added.mean(axis=0))
-    with pytest.raises(TLGCArgumentError, match="replace"):
+    with raises_naming(TLGCArgumentError, "replace"):
         refine_incrementally(demos, corrected, replace=9)

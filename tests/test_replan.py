@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from clamp import PlannerConfig, build, errors, plan, replan
 from clamp.planning.result import PlanResult
 from clamp.optim.solver import WarmStart, levenberg_marquardt
@@ -68,5 +69,5 @@ def test_replan_needs_a_planned_result(prior, jaco):
     blank = PlanResult(**{k: v for k, v in vars(plan(prior, jaco, None, START,
                                                      covariance=False)).items()
                           if k not in ("inputs", "problem")})
-    with pytest.raises(errors.InvalidParameterError, match="previous"):
+    with raises_naming(errors.InvalidParameterError, "previous"):
         replan(blank, goal=prior.mean[-1, :3])

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from bad_input import raises_naming
 import robots
 from robots import resolve_robot
 from robots.errors import RobotError, RobotTypeError, UnknownRobotError
@@ -24,11 +25,11 @@ def test_a_name_or_a_urdf_relative_to_a_base():
 def test_a_bad_spec_names_what_is_wrong():
     with pytest.raises(UnknownRobotError):
         resolve_robot("nonexistent_robot")
-    with pytest.raises(RobotError, match="end_effector"):
+    with raises_naming(RobotError, "robot", "end_effector"):
         resolve_robot({"urdf": str(SAWYER_URDF)})
-    with pytest.raises(RobotError, match="other fields"):
+    with raises_naming(RobotError, "robot", "end_effector"):
         resolve_robot({"name": "sawyer", "end_effector": "right_hand"})
-    with pytest.raises(RobotError, match="unknown field"):
+    with raises_naming(RobotError, "robot", "colour"):
         resolve_robot({"urdf": str(SAWYER_URDF), "end_effector": "right_hand", "colour": "red"})
     with pytest.raises(RobotTypeError):
         resolve_robot(3)

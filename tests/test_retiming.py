@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from robots import load_robot
 from robots.retiming import (DEFAULT_ACCELERATION_LIMIT, RetimingError, check_limits, retime, scale_time,
                              toppra_available, uniform_scaling)
@@ -190,22 +191,23 @@ def test_retimed_trajectory_exports(tmp_path, arms):
 def test_bad_arguments(arms):
     robot = arms["jaco"]
     traj = synthetic(robot, "cosine")
-    with pytest.raises(RetimingError, match="method"):
+    with raises_naming(RetimingError, "method"):
         retime(traj, robot, method="fast")
-    with pytest.raises(RetimingError, match="acceleration_limits"):
+    with raises_naming(RetimingError, "acceleration_limits"):
         retime(traj, robot, acceleration_limits=[1.0, 2.0])
-    with pytest.raises(RetimingError, match="acceleration_limits"):
+    with raises_naming(RetimingError, "acceleration_limits"):
         retime(traj, robot, acceleration_limits=-1.0)
-    with pytest.raises(RetimingError, match="joint_names"):
+    with raises_naming(RetimingError, "traj", "joint_names"):
         retime(synthetic(arms["sawyer"], "cosine"), robot)
-    with pytest.raises(RetimingError, match="sample_period"):
+    with raises_naming(RetimingError, "sample_period"):
         retime(traj, robot, sample_period=0.0)
-    with pytest.raises(RetimingError, match="ramp_time"):
+    with raises_naming(RetimingError, "ramp_time"):
         retime(traj, robot, ramp_time=-0.1)
-    with pytest.raises(RetimingError, match="factor"):
+    with raises_naming(RetimingError, "factor"):
         scale_time(traj, 0.0)
-    with pytest.raises(ValueError):  # every robots error is a ValueError
+    with raises_naming(RetimingError, "traj") as info:
         retime("not a trajectory", robot)
+    assert isinstance(info.value, ValueError)  # every robots error is a ValueError
 
 
 def test_motionless_trajectory_is_left_alone(arms):

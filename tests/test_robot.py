@@ -7,6 +7,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from bad_input import raises_naming
 from robots import (InvalidArrayError, Robot, RobotError, SphereModel, UnknownFrameError, UnknownRobotError,
                     UnsupportedJointError, URDFParseError, available_robots, load_robot)
 
@@ -120,31 +121,31 @@ def test_custom_spheres_are_attached_to_their_links(sawyer):
 
 # ------------------------------------------------------------------ error catalogue
 def test_unknown_robot_lists_valid_names():
-    with pytest.raises(UnknownRobotError, match="jaco.*sawyer"):
+    with raises_naming(UnknownRobotError, "ur5", "jaco", "sawyer"):
         load_robot("ur5")
     assert issubclass(UnknownRobotError, ValueError)
 
 
 def test_unknown_frames_list_valid_frames(sawyer, tmp_path):
     urdf = sawyer.urdf_path
-    with pytest.raises(UnknownFrameError, match="end_effector.*'gripper'.*right_hand"):
+    with raises_naming(UnknownFrameError, "end_effector", "gripper", "right_hand"):
         Robot.from_urdf(urdf, end_effector="gripper")
-    with pytest.raises(UnknownFrameError, match="base_frame"):
+    with raises_naming(UnknownFrameError, "base_frame", "pedestal"):
         Robot.from_urdf(urdf, end_effector="right_hand", base_frame="pedestal")
-    with pytest.raises(UnknownFrameError, match="frame.*'camera'.*right_l0"):
+    with raises_naming(UnknownFrameError, "frame", "camera", "right_l0"):
         sawyer.frame_position(np.zeros(7), "camera")
     robot = load_robot("sawyer")
     robot.spheres = SphereModel(("right_l9",), np.zeros((1, 3)), np.ones(1))
-    with pytest.raises(UnknownFrameError, match="spheres.link_names"):
+    with raises_naming(UnknownFrameError, "spheres.link_names", "right_l9"):
         robot.sphere_centres(np.zeros(7))
 
 
 def test_bad_urdf_raises_parse_error(tmp_path):
     broken = tmp_path / "broken.urdf"
     broken.write_text("<robot name='x'><link name='a'><joint></robot")
-    with pytest.raises(URDFParseError, match="broken.urdf"):
+    with raises_naming(URDFParseError, "broken.urdf"):
         Robot.from_urdf(broken, end_effector="a")
-    with pytest.raises(URDFParseError, match="does not exist"):
+    with raises_naming(URDFParseError, "missing.urdf"):
         Robot.from_urdf(tmp_path / "missing.urdf", end_effector="a")
 
 
@@ -152,7 +153,7 @@ def test_unsupported_joint_type_is_named(tmp_path):
     path = tmp_path / "planar.urdf"
     path.write_text("""<robot name="p"><link name="a"/><link name="b"/>
       <joint name="plane" type="planar"><parent link="a"/><child link="b"/></joint></robot>""")
-    with pytest.raises(UnsupportedJointError, match="plane"):
+    with raises_naming(UnsupportedJointError, "plane"):
         Robot.from_urdf(path, end_effector="b")
 
 
@@ -174,9 +175,9 @@ def test_bad_joint_arrays_raise_robot_error(sawyer, call):
 
 
 def test_bad_array_message_names_argument_and_shape(sawyer):
-    with pytest.raises(InvalidArrayError, match=r"q: expected shape \(\.\.\., 7\), got \(6,\)"):
+    with raises_naming(InvalidArrayError, "q", "(6,)"):
         sawyer.fk(np.zeros(6))
-    with pytest.raises(InvalidArrayError, match="qdot: contains .*NaN"):
+    with raises_naming(InvalidArrayError, "qdot"):
         sawyer.ee_kinematics(np.zeros(7), [np.nan] * 7)
 
 
@@ -210,9 +211,9 @@ def test_spheres_from_a_sphere_file(tmp_path, sawyer):
     save_sphere_file(spheres, tmp_path / "s.json")
     robot = Robot.from_urdf(sawyer.urdf_path, end_effector="right_hand", spheres=tmp_path / "s.json")
     np.testing.assert_allclose(robot.spheres.centres, spheres.centres)
-    with pytest.raises(RobotError, match="spheres"):
+    with raises_naming(RobotError, "spheres"):
         Robot.from_urdf(sawyer.urdf_path, end_effector="right_hand", spheres=[1, 2, 3])
-    with pytest.raises(RobotError, match="model"):
+    with raises_naming(RobotError, "model"):
         Robot("not a model", end_effector="right_hand")
 
 

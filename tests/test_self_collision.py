@@ -20,12 +20,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from bad_input import raises_naming
 from clamp import PlannerConfig, plan
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.factors import SelfCollisionFamily, StateWindow
 from robots import Robot, SphereModel
 from robots.collision_check import CollisionChecker
-from robots.errors import CollisionCheckError, RobotError
+from robots.errors import CollisionCheckError, InvalidArrayError
 from robots.self_collision import (SPHERE_REACH, checked_pairs, disabled_pairs, self_collision_report,
                                    self_collision_spheres)
 
@@ -231,21 +232,21 @@ def test_robot_without_collision_geometry_uses_its_spheres(jaco):
 
 def test_bad_input_names_the_argument(jaco):
     q = np.zeros((3, jaco.n))
-    with pytest.raises(RobotError, match="q"):
+    with raises_naming(InvalidArrayError, "q"):
         self_collision_report(jaco, np.zeros((3, jaco.n + 1)))
-    with pytest.raises(CollisionCheckError, match="time"):
+    with raises_naming(CollisionCheckError, "time"):
         self_collision_report(jaco, q, time=[0.0, 1.0, 1.0])
-    with pytest.raises(CollisionCheckError, match="max_motion"):
+    with raises_naming(CollisionCheckError, "max_motion"):
         self_collision_report(jaco, q, max_motion=-1.0)
-    with pytest.raises(CollisionCheckError, match="tolerance"):
+    with raises_naming(CollisionCheckError, "tolerance"):
         self_collision_report(jaco, q, tolerance=-0.01)
-    with pytest.raises(CollisionCheckError, match="robot"):
+    with raises_naming(CollisionCheckError, "robot"):
         self_collision_report("jaco", q)
-    with pytest.raises(InvalidParameterError, match="epsilon"):
+    with raises_naming(InvalidParameterError, "epsilon"):
         SelfCollisionFamily.for_robot(jaco, range(3), epsilon=2 * SPHERE_REACH, sigma=0.01)
-    with pytest.raises(ClampTypeError, match="spheres"):
+    with raises_naming(ClampTypeError, "spheres"):
         SelfCollisionFamily(range(3), jaco.spheres, epsilon=0.01, sigma=0.01)
-    with pytest.raises(InvalidParameterError, match="between"):
+    with raises_naming(InvalidParameterError, "between"):
         SelfCollisionFamily.for_robot(jaco, range(3), epsilon=0.01, sigma=0.01, between=-1)
 
 

@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 
+from bad_input import raises_naming
 from robots.errors import InvalidArrayError, RobotError, SphereFileError
 from robots.sphere_model import SphereModel, load_sphere_file, save_sphere_file
 
@@ -47,48 +48,47 @@ def test_per_link_access():
     assert model.for_link("zzz")[0].shape == (0, 3)
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(link_names=("a", "b"), centres=np.zeros((3, 3)), radii=np.ones(2)), "centres: expected shape (2, 3)"),
-    (dict(link_names=("a",), centres=np.zeros((1, 3)), radii=np.ones(2)), "radii: expected shape (1,)"),
-    (dict(link_names=("a",), centres=[[0, np.nan, 0]], radii=[1.0]), "NaN"),
-    (dict(link_names=("a",), centres=[[0, 0, 0]], radii=[-1.0]), "radii: expected positive"),
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(link_names=("a", "b"), centres=np.zeros((3, 3)), radii=np.ones(2)), "centres"),
+    (dict(link_names=("a",), centres=np.zeros((1, 3)), radii=np.ones(2)), "radii"),
+    (dict(link_names=("a",), centres=[[0, np.nan, 0]], radii=[1.0]), "centres/radii"),
+    (dict(link_names=("a",), centres=[[0, 0, 0]], radii=[-1.0]), "radii"),
     (dict(link_names="ab", centres=np.zeros((2, 3)), radii=np.ones(2)), "link_names"),
-    (dict(link_names=("a",), centres=[[0, 0, 0]], radii=[1.0], inflation=-0.1), "inflation: expected a finite"),
+    (dict(link_names=("a",), centres=[[0, 0, 0]], radii=[1.0], inflation=-0.1), "inflation"),
 ])
-def test_constructor_rejects_bad_arrays(kwargs, message):
-    with pytest.raises(InvalidArrayError, match=message.replace("(", r"\(").replace(")", r"\)")):
+def test_constructor_rejects_bad_arrays(kwargs, name):
+    with raises_naming(InvalidArrayError, name):
         SphereModel(**kwargs)
 
 
-@pytest.mark.parametrize("content, message", [
-    ("{not json", "not valid JSON"),
-    ("[1, 2]", "expected a JSON object"),
-    (json.dumps({"spheres": 3}), "'spheres' holding a list"),
-    (json.dumps({"format": "other", "spheres": []}), "'format' must be"),
-    (json.dumps({"version": 7, "spheres": []}), "unsupported 'version'"),
-    (json.dumps({"inflation": "1cm", "spheres": []}), "'inflation' must be a finite number"),
-    (json.dumps({"spheres": [GOOD, {"link": "l", "radius": 0.1}]}), r"spheres\[1\]: expected an object with keys"),
-    (json.dumps({"spheres": [{**GOOD, "centre": [0, 1]}]}), r"spheres\[0\]\.centre: expected 3 finite numbers"),
-    (json.dumps({"spheres": [{**GOOD, "centre": [0, "x", 1]}]}), r"spheres\[0\]\.centre"),
-    ('{"spheres": [{"link": "l", "centre": [0, NaN, 0], "radius": 0.1}]}', r"spheres\[0\]\.centre"),
-    (json.dumps({"spheres": [{**GOOD, "radius": 0}]}), r"spheres\[0\]\.radius: expected a positive"),
-    (json.dumps({"spheres": [{**GOOD, "radius": True}]}), r"spheres\[0\]\.radius"),
-    (json.dumps({"spheres": [{**GOOD, "link": ""}]}), r"spheres\[0\]\.link: expected a non-empty string"),
+@pytest.mark.parametrize("content, names", [
+    ("{not json", ()),
+    ("[1, 2]", ()),
+    (json.dumps({"spheres": 3}), ("spheres",)),
+    (json.dumps({"format": "other", "spheres": []}), ("format",)),
+    (json.dumps({"version": 7, "spheres": []}), ("version",)),
+    (json.dumps({"inflation": "1cm", "spheres": []}), ("inflation",)),
+    (json.dumps({"spheres": [GOOD, {"link": "l", "radius": 0.1}]}), ("spheres[1]",)),
+    (json.dumps({"spheres": [{**GOOD, "centre": [0, 1]}]}), ("spheres[0].centre",)),
+    (json.dumps({"spheres": [{**GOOD, "centre": [0, "x", 1]}]}), ("spheres[0].centre",)),
+    ('{"spheres": [{"link": "l", "centre": [0, NaN, 0], "radius": 0.1}]}', ("spheres[0].centre",)),
+    (json.dumps({"spheres": [{**GOOD, "radius": 0}]}), ("spheres[0].radius",)),
+    (json.dumps({"spheres": [{**GOOD, "radius": True}]}), ("spheres[0].radius",)),
+    (json.dumps({"spheres": [{**GOOD, "link": ""}]}), ("spheres[0].link",)),
 ])
-def test_malformed_files_raise_clear_errors(tmp_path, content, message):
+def test_malformed_files_raise_clear_errors(tmp_path, content, names):
     path = tmp_path / "bad.json"
     path.write_text(content)
-    with pytest.raises(SphereFileError, match=message) as info:
+    with raises_naming(SphereFileError, str(path), *names) as info:
         load_sphere_file(path)
-    assert str(path) in str(info.value)
     assert isinstance(info.value, RobotError) and isinstance(info.value, ValueError)
 
 
 def test_missing_file_names_the_path(tmp_path):
-    with pytest.raises(SphereFileError, match="cannot read sphere file"):
+    with raises_naming(SphereFileError, "absent.json"):
         load_sphere_file(tmp_path / "absent.json")
 
 
 def test_save_rejects_non_models(tmp_path):
-    with pytest.raises(SphereFileError, match="model: expected a SphereModel"):
+    with raises_naming(SphereFileError, "model"):
         save_sphere_file({"spheres": []}, tmp_path / "x.json")

@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from bad_input import raises_naming
 from clamp import PlannerConfig, learn_prior, plan
 from clamp.factors import StateWindow
 from clamp.factors.table_plane import TablePlaneFamily
@@ -153,10 +154,10 @@ def test_a_broken_plane_is_the_verdicts_reason(prior, jaco):
 
 def test_bad_arguments():
     from clamp.errors import InvalidParameterError
-    with pytest.raises(InvalidParameterError, match="sigma"):
+    with raises_naming(InvalidParameterError, "sigma"):
         TablePlaneFamily(0.1, sigma=0.0)
-    with pytest.raises(InvalidParameterError, match="margin"):
+    with raises_naming(InvalidParameterError, "margin"):
         TablePlaneFamily(0.1, margin=-1.0)
-    with pytest.raises(InvalidParameterError, match="states"):
+    with raises_naming(InvalidParameterError, "states"):
         TablePlaneFamily(0.1, states=[])
     assert len(TablePlaneFamily(0.1)) == 0                 # no factors until a plan gives them

@@ -5,8 +5,8 @@ from __future__ import annotations
 import sys
 
 import numpy as np
-import pytest
 
+from bad_input import raises_naming
 import clamp
 from clamp import PlannerConfig, learn_prior, plan
 from clamp.prior import linear_gaussian
@@ -63,5 +63,5 @@ def test_a_config_is_validated_when_built(monkeypatch):
     changed = config.with_(sigma_obs=0.01)
     assert validations[0] == 2
     assert clamp.config.as_config(changed) is changed and validations[0] == 2   # trusted as built
-    with pytest.raises(clamp.InvalidParameterError, match="sigma_obs"):
+    with raises_naming(clamp.InvalidParameterError, "sigma_obs"):
         config.with_(sigma_obs=-1.0)

@@ -18,6 +18,7 @@ import pytest
 
 pytest.importorskip("viser", reason="the live viewer needs viser (pip install 'skillplan[viewer]')")
 
+from bad_input import raises_naming  # noqa: E402
 from chromium import CHROMIUM, MISSING, screenshot  # noqa: E402
 import clamp  # noqa: E402
 from clamp import learn_prior, plan  # noqa: E402
@@ -73,17 +74,17 @@ def test_tube_vertices_lie_on_the_sigma_ellipsoids():
         d = vertices[i * per:(i + 1) * per] - path[i]
         mahalanobis = np.einsum("vi,ij,vj->v", d, np.linalg.inv(cov[i]), d)
         np.testing.assert_allclose(mahalanobis, 4.0, rtol=1e-6)
-    with pytest.raises(InvalidParameterError, match="ee_covariance"):
+    with raises_naming(InvalidParameterError, "ee_covariance"):
         tube_mesh(path, cov[:3])
 
 
 def test_bad_input(planned):
     _, result = planned
-    with pytest.raises(InvalidParameterError, match="host: expected a loopback address"):
+    with raises_naming(InvalidParameterError, "host"):
         PlanViewer(result, host="0.0.0.0")
-    with pytest.raises(ClampTypeError, match="result"):
+    with raises_naming(ClampTypeError, "result"):
         PlanViewer(result.to_dict())
-    with pytest.raises(InvalidParameterError, match="port"):
+    with raises_naming(InvalidParameterError, "port"):
         PlanViewer(result, port=70000)
 
 
@@ -96,9 +97,9 @@ def test_api_replans_when_a_box_moves_and_shuts_down_cleanly(planned):
         assert viewer.url == f"http://127.0.0.1:{port}" and not port_is_closed(port)
         viewer.set_time(1e9)
         assert viewer.time == pytest.approx(viewer.duration)
-        with pytest.raises(InvalidParameterError, match="index"):
+        with raises_naming(InvalidParameterError, "index"):
             viewer.move_obstacle(3, [0.0, 0.0, 0.0])
-        with pytest.raises(InvalidParameterError, match="center"):
+        with raises_naming(InvalidParameterError, "center"):
             viewer.move_obstacle(0, [0.0, 0.0])
         centre = moved_box_centre(result)
         new = viewer.move_obstacle(0, centre)
