@@ -32,6 +32,7 @@ from clamp.prior import chain
 from clamp.prior.conjugate import POSTERIOR_KEYS, ConjugatePosterior
 from clamp.errors import ClampTypeError, InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time, cholesky, is_symmetric
+from skillplan.command_line import atomic_write
 from skillplan.validation import as_file, as_path
 
 #: name of the saved prior's file format (the ``format`` entry is ``NAME/VERSION``)
@@ -296,22 +297,23 @@ class LinearGaussianPrior:
         return update_prior(self, demos)
 
     # ------------------------------------------------------------------ persistence
-    def save(self, path: str | os.PathLike[str]) -> Path:
+    def save(self, path: str | os.PathLike[str], overwrite: bool = True) -> Path:
         """Write the prior (and its conjugate posterior, if any, as ``posterior_*`` entries:
         M, K, S, N and the factor learning resumes from) to an ``.npz`` file (suffix added if
-        missing). The file is written next to the target and moved over it when complete."""
+        missing) of format :data:`FILE_FORMAT`. Written atomically
+        (:func:`skillplan.command_line.atomic_write`: a temporary file in the same folder, moved
+        over the target when complete); an existing file is replaced unless ``overwrite`` is
+        False (then OutputPathError). Returns the path written."""
         path = Path(as_path(path, "path", ClampTypeError))
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
         extra = {} if self.posterior is None else {
             f"posterior_{k}": v for k, v in self.posterior.arrays().items()}
-        partial = path.with_name(path.name + ".partial.npz")
-        np.savez(partial, format=np.array(FILE_FORMAT), kind=np.array(self.kind),
-                 state_names=np.array(self.state_names), info=np.array(json.dumps(self.info)),
-                 time=self.time, Phi=self.Phi, u=self.u, Q=self.Q, mean0=self.mean0,
-                 cov0=self.cov0, **extra)
-        os.replace(partial, path)
-        return path
+        arrays = dict(format=np.array(FILE_FORMAT), kind=np.array(self.kind),
+                      state_names=np.array(self.state_names), info=np.array(json.dumps(self.info)),
+                      time=self.time, Phi=self.Phi, u=self.u, Q=self.Q, mean0=self.mean0,
+                      cov0=self.cov0, **extra)
+        return atomic_write(path, lambda handle: np.savez(handle, **arrays), overwrite=bool(overwrite))
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> LinearGaussianPrior:
