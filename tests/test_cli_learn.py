@@ -208,5 +208,7 @@ def test_learn_joint_space_demonstrations_needs_the_arm(tmp_path, capsys):
                    + "".join(",".join(repr(float(v)) for v in row) + "\n" for row in rows))
     assert main(["learn", "--demos", str(csv), "--out", str(tmp_path / "p.npz")]) == 2
     assert "--robot: " in one_error_line(capsys) and not (tmp_path / "p.npz").exists()
+    assert main(["learn", "--demos", str(csv), "--end-effector", "tool", "--out", str(tmp_path / "p.npz")]) == 2
+    assert "--end-effector: only with --urdf" in one_error_line(capsys) and not (tmp_path / "p.npz").exists()
     assert main(["-q", "learn", "--demos", str(csv), "--robot", "jaco", "--out", str(tmp_path / "p.npz")]) == 0
     assert WorkspacePrior.load(tmp_path / "p.npz").info["num_demos"] == 4

@@ -322,7 +322,10 @@ def prior_output(path: str, force: bool) -> Path:
 def run_learn(args: argparse.Namespace) -> int:
     check_demonstration_args(args)
     out = prior_output(args.out, args.force)
-    robot = None if args.robot is None and args.urdf is None else load_robot_from_args(args)
+    no_arm = args.robot is None and args.urdf is None
+    if no_arm and args.end_effector is not None:
+        raise InvalidParameterError("--end-effector: only with --urdf (the arm of joint-space demonstrations)")
+    robot = None if no_arm else load_robot_from_args(args)
     demos = load_demonstrations_from_args(args, robot)
     prior = learn_prior(demos)
     prior.save(out, overwrite=args.force)
