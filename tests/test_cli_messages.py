@@ -30,7 +30,7 @@ def one_error_line(capsys) -> str:
     return err[0]
 
 
-@pytest.mark.parametrize("command", [[], ["demo"], ["plan"], ["batch"]])
+@pytest.mark.parametrize("command", [[], ["demo"], ["learn"], ["plan"], ["batch"]])
 def test_help_texts_are_plain_text(command, capsys):
     with pytest.raises(SystemExit) as stop:
         parser().parse_args([*command, "--help"])

@@ -164,6 +164,62 @@ def test_load_rejects_bad_files(tmp_path, prior):
         LinearGaussianPrior.load(tmp_path / "nan.npz")
 
 
+def test_file_format_versions(tmp_path):
+    """A file in the layout before the format entry (the six arrays only, written here with
+    numpy) loads as version 1; a newer version, another format or a missing array is refused
+    with PriorFileError naming the file and what was wrong."""
+    from clamp import learn_prior
+    from clamp.prior.linear_gaussian import FILE_FORMAT_NAME, FILE_FORMAT_VERSION
+    from scenes import make_demonstrations
+
+    prior = learn_prior(make_demonstrations("box_closing", num_demos=6, num_points=40, seed=0))
+    saved = prior.save(tmp_path / "prior.npz")
+    with np.load(saved) as data:
+        assert str(data["format"]) == f"{FILE_FORMAT_NAME}/{FILE_FORMAT_VERSION}" == FILE_FORMAT
+    arrays = {k: np.asarray(getattr(prior, k)) for k in ("time", "Phi", "u", "Q", "mean0", "cov0")}
+    np.savez(tmp_path / "old.npz", **arrays)                       # the old key layout
+    for loaded in (WorkspacePrior.load(tmp_path / "old.npz"), LinearGaussianPrior.load(tmp_path / "old.npz")):
+        assert type(loaded) is WorkspacePrior and loaded.kind == "workspace" and loaded.info == {}
+        assert loaded.state_names == ("px", "py", "pz", "vx", "vy", "vz")
+        for name in ("time", "Phi", "u", "Q", "mean0", "cov0", "mean", "cov"):
+            np.testing.assert_array_equal(getattr(loaded, name), getattr(prior, name))
+    assert "not recorded" in loaded.summary()
+    np.savez(tmp_path / "old_meta.npz", **arrays, kind=np.array("workspace"), info=np.array('{"ridge": 0.5}'))
+    assert WorkspacePrior.load(tmp_path / "old_meta.npz").info == {"ridge": 0.5}
+    joint = LinearGaussianPrior(**random_system(D=4))
+    np.savez(tmp_path / "old_joint.npz", **{k: getattr(joint, k) for k in arrays})
+    assert type(LinearGaussianPrior.load(tmp_path / "old_joint.npz")) is LinearGaussianPrior
+
+    meta = dict(kind=np.array("workspace"), info=np.array("{}"), state_names=np.array(prior.state_names))
+    cases = {
+        "newer.npz": ({**arrays, **meta, "format": np.array(f"{FILE_FORMAT_NAME}/{FILE_FORMAT_VERSION + 1}")},
+                      f"format version {FILE_FORMAT_VERSION + 1}.*newer than this version reads"),
+        "other.npz": ({**arrays, **meta, "format": np.array("someone-elses-prior/1")}, "not a CLAMP prior file"),
+        "garbled.npz": ({**arrays, **meta, "format": np.array(f"{FILE_FORMAT_NAME}/x")}, "not a CLAMP prior file"),
+        "no_q.npz": ({k: v for k, v in arrays.items() if k != "Q"}, r"no format entry .*lacks entries \['Q'\]"),
+        "no_info.npz": ({**arrays, "format": np.array(FILE_FORMAT), "kind": meta["kind"],
+                         "state_names": meta["state_names"]}, r"lacks entries \['info'\]"),
+        "demos.npz": ({"positions": np.zeros((2, 3, 3)), "time": np.arange(3.0)}, "not a CLAMP prior file"),
+    }
+    for name, (contents, message) in cases.items():
+        np.savez(tmp_path / name, **contents)
+        with pytest.raises(errors.PriorFileError, match=message) as caught:
+            WorkspacePrior.load(tmp_path / name)
+        assert str(tmp_path / name) in str(caught.value)
+
+
+def test_summary_reports_what_was_learned():
+    from clamp import learn_prior
+    from scenes import make_demonstrations
+
+    demos = make_demonstrations("box_closing", num_demos=5, num_points=30, seed=1)
+    text = learn_prior(demos, ridge=1e-4).summary()
+    assert text.startswith("WorkspacePrior(kind='workspace', T=30") and "5 demonstrations, 30 states" in text
+    assert "method batch" in text and "ridge 0.0001" in text and "spread about their mean" in text
+    offsets = np.linalg.norm(demos.positions - demos.positions.mean(axis=0), axis=2)
+    assert f"farthest {1e3 * offsets.max():.1f} mm" in text
+
+
 def test_constructor_and_argument_errors(system, prior):
     bad = dict(system, Q=system["Q"] - 10.0 * np.eye(4))
     with raises_naming(errors.InvalidParameterError, "Q"):

@@ -123,6 +123,36 @@ def test_api_replans_when_a_box_moves_and_shuts_down_cleanly(planned):
     assert wait_for_threads(before) == set()
 
 
+def test_the_arm_is_a_viser_urdf_following_set_time(planned):
+    """The viewer draws the robot through viser's URDF support (a ViserUrdf of the yourdfpy
+    URDF of the robot); the joint configuration it is given at a time is the plan's q there
+    (matched by joint name, the Jaco's continuous joints as plain angles)."""
+    from viser.extras import ViserUrdf
+
+    _, result = planned
+    robot = result.inputs.robot
+    with clamp.show(result) as viewer:
+        drawn = viewer.robot_urdf
+        assert isinstance(drawn, ViserUrdf)
+        names = drawn.get_actuated_joint_names()
+        assert set(robot.joint_names) <= set(names)
+        given = []
+        update = drawn.update_cfg
+        drawn.update_cfg = lambda configuration: (given.append(np.array(configuration)), update(configuration))
+        time = result.time - result.time[0]
+        for t in (0.0, 0.37 * viewer.duration, float(time[5]), viewer.duration, 1e9):
+            viewer.set_time(t)
+            expected = np.array([np.interp(min(t, time[-1]), time, column) for column in result.q.T])
+            by_name = dict(zip(names, given[-1]))
+            np.testing.assert_allclose([by_name[n] for n in robot.joint_names], expected, atol=1e-12)
+        assert len(given) == 5
+        np.testing.assert_array_equal(given[2][[names.index(n) for n in robot.joint_names]], result.q[5])
+        # the URDF model drawn is at that configuration: its end-effector frame where the plan's is
+        urdf = drawn._urdf
+        ee = urdf.get_transform(robot.end_effector, robot.base_frame)[:3, 3]
+        np.testing.assert_allclose(ee, result.ee_path[-1], atol=1e-6)
+
+
 @pytest.mark.skipif(CHROMIUM is None, reason=MISSING)
 def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
     demos, result = planned
@@ -140,6 +170,8 @@ def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
     assert (first.max(axis=2) < 120).sum() > 3000 and (second.max(axis=2) < 120).sum() > 3000
     changed = np.abs(first - second).max(axis=2) > 40
     assert changed.sum() > 1000, "the page looks the same after the box moved and the plan changed"
+    if os.environ.get("SKILLPLAN_VIEWER_PNG"):           # a copy to look at (e.g. /tmp/viewer_urdf.png)
+        shutil.copyfile(tmp_path / "before.png", os.environ["SKILLPLAN_VIEWER_PNG"])
     if os.environ.get("SKILLPLAN_WRITE_DOCS"):
         DOCS.mkdir(exist_ok=True)
         shutil.copyfile(tmp_path / "after.png", DOCS / "viewer.png")

@@ -11,7 +11,8 @@ be stored in a file, sent to another process or machine and kept next to its res
      "start": [0.2054, -0.4722, 0.2625], "goal": null, "via_points": [],
      "config": {"sigma_obs": 0.005}, "expected": null, "meta": {}}
 
-- ``prior``: ``{"path": "prior.npz"}`` (``WorkspacePrior.save``), ``{"demos": "d.npz"}`` (a
+- ``prior``: ``{"file": "prior.npz"}`` (a saved prior: ``clamp learn``, ``WorkspacePrior.save``;
+  ``{"path": ...}`` is read the same), ``{"demos": "d.npz"}`` (a
   demonstration file, learned with ``learn_prior``) or ``{"skill": NAME, "seed": S,
   "num_demos": M, "num_points": T}`` (``scenes.make_demonstrations``; defaults 0, 6, 250);
 - ``robot``: ``{"name": "jaco"}`` (``robots.load_robot``; the string ``"jaco"`` is read as
@@ -53,7 +54,9 @@ VERSION = 1
 EXPECTED = (None, "feasible", "impossible")
 _FIELDS = ("format", "version", "id", "prior", "robot", "scene", "start", "goal", "via_points",
            "config", "expected", "meta")
-_PRIOR_KINDS = {"path": (), "demos": (), "skill": ("seed", "num_demos", "num_points")}
+#: the forms of a problem's prior: a saved prior ("file", or "path" as written before), a
+#: demonstration file to learn from, a synthetic skill
+_PRIOR_KINDS = {"file": (), "path": (), "demos": (), "skill": ("seed", "num_demos", "num_points")}
 _SKILL_DEFAULTS = {"seed": 0, "num_demos": 6, "num_points": 250}
 
 
@@ -100,7 +103,7 @@ def _prior_spec(value: Any, where: str) -> _Frozen:
     spec = dict(_object(value, where))
     kinds = [k for k in _PRIOR_KINDS if k in spec]
     if len(kinds) != 1:
-        raise ProblemFormatError(f"{where}: expected exactly one of 'path' (prior .npz), 'demos' "
+        raise ProblemFormatError(f"{where}: expected exactly one of 'file' (prior .npz), 'demos' "
                                  f"(demonstration file) or 'skill' (synthetic skill), got "
                                  f"{sorted(spec)}")
     kind = kinds[0]

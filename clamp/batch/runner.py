@@ -117,9 +117,11 @@ def _path(value: str, base: Path) -> Path:
 
 
 def load_prior(spec: dict[str, Any], base: Path) -> Any:
-    """The prior a problem names: a prior file, demonstrations to learn from, or a skill."""
-    if "path" in spec:
-        return WorkspacePrior.load(_path(spec["path"], base))
+    """The prior a problem names: a prior file (``file``, or ``path``; relative to ``base``,
+    the problems file's folder), demonstrations to learn from, or a skill."""
+    for key in ("file", "path"):
+        if key in spec:
+            return WorkspacePrior.load(_path(spec[key], base))
     if "demos" in spec:
         return learn_prior(load_demonstrations(_path(spec["demos"], base)))
     return learn_prior(make_demonstrations(spec["skill"], num_demos=spec["num_demos"],

@@ -28,20 +28,21 @@ from typing import Any, Sequence
 import numpy as np
 
 from clamp.config import PlannerConfig
-from clamp.errors import InvalidParameterError
+from clamp.errors import InvalidParameterError, PriorFileError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.planning.planner import plan
 from clamp.planning.result import PlanResult
 from clamp.cli.batch import add_batch_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
-                                 integer_at_least, number, output_directory, quiet, run,
+                                 integer_at_least, number, output_directory, output_file, quiet, run,
                                  save_figure)
 from skillplan.progress import progress
 from robots.retiming import DEFAULT_ACCELERATION_LIMIT
 from robots.errors import RetimingError
 from robots import available_robots, resolve_robot
 from clamp.prior.learning import learn_prior
+from clamp.prior.linear_gaussian import WorkspacePrior
 from scenes import Box, Scene, load_demonstrations, make_demonstrations
 from scenes.bags import is_bag
 from scenes.errors import DemonstrationFileError, SceneFileError
@@ -90,7 +91,8 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
 def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
              plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
     """Prior figures; per plan: 3-D, top view, joint angles, clearance and uncertainty
-    figures and the browser animation (HTML)."""
+    figures and the browser animation (HTML). ``demos`` None (a plan from a saved prior): the
+    same figures, drawn from the prior alone (mean path and envelope, no demonstrations)."""
     # deferred: matplotlib and the animation writer load only when figures are written
     from clamp.viz.animation import write_animation
     from clamp.viz.plan_plots import (plot_clearance, plot_joint_angles, plot_plan_3d,
@@ -110,7 +112,7 @@ def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfi
         if result.ee_covariance is not None:
             save_figure(plot_plan_uncertainty(result), out / f"plan_{name}_uncertainty.png")
         write_animation(out / f"animation_{name}.html", robot, result.time, result.q,
-                        obstacles=scene, demonstrations=demos.positions,
+                        obstacles=scene, demonstrations=None if demos is None else demos.positions,
                         mean_path=np.asarray(prior.mean)[:, :3],
                         title=f"CLAMP plan {name} on {robot.name}")
 
@@ -266,7 +268,8 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
     return EXIT_OK if all(record["files"] for record in exported.values()) else EXIT_FAILED
 
 
-def run_plan(args: argparse.Namespace) -> int:
+def check_demonstration_args(args: argparse.Namespace) -> None:
+    """The --demos files (or bags) and their options, checked before any output is made."""
     bags = [is_bag(d) for d in args.demos]
     bag_options = args.topic is not None or args.split != "bag" or args.frames is not None
     if not all(bags) and (len(args.demos) > 1 or bag_options):
@@ -280,6 +283,80 @@ def run_plan(args: argparse.Namespace) -> int:
             as_file(demos, "--demos", DemonstrationFileError)
         elif not Path(demos).exists():
             raise DemonstrationFileError(f"--demos: {demos} does not exist (no such bag)")
+
+
+def load_demonstrations_from_args(args: argparse.Namespace, robot: Any) -> Any:
+    """The demonstrations of --demos (a file, or ROS 2 bags with --topic / --split / --frames),
+    resampled to --num-points and moved by --translate when given. ``robot`` (None for
+    ``clamp learn`` without --robot / --urdf) reads joint-space demonstrations."""
+    try:
+        if args.topic is None:                              # a joint-space file needs the arm
+            demos = load_demonstrations(args.demos[0], robot=robot)
+        else:
+            demos = load_demonstrations(args.demos, robot=robot, topic=args.topic, split=args.split,
+                                        frames=args.frames)
+    except DemonstrationFileError as exc:
+        if robot is None and "pass robot=" in str(exc):
+            raise DemonstrationFileError(f"--robot: {' '.join(args.demos)} hold joint-space demonstrations; "
+                                         "pass --robot NAME or --urdf FILE --end-effector FRAME (the arm "
+                                         "whose forward kinematics gives the end-effector paths)") from None
+        raise
+    if args.num_points is not None:
+        demos = demos.resample(args.num_points)
+    if args.translate is not None:
+        demos = demos.translated(np.array(args.translate, dtype=float))
+    return demos
+
+
+def prior_output(path: str, force: bool) -> Path:
+    """The prior file --out names (``.npz`` added when missing, as ``WorkspacePrior.save``
+    does): new, or an existing file only with --force; checked before any work."""
+    target = Path(path)
+    if target.suffix != ".npz":
+        target = target.with_name(target.name + ".npz")
+    return output_file(target, force)
+
+
+def run_learn(args: argparse.Namespace) -> int:
+    check_demonstration_args(args)
+    out = prior_output(args.out, args.force)
+    no_arm = args.robot is None and args.urdf is None
+    if no_arm and args.end_effector is not None:
+        raise InvalidParameterError("--end-effector: only with --urdf (the arm of joint-space demonstrations)")
+    robot = None if no_arm else load_robot_from_args(args)
+    demos = load_demonstrations_from_args(args, robot)
+    prior = learn_prior(demos)
+    prior.save(out, overwrite=args.force)
+    if not quiet(args):
+        print(prior.summary())
+        print(f"wrote the prior to {out} (plan from it: clamp plan --prior {out} ...)")
+    return EXIT_OK
+
+
+def load_prior_from_args(args: argparse.Namespace) -> Any:
+    """The workspace prior of --prior FILE (``clamp learn``'s output, ``WorkspacePrior.save``);
+    PriorFileError naming --prior and the file when it cannot be read."""
+    try:
+        return WorkspacePrior.load(args.prior)
+    except PriorFileError as exc:
+        raise PriorFileError(f"--prior: {str(exc).removeprefix('path: ')}") from None
+
+
+#: the options of --demos that say how to learn; a saved prior was learned with its own
+LEARNING_OPTIONS = {"--topic": "topic", "--frames": "frames", "--num-points": "num_points",
+                    "--translate": "translate"}
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    if args.prior is not None:
+        given = [option for option, name in LEARNING_OPTIONS.items() if getattr(args, name) is not None]
+        given += ["--split"] if args.split != "bag" else []
+        if given:
+            raise InvalidParameterError(f"{given[0]}: only with --demos (a prior from --prior was learned "
+                                        f"with its own settings: give them to clamp learn)")
+        as_file(args.prior, "--prior", PriorFileError)
+    else:
+        check_demonstration_args(args)
     if args.scene:
         as_file(args.scene, "--scene", SceneFileError)
     with created_output_directory(args.out, args.force) as out:
@@ -290,29 +367,25 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     robot = load_robot_from_args(args)
     limits, jerk = acceleration_limits(args, robot), jerk_limits(args, robot)
     start = _start(args, robot)
-    if args.topic is None:                                  # a joint-space file needs the arm
-        demos = load_demonstrations(args.demos[0], robot=robot)
+    if args.prior is not None:        # figures from the prior alone: no demonstrations drawn
+        demos, prior = None, load_prior_from_args(args)
     else:
-        demos = load_demonstrations(args.demos, robot=robot, topic=args.topic, split=args.split,
-                                    frames=args.frames)
-    if args.num_points is not None:
-        demos = demos.resample(args.num_points)
-    if args.translate is not None:
-        demos = demos.translated(np.array(args.translate, dtype=float))
-    prior = learn_prior(demos)
+        demos = load_demonstrations_from_args(args, robot)
+        prior = learn_prior(demos)
     scene = Scene.load(args.scene) if args.scene else None
     config = _config(args)
     goal = None if args.goal is None else np.array(args.goal, dtype=float)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
     exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime, jerk)}
-    write_plan(result, out / "plan.json", robot=robot.name, demos=" ".join(args.demos),
+    source = {"prior": str(args.prior)} if args.prior is not None else {"demos": " ".join(args.demos)}
+    write_plan(result, out / "plan.json", robot=robot.name, **source,
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     _figures(out, prior, demos, robot, config, [("result", result, scene)])
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
     if not quiet(args):
-        print(summary_table([(Path(args.demos[0]).stem, result)]))
+        print(summary_table([(Path(args.prior if args.prior is not None else args.demos[0]).stem, result)]))
         print(trajectory_summary(exported))
         print(f"wrote figures and plan to {out}")
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
@@ -387,9 +460,11 @@ def trajectory_options(p: argparse.ArgumentParser) -> None:
                         "the limits and start and end moving)")
 
 
-def robot_options(p: argparse.ArgumentParser, default_robot: str | None = None) -> None:
-    """--robot NAME or --urdf FILE --end-effector FRAME (plus URDF helpers)."""
-    group = p.add_mutually_exclusive_group(required=default_robot is None)
+def robot_options(p: argparse.ArgumentParser, default_robot: str | None = None, required: bool = True) -> None:
+    """--robot NAME or --urdf FILE --end-effector FRAME (plus URDF helpers); required unless
+    there is a ``default_robot`` or ``required`` is False (clamp learn: only joint-space
+    demonstrations need the arm)."""
+    group = p.add_mutually_exclusive_group(required=required and default_robot is None)
     group.add_argument("--robot", default=default_robot,
                        help="registered robot (jaco, sawyer)"
                             + (f"; default {default_robot}" if default_robot else ""))
@@ -402,6 +477,25 @@ def robot_options(p: argparse.ArgumentParser, default_robot: str | None = None) 
                    help="with --urdf: planning frame (default: the URDF root)")
     p.add_argument("--spheres", default=None, metavar="FILE",
                    help="with --urdf: collision sphere file (default: fitted from the URDF)")
+
+
+DEMOS_HELP = ("demonstrations (.mat, .npz, .csv), or ROS 2 bags (folders, .mcap, .db3) with --topic")
+
+
+def demonstration_options(p: argparse.ArgumentParser) -> None:
+    """How --demos are read and learned: --topic / --split / --frames (bags), --num-points,
+    --translate (shared by clamp learn and clamp plan)."""
+    p.add_argument("--topic", default=None,
+                   help="bags: the topic to read (JointState, PoseStamped or /tf)")
+    p.add_argument("--split", choices=("bag", "rest"), default="bag",
+                   help="bags: one demonstration per bag, or cut at rests (default bag)")
+    p.add_argument("--frames", nargs=2, default=None, metavar=("PARENT", "CHILD"),
+                   help="bags with --topic /tf: the transform to read")
+    p.add_argument("--num-points", type=integer_at_least(2), default=None, metavar="T",
+                   help="resample the demonstrations to T support states before learning "
+                        "(default: as recorded)")
+    p.add_argument("--translate", type=number, nargs=3, default=None, metavar=("DX", "DY", "DZ"),
+                   help="move the demonstrations by dx dy dz [m] before learning")
 
 
 def parser() -> argparse.ArgumentParser:
@@ -418,22 +512,26 @@ def parser() -> argparse.ArgumentParser:
     demo.add_argument("--num-points", type=integer_at_least(2), default=250, help="support states T")
     demo.set_defaults(run=run_demo)
 
-    user = sub.add_parser("plan", help="learn from a demonstration file and plan")
+    learn = sub.add_parser("learn", help="learn the prior from demonstrations and save it (plan from it "
+                                         "with clamp plan --prior)")
+    learn.add_argument("--out", required=True, metavar="FILE",
+                       help="prior file (.npz, added when missing): new unless --force")
+    learn.add_argument("--force", action="store_true", help="replace an existing --out file")
+    learn.add_argument("--demos", required=True, nargs="+", metavar="FILE", help=DEMOS_HELP)
+    demonstration_options(learn)
+    robot_options(learn, required=False)
+    learn.set_defaults(run=run_learn)
+
+    user = sub.add_parser("plan", help="plan from demonstrations (learned here) or a saved prior")
     planning_options(user)
     robot_options(user)
     trajectory_options(user)
-    user.add_argument("--demos", required=True, nargs="+", metavar="FILE",
-                      help="demonstrations (.mat, .npz, .csv), or ROS 2 bags (folders, .mcap, "
-                           ".db3) with --topic")
-    user.add_argument("--topic", default=None,
-                      help="bags: the topic to read (JointState, PoseStamped or /tf)")
-    user.add_argument("--split", choices=("bag", "rest"), default="bag",
-                      help="bags: one demonstration per bag, or cut at rests (default bag)")
-    user.add_argument("--frames", nargs=2, default=None, metavar=("PARENT", "CHILD"),
-                      help="bags with --topic /tf: the transform to read")
-    user.add_argument("--num-points", type=integer_at_least(2), default=None, metavar="T",
-                      help="resample the demonstrations to T support states before learning "
-                           "(default: as recorded)")
+    source = user.add_mutually_exclusive_group(required=True)
+    source.add_argument("--demos", nargs="+", metavar="FILE", help=DEMOS_HELP)
+    source.add_argument("--prior", default=None, metavar="FILE",
+                        help="a prior saved by clamp learn (.npz): plan without learning again "
+                             "(the figures then show the prior without the demonstrations)")
+    demonstration_options(user)
     starts = user.add_mutually_exclusive_group(required=True)
     starts.add_argument("--start", type=number, nargs="+", default=None, metavar="X",
                         help="start: end-effector position x y z [m] (or a joint configuration)")
@@ -443,8 +541,6 @@ def parser() -> argparse.ArgumentParser:
     user.add_argument("--goal", type=number, nargs="+", default=None,
                       help="goal: end-effector position x y z [m] or a joint configuration")
     user.add_argument("--scene", default=None, help="scene JSON file (scenes.Scene.save)")
-    user.add_argument("--translate", type=number, nargs=3, default=None,
-                      help="move the demonstrations by dx dy dz [m] before learning")
     user.set_defaults(run=run_plan)
     add_batch_parser(sub)
     add_view_parser(sub)

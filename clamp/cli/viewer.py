@@ -4,8 +4,8 @@ browser (:class:`clamp.viz.viewer.PlanViewer` on 127.0.0.1), until Ctrl-C.
 The planning commands record what a view needs to plan again (:func:`save_view_inputs`):
 ``prior.npz`` (the learned prior), ``demos.npz`` (the demonstrations, as learned from) and one
 ``problem_<plan>.json`` per plan: a planning problem in the format of :mod:`clamp.batch.problems`
-(one JSON object; robot, scene, start, goal, settings; prior ``{"path": "prior.npz"}``;
-``meta.demonstrations`` names the demonstration file). ``clamp view`` plans that problem again
+(one JSON object; robot, scene, start, goal, settings; prior ``{"file": "prior.npz"}``;
+``meta.demonstrations`` names the demonstration file, absent for a plan from ``--prior``). ``clamp view`` plans that problem again
 (:mod:`clamp.batch.runner`'s resolver: same inputs, same plan) and serves it; dragging a box or the
 goal in the page replans. Folders written before these files existed cannot be viewed.
 """
@@ -53,13 +53,15 @@ def config_changes(config: Any) -> dict[str, Any]:
 def save_view_inputs(out: Path, plans: dict[str, dict[str, Any]], prior: Any, demos: Any,
                      robot_spec: dict[str, Any], config: Any) -> None:
     """Write prior.npz, demos.npz and problem_<name>.json (name -> {"scene", "start", "goal"})
-    into the output folder ``out`` (see the module docstring)."""
+    into the output folder ``out`` (see the module docstring); ``demos`` None (a plan from a
+    saved prior): no demos.npz, and the problems name no demonstrations."""
     prior.save(out / PRIOR_FILE)
-    demos.save_npz(out / DEMOS_FILE)
+    if demos is not None:
+        demos.save_npz(out / DEMOS_FILE)
     for name, request in plans.items():
-        problem = make_problem(name, {"path": PRIOR_FILE}, robot_spec, request["start"], scene=request["scene"],
+        problem = make_problem(name, {"file": PRIOR_FILE}, robot_spec, request["start"], scene=request["scene"],
                                goal=request.get("goal"), config=config_changes(config),
-                               meta={"demonstrations": DEMOS_FILE})
+                               meta={} if demos is None else {"demonstrations": DEMOS_FILE})
         atomic_write_text(out / problem_file(name), problem.to_json() + "\n", overwrite=True)
 
 

@@ -36,9 +36,17 @@ from clamp.prior.obstacle_weighting import ObstacleWeighting
 from clamp.prior.skill import SkillRegion
 from clamp.errors import ClampTypeError, InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time, cholesky, is_symmetric
+from skillplan.command_line import atomic_write
 from skillplan.validation import as_file, as_path
 
-FILE_FORMAT = "clamp-linear-gaussian-prior/1"
+#: name of the saved prior's file format (the ``format`` entry is ``NAME/VERSION``)
+FILE_FORMAT_NAME = "clamp-linear-gaussian-prior"
+#: the newest layout this version writes and reads: ``time, Phi, u, Q, mean0, cov0`` arrays, ``kind``,
+#: ``state_names``, ``info`` (JSON) and the optional ``posterior_*`` entries. A file without a
+#: ``format`` entry is read as version 1 when it holds those arrays (kind, state names and info
+#: then take their defaults).
+FILE_FORMAT_VERSION = 1
+FILE_FORMAT = f"{FILE_FORMAT_NAME}/{FILE_FORMAT_VERSION}"
 _ARRAY_KEYS = ("time", "Phi", "u", "Q", "mean0", "cov0")
 _JITTER_HINT = " (learn with a larger jitter)"
 
@@ -69,6 +77,24 @@ def transition_residuals(Phi: np.ndarray, u: np.ndarray, x_prev: np.ndarray,
     workspace GP factors.
     """
     return x_next - np.einsum("kij,...kj->...ki", Phi, x_prev) - u
+
+def _file_version(path: Path, contents: dict[str, np.ndarray]) -> int | None:
+    """The format version of a prior file's ``format`` entry (``NAME/VERSION``), None when the
+    file has none (the layout before the entry, read as version 1). PriorFileError naming the
+    file for another format and for a version newer than :data:`FILE_FORMAT_VERSION`."""
+    if "format" not in contents:
+        return None
+    fmt = str(contents["format"])
+    name, _, version = fmt.rpartition("/")
+    if name != FILE_FORMAT_NAME or not version.isdigit() or int(version) < 1:
+        raise PriorFileError(f"path: '{path}' has format '{fmt}', expected '{FILE_FORMAT}' (not a "
+                             "CLAMP prior file)")
+    if int(version) > FILE_FORMAT_VERSION:
+        raise PriorFileError(f"path: '{path}' has format version {int(version)} ('{fmt}'), newer than "
+                             f"this version reads (up to {FILE_FORMAT_VERSION}): update skillplan, or "
+                             "learn and save the prior again with this version")
+    return int(version)
+
 
 class LinearGaussianPrior:
     """Discrete linear-Gaussian (LTV-SDE) trajectory prior over T support states of size D.
@@ -312,22 +338,23 @@ class LinearGaussianPrior:
                                          state_names=self.state_names, info=info)
 
     # ------------------------------------------------------------------ persistence
-    def save(self, path: str | os.PathLike[str]) -> Path:
+    def save(self, path: str | os.PathLike[str], overwrite: bool = True) -> Path:
         """Write the prior (and its conjugate posterior, if any, as ``posterior_*`` entries:
         M, K, S, N and the factor learning resumes from) to an ``.npz`` file (suffix added if
-        missing). The file is written next to the target and moved over it when complete."""
+        missing) of format :data:`FILE_FORMAT`. Written atomically
+        (:func:`skillplan.command_line.atomic_write`: a temporary file in the same folder, moved
+        over the target when complete); an existing file is replaced unless ``overwrite`` is
+        False (then OutputPathError). Returns the path written."""
         path = Path(as_path(path, "path", ClampTypeError))
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
         extra = {} if self.posterior is None else {
             f"posterior_{k}": v for k, v in self.posterior.arrays().items()}
-        partial = path.with_name(path.name + ".partial.npz")
-        np.savez(partial, format=np.array(FILE_FORMAT), kind=np.array(self.kind),
-                 state_names=np.array(self.state_names), info=np.array(json.dumps(self.info)),
-                 time=self.time, Phi=self.Phi, u=self.u, Q=self.Q, mean0=self.mean0,
-                 cov0=self.cov0, **extra)
-        os.replace(partial, path)
-        return path
+        arrays = dict(format=np.array(FILE_FORMAT), kind=np.array(self.kind),
+                      state_names=np.array(self.state_names), info=np.array(json.dumps(self.info)),
+                      time=self.time, Phi=self.Phi, u=self.u, Q=self.Q, mean0=self.mean0,
+                      cov0=self.cov0, **extra)
+        return atomic_write(path, lambda handle: np.savez(handle, **arrays), overwrite=bool(overwrite))
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> LinearGaussianPrior:
@@ -343,12 +370,22 @@ class LinearGaussianPrior:
         except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
             raise PriorFileError(f"path: '{path}' is not a readable .npz prior file ({exc})") \
                 from None
-        fmt = str(contents.get("format", ""))
-        if fmt != FILE_FORMAT:
-            raise PriorFileError(f"path: '{path}' has format '{fmt}', expected '{FILE_FORMAT}'")
-        missing = [k for k in (*_ARRAY_KEYS, "kind", "state_names", "info") if k not in contents]
+        version = _file_version(path, contents)
+        missing = [k for k in _ARRAY_KEYS if k not in contents]
+        if version is not None:
+            missing += [k for k in ("kind", "state_names", "info") if k not in contents]
+        if missing and version is None:
+            raise PriorFileError(f"path: '{path}' is not a CLAMP prior file: it has no format entry "
+                                 f"(read as version 1) and lacks entries {missing}")
         if missing:
-            raise PriorFileError(f"path: '{path}' lacks entries {missing}")
+            raise PriorFileError(f"path: '{path}' lacks entries {missing} (format {FILE_FORMAT_NAME}/"
+                                 f"{version})")
+        if version is None:                       # the layout before the format entry: version 1
+            D = np.shape(contents["Phi"])[-1] if np.ndim(contents["Phi"]) == 3 else 0
+            contents.setdefault("kind", np.array(cls.default_kind if cls is not LinearGaussianPrior
+                                                 else WorkspacePrior.default_kind if D == 6
+                                                 else LinearGaussianPrior.default_kind))
+            contents.setdefault("info", np.array("{}"))
         kind = str(contents["kind"])
         target: type[LinearGaussianPrior] = cls
         if cls is LinearGaussianPrior and kind == WorkspacePrior.default_kind:
@@ -363,8 +400,8 @@ class LinearGaussianPrior:
         if not isinstance(info, dict):
             raise PriorFileError(f"path: '{path}' has info {type(info).__name__}, expected a JSON "
                                  "object of learning settings")
-        names = contents["state_names"]
-        if names.ndim != 1 or names.dtype.kind not in "US":
+        names = contents.get("state_names")       # absent: version 1 without a format entry
+        if names is not None and (names.ndim != 1 or names.dtype.kind not in "US"):
             raise PriorFileError(f"path: '{path}' has state_names of dtype {names.dtype} and shape "
                                  f"{names.shape}, expected a list of names")
         posterior = None
@@ -377,7 +414,7 @@ class LinearGaussianPrior:
                                      f"{exc})") from None
         try:
             return target(*(contents[k] for k in _ARRAY_KEYS), kind=kind, info=info,
-                          state_names=tuple(str(s) for s in names),
+                          state_names=None if names is None else tuple(str(s) for s in names),
                           posterior=posterior)
         except (ShapeError, InvalidParameterError, ValueError) as exc:
             raise PriorFileError(f"path: '{path}' holds an invalid prior: {exc}") from None
@@ -385,6 +422,34 @@ class LinearGaussianPrior:
     def __repr__(self) -> str:
         return (f"{type(self).__name__}(kind={self.kind!r}, T={self.T}, D={self.D}, "
                 f"dt={self.dt:.4g})")
+
+    def summary(self) -> str:
+        """What was learned, one line each: size and steps, the learning settings of
+        ``info`` (method, coupled, ridge, jitter, obstacle weighting) and the demonstrations'
+        spread about their mean (``info["skill_region"]``, learned workspace priors) or, without
+        it, the prior's own marginal standard deviation of the positions."""
+        info = self.info
+        duration = float(self.time[-1] - self.time[0])
+        lines = [f"{self!r}: {info.get('num_demos', '?')} demonstrations, {self.T} states over "
+                 f"{duration:.3g} s (dt {self.dt:.4g} s)"]
+        if "method" in info:
+            lines.append(f"learned with method {info['method']}, coupled {info.get('coupled', '-')}, "
+                         f"ridge {info.get('ridge', '-')}, jitter {info.get('jitter', '-')}, obstacle "
+                         f"weighting {info.get('obstacle_weighting') or 'none'}")
+        else:
+            lines.append("learning settings: not recorded with this prior")
+        region = info.get("skill_region")
+        if region is not None:
+            radius = np.asarray(region["radius"], dtype=float)
+            spread = np.linalg.norm(np.asarray(region["spread"], dtype=float), axis=1)
+            lines.append(f"demonstrations' spread about their mean: {1e3 * spread.mean():.1f} mm rms on "
+                         f"average (max {1e3 * spread.max():.1f}), farthest {1e3 * radius.max():.1f} mm; "
+                         f"at the start {1e3 * radius[0]:.1f} mm, at the end {1e3 * float(region['end_radius']):.1f} mm")
+        else:
+            std = np.linalg.norm(self.std[:, :self.num_axes], axis=1)
+            lines.append(f"marginal position std: {std.mean():.4g} on average (max {std.max():.4g}; "
+                         "the demonstrations' spread is not recorded with this prior)")
+        return "\n".join(lines)
 
 
 class WorkspacePrior(LinearGaussianPrior):

@@ -1,9 +1,10 @@
 """Live 3-D view of a plan in the browser, served by viser on this machine (127.0.0.1).
 
 :class:`PlanViewer` (or ``clamp.show(result)``) starts a viser server and draws, in the robot's
-planning frame (``robot.base_frame``): the arm's URDF geometry (visual, or collision when the
-URDF has none, as read by Pinocchio; the same geometry as :mod:`clamp.viz.animation`) at the
-current time of the plan, the plan's end-effector path, the learned prior's mean path, the
+planning frame (``robot.base_frame``): the arm from its URDF through viser's URDF support
+(:class:`viser.extras.ViserUrdf` on a ``yourdfpy.URDF``, :func:`load_urdf`: the visual meshes, or the
+collision geometry when the URDF has no visual elements, package:// names resolved against
+``robot.package_dirs``), its joints set to the plan's at the current time, the plan's end-effector path, the learned prior's mean path, the
 demonstrations, the posterior tube (``sigmas``-sigma ellipsoids of ``result.ee_covariance``
 along ``result.ee_path``) and the obstacles. The page has a time slider and a play checkbox;
 every obstacle and the goal carry a drag handle (viser transform controls): releasing one
@@ -22,6 +23,7 @@ import io
 import logging
 import math
 import threading
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -31,7 +33,7 @@ from skillplan.validation import as_shaped
 from scenes import Box, Capsule, Cylinder, Sphere, TriangleMesh
 from clamp.planning.result import PlanResult
 from skillplan.validation import as_instance, as_shaped
-from clamp.viz.animation import planning_frame_transform, robot_geometry
+from clamp.viz.animation import planning_frame_transform
 from skillplan.validation import as_vector
 from scenes import Scene
 from scenes import PointCloud
@@ -123,26 +125,60 @@ def _obstacle_mesh(obstacle: Any, index: int) -> tuple[np.ndarray, np.ndarray, n
     return np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces), rotation
 
 
-def _geometry_mesh(geometry: Any) -> tuple[np.ndarray, np.ndarray] | None:
-    """Triangles (vertices (V, 3) [m], faces (F, 3)) of a coal collision / visual geometry in
-    its own frame; None for a kind that cannot be drawn."""
-    import coal
-    import trimesh
-    if isinstance(geometry, coal.BVHModelBase):
-        from pinocchio.visualize.meshcat_visualizer import loadMesh
-        mesh = loadMesh(geometry)          # coal's triangles, already scaled
-        return np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces)
-    if isinstance(geometry, coal.Sphere):
-        shape = trimesh.creation.icosphere(subdivisions=2, radius=geometry.radius)
-    elif isinstance(geometry, coal.Box):
-        shape = trimesh.creation.box(extents=2.0 * np.asarray(geometry.halfSide))
-    elif isinstance(geometry, coal.Capsule):
-        shape = trimesh.creation.capsule(height=2.0 * geometry.halfLength, radius=geometry.radius)
-    elif isinstance(geometry, coal.Cylinder):
-        shape = trimesh.creation.cylinder(radius=geometry.radius, height=2.0 * geometry.halfLength)
-    else:
-        return None
-    return np.asarray(shape.vertices, dtype=float), np.asarray(shape.faces)
+def _mesh_resolver(urdf_path: Path, package_dirs: Any) -> Any:
+    """yourdfpy's filename handler for a robot's URDF: ``package://PKG/rest`` is looked up as
+    ``DIR/PKG/rest`` in each of ``package_dirs`` (Pinocchio's rule, so the viewer finds the meshes
+    the planner's geometry came from), or ``DIR/rest`` for a DIR that is the package itself;
+    anything else as yourdfpy would (relative to the URDF's folder)."""
+    import yourdfpy
+
+    folders = [Path(d) for d in package_dirs]
+
+    def resolve(fname: str) -> str:
+        name = fname
+        if name.startswith("package://"):
+            rest = name[len("package://"):]
+            package, _, inner = rest.partition("/")
+            for folder in folders:
+                for candidate in (folder / rest, folder / inner if folder.name == package else None):
+                    if candidate is not None and candidate.is_file():
+                        return str(candidate)
+        return yourdfpy.filename_handler_magic(name, dir=str(urdf_path.parent))
+    return resolve
+
+
+def load_urdf(robot: Any) -> tuple[Any, str]:
+    """The robot's URDF (``robot.urdf_path``) read by yourdfpy with its meshes, package://
+    names resolved against ``robot.package_dirs`` (:func:`_mesh_resolver`): the visual geometry,
+    or the collision geometry when the URDF has no visual elements (the built-in Sawyer), as
+    :func:`clamp.viz.animation.robot_geometry` chooses. Returns (yourdfpy.URDF, "visual" |
+    "collision"); AnimationError when there is no URDF, yourdfpy is missing or nothing can be
+    drawn."""
+    urdf_path = getattr(robot, "urdf_path", None)
+    if urdf_path is None:
+        raise AnimationError("robot: has no urdf_path to read the geometry from (use robots.load_robot "
+                             "or Robot.from_urdf)")
+    try:
+        import yourdfpy
+    except ImportError as exc:
+        raise AnimationError(f"the live viewer needs yourdfpy (pip install 'skillplan[viewer]'): {exc}") from exc
+    urdf_path = Path(urdf_path)
+    handler = _mesh_resolver(urdf_path, getattr(robot, "package_dirs", ()))
+    for kind in ("visual", "collision"):
+        visual = kind == "visual"
+        try:
+            urdf = yourdfpy.URDF.load(str(urdf_path), build_scene_graph=visual, load_meshes=visual,
+                                      build_collision_scene_graph=not visual, load_collision_meshes=not visual,
+                                      filename_handler=handler)
+        except Exception as exc:   # yourdfpy / lxml / trimesh raise many kinds for a bad file
+            raise AnimationError(f"robot: cannot read the URDF {str(urdf_path)!r} with yourdfpy: {exc}") from exc
+        scene = urdf.scene if visual else urdf.collision_scene
+        if scene is not None and len(scene.geometry) > 0:
+            if not visual:
+                logger.info("viewer: %s has no visual geometry; drawing its collision geometry", urdf_path)
+            return urdf, kind
+    raise AnimationError(f"robot: none of the geometries of the URDF {str(urdf_path)!r} can be drawn "
+                         "(no visual or collision elements, or their meshes were not found)")
 
 
 def _segments(points: np.ndarray) -> np.ndarray:
@@ -187,9 +223,9 @@ class PlanViewer:
         except ImportError as exc:
             raise AnimationError(f"the live viewer needs viser (pip install 'skillplan[viewer]'): {exc}") from exc
 
-        self._pin = pin
         self._result = result
         self._robot = result.inputs.robot
+        self._urdf_model, self._urdf_kind = load_urdf(self._robot)      # before the server starts
         self._scene = result.inputs.scene
         self._goal = result.inputs.goal
         self._sigmas, self._tube_states = float(sigmas), int(tube_states)
@@ -210,23 +246,9 @@ class PlanViewer:
             scene.add_grid("/floor", width=2.0, height=2.0, cell_size=0.1, section_size=0.5,
                            position=(0.0, 0.0, 0.0))
             base = planning_frame_transform(self._robot, pin)
-            self._geometry_model, _ = robot_geometry(self._robot, pin)
-            self._geometry_data = self._geometry_model.createData()
-            self._data = self._robot.model.createData()
             scene.add_frame("/robot", show_axes=False, position=base[:3, 3],
                             wxyz=viser.transforms.SO3.from_matrix(base[:3, :3]).wxyz)
-            self._links: list[tuple[int, Any]] = []
-            for k, geometry in enumerate(self._geometry_model.geometryObjects):
-                mesh = _geometry_mesh(geometry.geometry)
-                if mesh is None:
-                    logger.warning("viewer: cannot draw geometry %r (%s)", geometry.name,
-                                   type(geometry.geometry).__name__)
-                    continue
-                color = np.asarray(geometry.meshColor[:3], dtype=float)
-                rgb = tuple(int(c) for c in (255 * color).round()) if np.any(color < 0.85) else COLORS["arm"]
-                self._links.append((k, scene.add_mesh_simple(f"/robot/link_{k}", *mesh, color=rgb)))
-            if not self._links:
-                raise AnimationError(f"robot: none of the geometries of {self._robot.name!r} can be drawn")
+            self._robot_urdf = self._draw_robot()
             if demonstrations is not None:
                 segments = np.concatenate([_segments(d) for d in demonstrations])
                 scene.add_line_segments("/demonstrations", segments, COLORS["demonstration"], thickness=0.002)
@@ -262,6 +284,13 @@ class PlanViewer:
         return self._time
 
     @property
+    def robot_urdf(self) -> Any:
+        """The arm as drawn: a :class:`viser.extras.ViserUrdf` of the robot's URDF (its
+        actuated joints in ``get_actuated_joint_names()`` order; those of the plan set by
+        :meth:`set_time`, any other, e.g. a gripper's, at 0, where the planner's model holds it)."""
+        return self._robot_urdf
+
+    @property
     def duration(self) -> float:
         """Duration [s] of the shown plan."""
         return float(self._result.time[-1] - self._result.time[0])
@@ -271,19 +300,14 @@ class PlanViewer:
         positions interpolated linearly between states)."""
         if isinstance(t, bool) or not isinstance(t, (int, float, np.floating)) or not math.isfinite(t):
             raise InvalidParameterError(f"t: expected a finite time [s], got {t!r}")
-        pin = self._pin
         with self._lock:
             time = self._result.time - self._result.time[0]
             t = float(np.clip(t, 0.0, time[-1]))
             q = np.array([np.interp(t, time, column) for column in self._result.q.T])
-            model = self._robot.model
-            pin.forwardKinematics(model, self._data, self._robot.to_pinocchio(q))
-            pin.updateGeometryPlacements(model, self._data, self._geometry_model, self._geometry_data)
+            configuration = self._rest_configuration.copy()
+            configuration[self._joint_index] = q      # by name: the URDF's actuated order may differ
             with self._server.atomic():
-                for k, handle in self._links:
-                    placement = self._geometry_data.oMg[k]
-                    handle.position = placement.translation
-                    handle.wxyz = pin.Quaternion(placement.rotation).coeffs()[[3, 0, 1, 2]]
+                self._robot_urdf.update_cfg(configuration)
             self._time = t
             if abs(self._slider.value - t) > 1e-9:
                 self._slider.value = t
@@ -329,6 +353,26 @@ class PlanViewer:
         return f"PlanViewer({self._robot.name}, {state})"
 
     # ------------------------------------------------------------------ drawing
+    def _draw_robot(self) -> Any:
+        """The arm under ``/robot`` (the planning frame) as a ViserUrdf of :func:`load_urdf`'s
+        URDF, in one grey; maps the robot's joints (``robot.joint_names``, the columns of the
+        plan's q; a continuous joint's angle as is) to the URDF's actuated joints by name."""
+        from viser.extras import ViserUrdf
+
+        visual = self._urdf_kind == "visual"
+        drawn = ViserUrdf(self._server, self._urdf_model, root_node_name="/robot", load_meshes=visual,
+                          load_collision_meshes=not visual, mesh_color_override=COLORS["arm"],
+                          collision_mesh_color_override=COLORS["arm"])
+        names = list(drawn.get_actuated_joint_names())
+        missing = [name for name in self._robot.joint_names if name not in names]
+        if missing:
+            raise AnimationError(f"robot: joints {missing} of {self._robot.name!r} are not actuated joints of "
+                                 f"its URDF {str(self._robot.urdf_path)!r} as yourdfpy reads it ({names})")
+        self._joint_index = np.array([names.index(name) for name in self._robot.joint_names], dtype=int)
+        # joints off the planned chain (a gripper's) at 0, where robots.Robot locks them (Pinocchio's neutral)
+        self._rest_configuration = np.zeros(len(names))
+        return drawn
+
     def _draw_obstacles(self) -> list[Any]:
         """Each obstacle under a drag handle at its anchor (:func:`obstacle_anchor`)."""
         import viser
