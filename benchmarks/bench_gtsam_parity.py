@@ -15,7 +15,19 @@ per iteration, the Python time inside the adapters, the rest (pybind11's Values 
 GTSAM's C++), and a pure C++ iteration (the same linearized graph as LinearContainerFactors:
 GTSAM's linear algebra alone, a floor for any Python factor).
 
-    python benchmarks/bench_gtsam_parity.py [--budget 5] [--only box]
+Table 0 (issue 27): do GTSAM's optimizers, as the planner configures them
+(:func:`clamp.optim.optimizers.gtsam_params`, printed), reach the fast solver's *plan*: the
+end-effector path of ``clamp.plan`` with the default config, max distance over the states, on
+box_closing (synthetic ``make_demonstrations("box_closing", num_demos=6, seed=0)`` and the
+recorded box_closing.mat when present), Jaco, REFERENCE_START, the empty scene and the README
+box. With the box the plan comes out of a constrained solve (soft start, shifted hinges, the
+posture tie): GTSAM runs on ``result.problem.graph()`` (the final problem) and on the
+as-built graph (``clamp.build``), each from the problem's own initial values
+(``problem.values()``: what the fast solver started from) and from the configured
+initialisation (the prior mean's path through IK, ``clamp.build(..., scene=None).initial``);
+distance [mm], seconds, iterations, error against the plan's on the same graph.
+
+    python benchmarks/bench_gtsam_parity.py [--budget 5] [--only box] [--tables 0,1,2]
 """
 from __future__ import annotations
 
@@ -72,6 +84,78 @@ def run_to_budget(problem, config, reference, robot, budget: float) -> dict:
             "gap": gap, "seconds": clock, "stop": stop, "best": best}
 
 
+def gtsam_settings(config) -> str:
+    """The GTSAM parameters the planner sets for ``config``, as a GTSAM user would read them."""
+    from clamp.optim.optimizers import gtsam_params
+
+    params, _ = gtsam_params(config)
+    words = [f"linear solver {params.getLinearSolverType()}",
+             f"ordering {params.getOrderingType()}",
+             f"maxIterations {params.getMaxIterations()}",
+             f"relativeErrorTol {params.getRelativeErrorTol():g}",
+             f"absoluteErrorTol {params.getAbsoluteErrorTol():g}"]
+    if isinstance(params, gtsam.LevenbergMarquardtParams):
+        words += [f"lambdaInitial {params.getlambdaInitial():g}",
+                  f"lambdaUpperBound {params.getlambdaUpperBound():g}",
+                  f"lambdaLowerBound {params.getlambdaLowerBound():g}",
+                  f"useFixedLambdaFactor {params.getUseFixedLambdaFactor()}",
+                  f"diagonalDamping {params.getDiagonalDamping()}"]
+    elif isinstance(params, gtsam.DoglegParams):
+        words += [f"deltaInitial {params.getDeltaInitial():g}"]
+    return ", ".join(words)
+
+
+def parity_table(budget: float, only: str | None, optimizers: list[str]) -> None:
+    """Table 0 (module docstring)."""
+    from clamp import PlannerConfig, build, learn_prior, plan
+    from robots import load_robot
+    from scenes import Box, Scene, make_demonstrations
+
+    robot = load_robot("jaco")
+    priors = {"synthetic": lambda: learn_prior(make_demonstrations("box_closing", num_demos=6,
+                                                                   seed=0))}
+    recorded = shared_demonstrations("box_closing")
+    if recorded is not None:
+        priors["recorded"] = lambda: learn_prior(recorded)
+    scenes = {"empty": None, "box": Scene([Box.from_reference(REFERENCE_BOX)])}
+    print(f"\nTable 0: GTSAM's optimizers against the fast plan (budget {budget:g} s)")
+    for name in optimizers:
+        print(f"  {name}: {gtsam_settings(PlannerConfig().with_(optimizer=name))}")
+    print(f"{'data':<10} {'scene':<6} {'graph':<9} {'start':<12} {'optimizer':<13} "
+          f"{'start mm':>8} {'mm':>8} {'s':>6} {'iters':>5} {'stop':>9} {'error':>10} "
+          f"{'plan error':>10}")
+    for data, make_prior in priors.items():
+        prior = make_prior()
+        configured = build(prior, robot, None, REFERENCE_START).initial
+        for label, scene in scenes.items():
+            if only and label != only:
+                continue
+            t0 = time.perf_counter()
+            result = plan(prior, robot, scene, REFERENCE_START, covariance=False)
+            seconds = time.perf_counter() - t0
+            theta = np.hstack([result.q, result.qdot])
+            print(f"{data} {label}: fast plan {seconds:.2f} s, {result.iterations} iterations, "
+                  f"success {result.success}, solves "
+                  f"{[(a['candidate'], a['round']) for a in result.attempts]}")
+            graphs = {"final": result.problem,
+                      "as-built": build(prior, robot, scene, REFERENCE_START)}
+            for graph_label, problem in graphs.items():
+                if label == "empty" and graph_label == "as-built":
+                    continue         # the same problem without obstacles
+                starts = {"own values": problem,
+                          "configured": problem.with_families(problem.families, configured)}
+                for start_label, start in starts.items():
+                    for name in optimizers:
+                        config = PlannerConfig().with_(optimizer=name)
+                        r = run_to_budget(start, config, theta, robot, budget)
+                        begin = 1e3 * np.max(np.linalg.norm(
+                            robot.fk(start.initial[:, :robot.n]) - result.ee_path, axis=1))
+                        print(f"{data:<10} {label:<6} {graph_label:<9} {start_label:<12} "
+                              f"{name:<13} {begin:>8.1f} {r['gap']:>8.3f} {r['seconds']:>6.2f} "
+                              f"{r['iterations']:>5d} {r['stop']:>9} {r['error']:>10.6g} "
+                              f"{r['best']:>10.6g}", flush=True)
+
+
 def cost_breakdown(problem, hold: bool, iterations: int = 30) -> dict:
     """ms per LM iteration, factor calls and Python time in the adapters per iteration."""
     from clamp import PlannerConfig
@@ -114,13 +198,13 @@ def cost_breakdown(problem, hold: bool, iterations: int = 30) -> dict:
 def pure_cpp_iteration(problem, values) -> float:
     """ms of one GTSAM LM iteration on the graph linearized at ``values`` (C++ factors only)."""
     from clamp import PlannerConfig
-    from clamp.optim.optimizers import _gtsam_params
+    from clamp.optim.optimizers import gtsam_params
 
     linear = problem.graph().linearize(values)
     graph = gtsam.NonlinearFactorGraph()
     for i in range(linear.size()):
         graph.add(gtsam.LinearContainerFactor(linear.at(i), values))
-    params, _ = _gtsam_params(PlannerConfig(optimizer="gtsam"))
+    params, _ = gtsam_params(PlannerConfig(optimizer="gtsam"))
     params.setMaxIterations(1)
 
     def one():
@@ -133,9 +217,15 @@ def main() -> None:
     parser.add_argument("--budget", type=float, default=5.0, help="seconds per GTSAM run")
     parser.add_argument("--only", choices=("empty", "box"), default=None)
     parser.add_argument("--optimizers", default="gtsam,gtsam_dogleg")
+    parser.add_argument("--tables", default="0,1,2", help="which tables to print")
     args = parser.parse_args()
     print_environment()
     warnings.simplefilter("ignore")
+    tables = set(args.tables.split(","))
+    if "0" in tables:
+        parity_table(args.budget, args.only, args.optimizers.split(","))
+    if not tables & {"1", "2"}:
+        return
     from clamp import PlannerConfig, build, learn_prior, optimize
     from robots import load_robot
     from scenes import Box, Scene

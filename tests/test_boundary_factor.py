@@ -119,13 +119,56 @@ def test_clamp_plan_stays_inside_cylinder_with_the_factor():
           f"with factor {demo.fraction_inside_with:.3f}")
     assert demo.without_factor.success
     # the goal lies 5 cm outside where the demonstrations agree (5 mm): kept inside the
-    # cylinder until the end, the plan jumps to it over the last states, and the skill check
-    # says so (the plan is otherwise sound: start, goal, limits)
-    assert demo.with_factor.reasons and all(r.startswith("left the skill at states")
-                                            for r in demo.with_factor.reasons)
-    assert demo.with_factor.skill["worst_state"] >= 0.75 * len(demo.outside_with)
+    # cylinder until the end, the plan jumps to it over the last states. Judged against the
+    # prior conditioned on the goal (which spreads the goal's pull along the whole path) it
+    # would leave the skill; it is judged against where the skill goes under the caller's
+    # boundary (issue 27), which it follows
+    assert demo.with_factor.success, demo.with_factor.reasons
+    assert demo.with_factor.skill["reference"] == (
+        "prior conditioned on start and goal, under the caller's families: tlgc_boundary")
+    assert demo.without_factor.skill["reference"] == "prior conditioned on start and goal"
+    assert demo.with_factor.skill["max_tube_ratio"] < 1.0
     assert demo.fraction_inside_with >= 0.85
     assert demo.fraction_inside_with > demo.fraction_inside_without + 0.3
     # with the factor, only the states near the (outside) goal leave the cylinder
     outside = np.flatnonzero(demo.outside_with > 1e-3)
     assert outside.min() >= 0.85 * len(demo.outside_with)
+
+
+def test_the_boundary_reference_is_where_the_skill_goes_inside_the_cylinder():
+    """The verdict's reference under the boundary (clamp.planning.reference.skill_reference):
+    the MAP of the conditioned workspace prior and the hinge, inside the cylinder where the
+    conditioned mean leaves it; a boundary that holds on the conditioned mean leaves the
+    reference the conditioned prior itself (the verdict as without it)."""
+    from clamp import PlannerConfig, learn_prior
+    from clamp.planning.reference import ReferenceUnderFamilies, skill_reference
+    from clamp.planning.request import make_request
+    from robots import load_robot
+    from scenes import make_demonstrations
+    from tlgc.demo_clamp_cylinder import outside_distances
+
+    T = 40
+    demos = make_demonstrations("reach_from_above", num_demos=6, num_points=T,
+                                dt=0.16 * 250 / T, seed=0)
+    prior, robot, config = learn_prior(demos, jitter=1e-4), load_robot("jaco"), PlannerConfig()
+    cyl = fit_cylinder(demos, "spline")
+    start = cyl.directrix[0] + 0.3 * cyl.radius(0, 0.0) * cyl.normals[0]
+    goal = cyl.directrix[-1] + (cyl.radius(cyl.num_sections - 1, 0.0) + 0.05) * cyl.normals[-1]
+    request = make_request(prior, robot, start, goal, (), config)
+    plain, name = skill_reference(prior, robot, request, config)
+    assert name == "prior conditioned on start and goal"
+    bounded, name = skill_reference(prior, robot, request, config,
+                                    families=[BoundaryFamily(cyl, T, sigma=0.005)])
+    assert isinstance(bounded, ReferenceUnderFamilies)
+    assert name.endswith("under the caller's families: tlgc_boundary")
+    inside_plain = np.mean(outside_distances(cyl, plain.mean[:, :3]) <= 1e-3)
+    inside_bounded = np.mean(outside_distances(cyl, bounded.mean[:, :3]) <= 1e-3)
+    assert inside_bounded >= 0.85 > inside_plain + 0.3
+    # the same start and goal, the offsets of its samples the conditioned prior's
+    np.testing.assert_allclose(bounded.mean[[0, -1], :3], plain.mean[[0, -1], :3], atol=2e-3)
+    np.testing.assert_allclose(bounded.sample(3, 0) - bounded.mean, plain.sample(3, 0) - plain.mean)
+    loose = BoundaryFamily(cyl, T, margin=-1.0)            # a boundary 1 m wider: holds
+    same, name = skill_reference(prior, robot, request, config, families=[loose])
+    assert not isinstance(same, ReferenceUnderFamilies)
+    np.testing.assert_array_equal(same.mean, plain.mean)
+    assert name.endswith("(the caller's families hold on it: tlgc_boundary)")

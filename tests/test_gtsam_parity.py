@@ -81,6 +81,31 @@ def test_gtsam_levenberg_marquardt_converges_to_the_fast_optimum(jaco, soft_prio
     assert moved.max() <= 1e-3
 
 
+@pytest.mark.parametrize("case", ["empty", "box"])
+def test_gtsam_levenberg_marquardt_reaches_the_fast_plan(jaco, soft_prior, case):
+    """GTSAM's Levenberg-Marquardt with the planner's parameters (clamp.optim.optimizers.
+    gtsam_params: the fast solver's tolerances, adaptive lambda, QR), run by hand on the final
+    problem's graph from its own initial values (the fast solver's start), ends within 1 mm of
+    the plan's end-effector path (benchmarks/bench_gtsam_parity.py, Table 0, for box_closing)."""
+    from clamp.optim.optimizers import gtsam_params
+    from scenes import Box, Scene
+    start = soft_prior.mean[0, :3]
+    scene = (Scene([Box(soft_prior.mean[30, :3] + [0, 0, -0.04], [0.06] * 3)])
+             if case == "box" else None)
+    result = plan(soft_prior, jaco, scene, start, covariance=False)
+    assert result.success, result.reasons
+    problem = result.problem
+    params, make = gtsam_params(PlannerConfig().with_(optimizer="gtsam"))
+    assert make is gtsam.LevenbergMarquardtOptimizer
+    optimizer = make(problem.graph(), problem.values(), params)
+    theta = values_to_states(optimizer.optimize(), problem.keys)
+    gap = np.linalg.norm(jaco.fk(theta[:, :jaco.n]) - result.ee_path, axis=1).max()
+    assert gap <= 1e-3
+    # the same through clamp.optimize
+    out = optimize(problem, PlannerConfig().with_(optimizer="gtsam"))
+    np.testing.assert_allclose(out.theta, theta, atol=1e-9)
+
+
 @pytest.mark.parametrize("optimizer", ["fast", "gtsam", "gtsam_dogleg"])
 def test_user_custom_factor_is_honoured_by_every_optimizer(jaco, soft_prior, optimizer):
     start = soft_prior.mean[0, :3]

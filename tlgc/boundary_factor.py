@@ -155,6 +155,12 @@ class BoundaryFamily(Family):
         self.margin = as_scalar(margin, "margin")
         super().__init__(indices, 1, sigma=as_scalar(sigma, "sigma", minimum=1e-12))
 
+    def for_reference(self) -> "BoundaryFamily":
+        """Itself: the hinge reads only the hand's position (``window.workspace()``), so the
+        verdict judges a plan with it against where the skill goes inside the cylinder
+        (:func:`clamp.planning.reference.skill_reference`)."""
+        return self
+
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         """The hinge of the active factors among ``rows`` (inactive ones are exactly zero and
         left out); positions come from the window's kinematics, so no input checks here."""

@@ -286,6 +286,16 @@ class Family:
         ``clamp.plan(extra_factors=...)``) the family over that plan's states and robot."""
         return self
 
+    def for_reference(self) -> "Family | None":
+        """This family as it acts on the hand's path, for the verdict's reference of a plan it
+        is an extra factor of (:func:`clamp.planning.reference.skill_reference`: where the
+        skill goes under the caller's families), or None (the default): it does not change
+        where the hand goes (an orientation window), or needs more of the arm than the hand's
+        workspace state. A family whose kernel reads only ``window.workspace()`` (the hand's
+        position and velocity) may return itself: it is then evaluated on the reference's
+        states, the hand's own (:class:`clamp.planning.reference.HandPoint`)."""
+        return None
+
     def check(self, context: CheckContext, theta: np.ndarray) -> ConstraintCheck | None:
         """The constraint's own check of the plan theta (T, 2n) (see the module docstring);
         None: nothing to check (a cost family, or the check does not apply: no obstacles)."""

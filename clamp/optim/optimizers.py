@@ -47,14 +47,24 @@ PROGRESS_DELAY = 2.0
 IterationHook = Callable[[int, float, float], None]
 
 
-def _gtsam_params(config: PlannerConfig):
-    """GTSAM's parameters for ``config`` and the optimizer class they are for."""
+def gtsam_params(config: PlannerConfig):
+    """GTSAM's parameters for ``config`` and the optimizer class they are for: what
+    ``optimize`` runs on ``problem.graph()``, for a caller who runs GTSAM by hand
+    (``make(problem.graph(), problem.values(), params)``; docs/concepts.md#gtsams-optimizers).
+    The stopping rule is the fast solver's tolerances (``relative_error_tol`` 1e-3,
+    ``absolute_error_tol`` 1e-2 nats): with them GTSAM's Levenberg-Marquardt ends within 0.3 mm
+    of the fast plan on box_closing; tighter, it goes on towards the graph's optimum, which
+    with the box lies 2 mm from the plan (benchmarks/bench_gtsam_parity.py, Table 0)."""
     opt = config.optimizer
     if opt.optimizer == "gtsam":
         params = gtsam.LevenbergMarquardtParams()
         params.setlambdaInitial(opt.lambda_initial)
         params.setlambdaUpperBound(opt.lambda_upper_bound)
         params.setUseFixedLambdaFactor(False)
+        # lambda * I, not lambda * diag(H) (Marquardt's scaling): scaled by the stiff learned
+        # prior's diagonal the first step barely moves and LM stops at once (box_closing with
+        # the box: one iteration, 82 mm from the plan)
+        params.setDiagonalDamping(False)
         make = gtsam.LevenbergMarquardtOptimizer
     elif opt.optimizer == "gtsam_dogleg":
         params, make = gtsam.DoglegParams(), gtsam.DoglegOptimizer
@@ -64,6 +74,7 @@ def _gtsam_params(config: PlannerConfig):
     # (undamped: GTSAM reports an indeterminate system; damped: LM stalls ~20 % above the
     # optimum of an empty scene). COLAMD's ordering of the chain costs < 1 ms.
     params.setLinearSolverType("MULTIFRONTAL_QR")
+    params.setOrderingType("COLAMD")      # METIS: the same steps, no faster on the chain
     params.setMaxIterations(opt.max_iterations)
     params.setRelativeErrorTol(opt.relative_error_tol)
     params.setAbsoluteErrorTol(opt.absolute_error_tol)
@@ -74,7 +85,7 @@ def _gtsam_optimizer(problem: PlanningProblem, config: PlannerConfig,
                      on_iteration: IterationHook | None = None):
     """GTSAM's optimizer for ``config`` on the problem's graph and initial values;
     ``on_iteration(iteration, error_before, error_after)`` is called after each iteration."""
-    params, make = _gtsam_params(config)
+    params, make = gtsam_params(config)
     if on_iteration is not None:
         params.iterationHook = on_iteration
     return make(problem.graph(), problem.values(), params)

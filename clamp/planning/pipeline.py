@@ -50,8 +50,10 @@ class Model:
     states [q, qdot] (T, 2n), its GTSAM graph ``problem.graph()``, initial values
     ``problem.initial``) for ``request``; ``prior``: the learned workspace prior;
     ``model_prior``: it conditioned on the request's targets (the prior the families use);
-    ``reference``: where the skill goes for the request
-    (:func:`clamp.planning.reference.skill_reference`);
+    ``reference``: where the skill goes for the request, the skill checks' reference
+    (:func:`clamp.planning.reference.skill_reference`: the conditioned prior, or its workspace
+    MAP under the caller's families that act on the hand's path), ``reference_name`` what it
+    is, in words (``PlanResult.skill["reference"]``);
     ``initialisation``: the initial trajectory (q, qdot (T, n), path (T, 3) [m]) before the
     posture tie; ``scene`` (scenes.Scene or None), ``config``; ``extra_factors`` and ``sdf`` as
     the caller gave them."""
@@ -66,6 +68,7 @@ class Model:
     config: PlannerConfig
     extra_factors: tuple = ()
     sdf: Any = None
+    reference_name: str = "prior conditioned on the targets"
 
     @property
     def robot(self) -> Any:
@@ -153,9 +156,10 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
     if config.model.posture_sigma > 0 and problem.has(ObstacleFamily.name):
         problem = tied_to_free_plan(problem, config, keep_initial=initial is not None)
-    reference = skill_reference(prior, robot, request, config, model_prior)
+    reference, reference_name = skill_reference(prior, robot, request, config, model_prior,
+                                                extra_families)
     return Model(prior, problem, request, init, model_prior, reference, scene, config,
-                 extra_factors, sdf)
+                 extra_factors, sdf, reference_name)
 
 
 # ------------------------------------------------------------------------------------ solve

@@ -1,12 +1,28 @@
 """What a plan is conditioned on and judged against: the learned prior conditioned on the
-request's start, goal and via positions (:func:`clamp.prior.conditioning.condition_prior`).
-Its inputs are the checked records of :func:`clamp.planning.request.make_request`."""
+request's start, goal and via positions (:func:`clamp.prior.conditioning.condition_prior`),
+and, when the caller adds families that act on the hand's path (e.g. TLGC's boundary, see
+:meth:`clamp.factors.Family.for_reference`), where the skill goes under them: the MAP of that
+conditioned workspace prior times those families (:func:`skill_reference`). Its inputs are the
+checked records of :func:`clamp.planning.request.make_request`.
+
+Why the workspace MAP (docs/concepts.md#the-verdict): the skill's reference is a workspace
+path (where the hand goes), so it is solved in the workspace, on the learned chain itself,
+without the arm: the same judge for every arm, no solver of the plan's own in it (a joint-space
+solve of the plan's problem in the empty scene would be the plan itself there, and the check
+void). Where the caller's families hold on the conditioned mean (every hinge inactive) the MAP
+is that mean: the reference is exactly today's. The solve is T states of 6 (the hand's position
+and velocity as the "joints" of :class:`HandPoint`), banded, a few Levenberg-Marquardt steps
+(~2-20 ms at T = 40-250).
+"""
 from __future__ import annotations
 
 from typing import Any
 
 import numpy as np
 
+from clamp.factors import Family, WorkspaceGPFamily, WorkspaceStartFamily
+from clamp.graph.problem import PlanningProblem
+from clamp.optim.solver import levenberg_marquardt
 from clamp.prior.conditioning import conditioned
 
 
@@ -34,11 +50,118 @@ def planning_prior(prior: Any, robot: Any, request: Any, config: Any) -> Any:
                            model.conditioning_sigma)
 
 
-def skill_reference(prior: Any, robot: Any, request: Any, config: Any,
-                    model_prior: Any = None) -> Any:
-    """Where the skill goes for ``request``: ``prior`` conditioned on the start, goal and via
-    positions (``model_prior``, the :func:`planning_prior`, when it already is)."""
+def conditioned_reference(prior: Any, robot: Any, request: Any, config: Any,
+                          model_prior: Any = None) -> Any:
+    """``prior`` conditioned on the start, goal and via positions (``model_prior``, the
+    :func:`planning_prior`, when it already is)."""
     if model_prior is not None and model_prior is not prior:
         return model_prior
     return conditioned(prior, target_observations(prior, robot, request),
                            config.model.conditioning_sigma)
+
+
+class _HandKinematics:
+    """End-effector kinematics of :class:`HandPoint`: the state is the hand's own."""
+
+    __slots__ = ("position", "velocity", "jacobian", "velocity_jacobian")
+
+    def __init__(self, q: np.ndarray, qdot: np.ndarray):
+        self.position, self.velocity = q, qdot
+        self.jacobian = np.broadcast_to(np.eye(3), (len(q), 3, 3))
+        self.velocity_jacobian = np.zeros((len(q), 3, 3))
+
+
+class HandPoint:
+    """The hand alone as a "robot" of 3 joints: q = its position [m], qdot = its velocity
+    [m/s], fk the identity. A :class:`~clamp.graph.problem.PlanningProblem` over it is a
+    problem in the workspace: the learned prior's families are linear Gaussian there, and a
+    family that reads only ``window.workspace()`` acts on the hand's path as it does in a plan."""
+
+    n = 3
+    name = "hand"
+
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        return np.asarray(q, dtype=float)
+
+    def ee_kinematics(self, q: np.ndarray, qdot: np.ndarray, jacobians: bool = True
+                      ) -> _HandKinematics:
+        return _HandKinematics(np.asarray(q, dtype=float), np.asarray(qdot, dtype=float))
+
+
+class ReferenceUnderFamilies:
+    """Where the skill goes under the caller's families: ``mean`` (T, 6) the workspace MAP
+    (:func:`skill_reference`) with the spread of ``base`` (the conditioned prior): its
+    samples, moved by the same offset (the plausibility's executions scatter about this mean
+    as they scatter about the conditioned one); ``info`` and ``cov`` are the base's."""
+
+    def __init__(self, base: Any, mean: np.ndarray):
+        self.base = base
+        self.mean = mean
+        self.info = base.info
+        self.time, self.dt = base.time, base.dt
+
+    @property
+    def T(self) -> int:
+        return self.base.T
+
+    @property
+    def cov(self) -> np.ndarray:
+        return self.base.cov
+
+    @property
+    def std(self) -> np.ndarray:
+        return self.base.std
+
+    def sample(self, count: int, rng: Any) -> np.ndarray:
+        return self.base.sample(count, rng) + (self.mean - np.asarray(self.base.mean))
+
+
+def reference_families(families: Any) -> list[Family]:
+    """The caller's families as they act on the hand's path (:meth:`Family.for_reference`),
+    those that do not left out."""
+    out = []
+    for family in families:
+        hand = family.for_reference()
+        if hand is not None and len(hand):
+            out.append(hand)
+    return out
+
+
+def _targets(request: Any) -> str:
+    parts = ["start"] + (["goal"] if request.goal is not None else [])
+    vias = len(request.vias)
+    if vias:
+        parts.append(f"{vias} via point{'s' if vias > 1 else ''}")
+    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
+
+
+def skill_reference(prior: Any, robot: Any, request: Any, config: Any,
+                    model_prior: Any = None, families: Any = ()) -> tuple[Any, str]:
+    """Where the skill goes for ``request`` and what that is, in words: ``prior`` conditioned
+    on the start, goal and via positions (``model_prior``, the :func:`planning_prior`, when it
+    already is); with caller ``families`` that act on the hand's path
+    (:func:`reference_families`) and are active on its mean, the MAP of that conditioned
+    workspace prior times them (:class:`ReferenceUnderFamilies`; see the module docstring)."""
+    base = conditioned_reference(prior, robot, request, config, model_prior)
+    name = f"prior conditioned on {_targets(request)}"
+    hand = reference_families(families)
+    if not hand:
+        return base, name
+    names = ", ".join(dict.fromkeys(f.name for f in hand))
+    mean = np.asarray(base.mean)
+    T = len(mean)
+    problem = PlanningProblem(HandPoint(), T, [
+        WorkspaceGPFamily(base.Phi, base.u, base.Q),
+        WorkspaceStartFamily(np.asarray(base.mean0), np.asarray(base.cov0)), *hand], (), mean)
+    window = problem.window(mean)
+    if all(f.error(window) == 0.0 for f in hand):
+        return base, f"{name} (the caller's families hold on it: {names})"
+    opt = config.optimizer
+    out = levenberg_marquardt(problem, mean, lambda_initial=opt.lambda_initial,
+                              lambda_max=opt.lambda_upper_bound,
+                              max_iterations=opt.max_iterations,
+                              relative_tol=opt.relative_error_tol,
+                              absolute_tol=opt.absolute_error_tol,
+                              patience=opt.convergence_patience, workspace_correction=0)
+    return (ReferenceUnderFamilies(base, out.theta),
+            f"{name}, under the caller's families: {names}")

@@ -65,7 +65,10 @@ class PlanResult:
     skill: the skill checks' figures (:class:`clamp.prior.skill.SkillCheck`: max_tube_ratio, the
     plan's largest distance from where the skill goes in units of the demonstrations' spread
     there, limit tube_limit; worst_state; end_distance [m] from where the demonstrations end
-    and completion_radius [m], None when a goal was given); self_clearance [m]: least distance
+    and completion_radius [m], None when a goal was given; reference: what the plan is judged
+    against, in words: "prior conditioned on start and goal", or with caller families that act
+    on the hand's path "..., under the caller's families: tlgc_boundary",
+    :func:`clamp.planning.reference.skill_reference`); self_clearance [m]: least distance
     between two of the robot's own links that may touch (:mod:`robots.self_collision`: URDF
     collision geometry, adjacent / rigid / always-touching pairs left out; at and between
     states; negative: overlap depth), self_contact: where; fixed_overlaps: (link, obstacle,

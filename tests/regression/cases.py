@@ -11,12 +11,14 @@ SAWYER_SHIFT = np.array([0.3, 0.0, 0.2])
 #: exact by conditioning the prior on them, and the goal tolerance 2 mm instead of 2 cm), and the
 #: weighted solve alone at the configured weight (the collision constraint loop, the soft start
 #: and the posture tie came later: sawyer_box's pinned plan collides, which the loop now
-#: repairs). The verdict has changed twice (issue 19), so two success flags are now False:
-#: jaco_boundary's pinned plan (kept inside the TLGC cylinder, then a jump to its goal 5 cm
-#: outside over the last states) fails the skill check (7.7 spreads from where the skill goes
-#: at state 37); jaco_box's pinned plan collides with itself (links 3 and 6 overlap by 4.2 mm
-#: at state 48.9, 16 states; links 4 / 6 first touch at state 43.4 by the fidelity benchmark's
-#: independent coal check), which nothing checked before
+#: repairs). The verdict has changed twice (issue 19), so jaco_box's success flag is now False:
+#: its pinned plan collides with itself (links 3 and 6 overlap by 4.2 mm at state 48.9, 16
+#: states; links 4 / 6 first touch at state 43.4 by the fidelity benchmark's independent coal
+#: check), which nothing checked before. jaco_boundary's (kept inside the TLGC cylinder, then a
+#: jump to its goal 5 cm outside over the last states) was False from issue 19 to issue 27: it
+#: failed the skill check, 7.7 spreads from the prior conditioned on its goal at state 37; since
+#: issue 27 a plan is judged against where the skill goes under the caller's families (the
+#: cylinder's boundary here, clamp.planning.reference.skill_reference), and it passes again
 def _config():
     from clamp import PlannerConfig
     return PlannerConfig().with_(sigma_obs=0.05, condition_on_targets=False, goal_tolerance=0.02,
