@@ -394,6 +394,24 @@ class LinearGaussianPrior:
         return (f"{type(self).__name__}(kind={self.kind!r}, T={self.T}, D={self.D}, "
                 f"dt={self.dt:.4g})")
 
+    def summary(self) -> str:
+        """What was learned and what the learner chose, one line each: size, method and
+        settings, and the start shrinkage (:mod:`clamp.shrinkage`) with its leave-one-out
+        prediction error."""
+        info = self.info
+        lines = [f"{self!r}: {info.get('num_demos', '?')} demonstrations, "
+                 f"method {info.get('method', '?')}, coupled {info.get('coupled', False)}, "
+                 f"ridge {info.get('ridge', '-')}, jitter {info.get('jitter', '-')}"]
+        shrink = info.get("start_shrinkage")
+        if shrink is None:
+            lines.append("start shrinkage: none (not applied by this learner)")
+        else:
+            lines.append(f"start shrinkage: weight {shrink['weight']:.3g} "
+                         f"(setting {shrink['setting']!r}; {shrink['reason']})")
+        if "conditioned_on" in info:
+            lines.append(f"conditioned on {len(info['conditioned_on'])} position(s)")
+        return "\n".join(lines)
+
 
 class WorkspacePrior(LinearGaussianPrior):
     """CLAMP's learned end-effector workspace prior: D = 6, x = [p (3) m, v (3) m/s].
