@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy import stats
 
-from clamp.prior import chain
+from clamp.prior.linear_gaussian import chain
 from clamp.prior.conjugate import POSTERIOR_KEYS, ConjugatePosterior
 from clamp.errors import ClampTypeError, InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time, cholesky, is_symmetric
@@ -344,6 +344,24 @@ class LinearGaussianPrior:
     def __repr__(self) -> str:
         return (f"{type(self).__name__}(kind={self.kind!r}, T={self.T}, D={self.D}, "
                 f"dt={self.dt:.4g})")
+
+    def summary(self) -> str:
+        """What was learned and what the learner chose, one line each: size, method and
+        settings, and the start shrinkage (:mod:`clamp.prior.shrinkage`) with its leave-one-out
+        prediction error."""
+        info = self.info
+        lines = [f"{self!r}: {info.get('num_demos', '?')} demonstrations, "
+                 f"method {info.get('method', '?')}, coupled {info.get('coupled', False)}, "
+                 f"ridge {info.get('ridge', '-')}, jitter {info.get('jitter', '-')}"]
+        shrink = info.get("start_shrinkage")
+        if shrink is None:
+            lines.append("start shrinkage: none (not applied by this learner)")
+        else:
+            lines.append(f"start shrinkage: weight {shrink['weight']:.3g} "
+                         f"(setting {shrink['setting']!r}; {shrink['reason']})")
+        if "conditioned_on" in info:
+            lines.append(f"conditioned on {len(info['conditioned_on'])} position(s)")
+        return "\n".join(lines)
 
 
 class WorkspacePrior(LinearGaussianPrior):
