@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy import stats
 
-from clamp.prior.linear_gaussian import chain
+from clamp.prior import chain
 from clamp.prior.conjugate import POSTERIOR_KEYS, ConjugatePosterior
 from clamp.errors import ClampTypeError, InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time, cholesky, is_symmetric
