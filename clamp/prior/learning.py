@@ -47,23 +47,14 @@ import numpy as np
 from clamp.errors import (ClampWarning, DegenerateDemonstrationsError,
                           InsufficientDemonstrationsError, InvalidParameterError, ShapeError)
 from clamp.prior.conjugate import ConjugatePosterior
-from clamp.prior.obstacle_weighting import ObstacleWeighting, as_weighting, demonstration_weights
+from clamp.prior.demonstration_states import (MIN_SPREAD, SPREAD_FLOOR, assemble_blocks,
+                                              block_covariance, demo_arrays, sample_weights,
+                                              stack_states)
+from clamp.prior.obstacle_weighting import ObstacleWeighting, as_weighting
 from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
 from clamp.prior.shrinkage import as_shrinkage, shrink_start_offsets
-from clamp.validation import as_array, as_bool, as_scalar, as_time
+from clamp.validation import as_array, as_bool, as_scalar
 from clamp.prior.skill import SkillRegion
-from skillplan.validation import MAX_COORDINATE
-
-#: Smallest spread (largest standard deviation over the state's coordinates, across the
-#: demonstrations; m, m/s or rad, rad/s) that counts as "the demonstrations differ" at a step.
-#: Demonstrations below it at every step are identical and refused (they teach no variation);
-#: steps below it (a common start or goal) are learned with the SPREAD_FLOOR.
-MIN_SPREAD = 1e-6
-
-#: Standard deviation (m or rad for positions, m/s or rad/s for velocities): at a step where
-#: the demonstrations' largest one over the coordinates is below it they agree, and the
-#: diagonal of Q_i (of the initial covariance at step 0) is raised to at least SPREAD_FLOOR**2.
-SPREAD_FLOOR = 1e-5
 
 __all__ = ["learn_prior", "learn_joint_prior", "update_prior", "fit_transitions", "state_groups",
            "METHODS", "MIN_SPREAD", "SPREAD_FLOOR"]
@@ -80,13 +71,6 @@ def state_groups(num_axes: int, coupled: bool) -> np.ndarray:
         return np.arange(2 * num_axes)[None, :]
     axes = np.arange(num_axes)
     return np.stack([axes, axes + num_axes], axis=1)
-
-
-def _scatter_blocks(blocks: np.ndarray, groups: np.ndarray, size: int) -> np.ndarray:
-    """Place per-group blocks (..., G, k, k) into block-structured matrices (..., D, D)."""
-    out = np.zeros(blocks.shape[:-3] + (size, size))
-    out[..., groups[:, :, None], groups[:, None, :]] = blocks
-    return out
 
 
 def _ridge_fit(X: np.ndarray, Y: np.ndarray, ridge: float) -> np.ndarray:
@@ -123,8 +107,8 @@ def fit_transitions(states: np.ndarray, groups: np.ndarray, ridge: float, jitter
     states (M, T, D); groups (G, k) index groups regressed jointly (see :func:`state_groups`);
     weights (M, T) per sample (None: unweighted; see :mod:`clamp.prior.obstacle_weighting`).
     Returns Phi (T-1, D, D), u (T-1, D), Q (T-1, D, D) with ``jitter`` on Q's diagonal, floored
-    where the next states agree (:func:`floor_agreement`); Q is the weighted mean of the
-    residuals' outer products.
+    where the next states agree (:func:`clamp.prior.demonstration_states.floor_agreement`); Q is
+    the weighted mean of the residuals' outer products.
     """
     M, T, D = states.shape
     w = _step_weights(weights, M, T)[:, None, :, None]  # (T-1, 1, M, 1)
@@ -142,23 +126,7 @@ def fit_transitions(states: np.ndarray, groups: np.ndarray, ridge: float, jitter
     R = Yc - Xc @ B
     Q_g = np.swapaxes(R, -1, -2) @ R / total
     spread_g = (Yc * Yc).sum(axis=2) / total[..., 0, :]   # (T-1, G, k) variance of x_{i+1}
-    return _assemble(Phi_g, u_g, Q_g, groups, D, jitter, spread_g)
-
-
-def _assemble(Phi_g: np.ndarray, u_g: np.ndarray, Q_g: np.ndarray, groups: np.ndarray,
-              D: int, jitter: float, variance_g: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-group Phi (S, G, k, k), u (S, G, k), Q (S, G, k, k) -> block-structured (S, D, D),
-    (S, D), (S, D, D) with ``jitter`` on Q's diagonal, floored where the next states'
-    variance (S, G, k) shows the demonstrations agree (:func:`floor_agreement`)."""
-    Phi = _scatter_blocks(Phi_g, groups, D)
-    variance = np.zeros((Phi.shape[0], D))
-    variance[:, groups] = variance_g
-    Q = floor_agreement(_scatter_blocks(Q_g, groups, D) + jitter * np.eye(D), variance)
-    Q = 0.5 * (Q + np.swapaxes(Q, -1, -2))
-    u = np.zeros((Phi.shape[0], D))
-    u[:, groups] = u_g
-    return Phi, u, Q
+    return assemble_blocks(Phi_g, u_g, Q_g, groups, D, jitter, spread_g)
 
 
 def _initial_state(states: np.ndarray, groups: np.ndarray, jitter: float,
@@ -169,43 +137,7 @@ def _initial_state(states: np.ndarray, groups: np.ndarray, jitter: float,
     w = np.ones(len(x0)) if weights is None else weights[:, 0] / max(weights[:, 0].max(), 1e-300)
     mean0 = w @ x0 / w.sum()
     centred = x0 - mean0
-    return mean0, _block_covariance((centred * w[:, None]).T @ centred / w.sum(), groups, jitter)
-
-
-def _block_covariance(full: np.ndarray, groups: np.ndarray, jitter: float) -> np.ndarray:
-    """full (D, D) (the first states' covariance) with entries outside the groups' blocks
-    zeroed, plus jitter I, floored where the first states agree."""
-    mask = _scatter_blocks(np.ones((groups.shape[0],) + (groups.shape[1],) * 2), groups,
-                           full.shape[0]).astype(bool)
-    return floor_agreement(np.where(mask, full, 0.0) + jitter * np.eye(full.shape[0]),
-                           np.diag(full))
-
-
-def floor_agreement(cov: np.ndarray, variance: np.ndarray) -> np.ndarray:
-    """Covariances (..., D, D) whose diagonal entries are raised to at least SPREAD_FLOOR**2
-    where the demonstrations' variance (..., D) is below SPREAD_FLOOR**2 in every coordinate
-    (a non-negative diagonal added: still symmetric positive semi-definite)."""
-    floor = SPREAD_FLOOR ** 2
-    diagonal = np.einsum("...ii->...i", cov)
-    agree = np.max(variance, axis=-1, keepdims=True) < floor
-    lift = np.where(agree, np.maximum(floor - diagonal, 0.0), 0.0)
-    return cov + lift[..., :, None] * np.eye(cov.shape[-1])
-
-
-def prior_from_posterior(posterior: ConjugatePosterior, time: np.ndarray, jitter: float,
-                         prior_class: type[LinearGaussianPrior], kind: str,
-                         state_names: tuple[str, ...] | None,
-                         info: dict[str, Any]) -> LinearGaussianPrior:
-    """The prior of a conjugate posterior: posterior mean transitions, MAP noise
-    S / (N + k + 1) plus jitter, weighted mean and covariance of the first states (floored
-    where the demonstrations agree, as in batch learning)."""
-    D = len(posterior.first_mean)
-    Phi, u, Q = _assemble(*posterior.transitions(), posterior.groups, D, jitter,
-                          posterior.next_variance())
-    mean0, full0 = posterior.initial()
-    cov0 = _block_covariance(full0, posterior.groups, jitter)
-    return prior_class(time, Phi, u, Q, mean0, cov0, kind=kind, info=info,
-                       state_names=state_names, posterior=posterior)
+    return mean0, block_covariance((centred * w[:, None]).T @ centred / w.sum(), groups, jitter)
 
 
 METHODS = ("batch", "incremental")
@@ -239,8 +171,8 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
     if method == "incremental":
         # the conjugate prior (K0, S0) regularises every regression: no ridge, no minimum M
         posterior = ConjugatePosterior.empty(T - 1, D, groups).update(states, weights)
-        return prior_from_posterior(posterior, time, jitter, prior_class, kind, state_names,
-                                    info)
+        return prior_class.from_posterior(posterior, time, jitter, kind=kind,
+                                          state_names=state_names, info=info)
     unknowns = groups.shape[1] + 1                     # slopes of one output + bias
     if M < unknowns:
         what = f"coupled learning of D = {D}" if coupled else "per-axis learning"
@@ -283,41 +215,6 @@ def check_spread(states: np.ndarray) -> None:
                  steps[-1], SPREAD_FLOOR)
 
 
-def _stack_states(positions: object, velocities: object, time: object, names: tuple[str, str],
-                  axes: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """Validate (M, T, A) positions and velocities and (T,) time -> states (M, T, 2A), time."""
-    p = as_array(positions, names[0], (None, None, axes), MAX_COORDINATE)
-    v = as_array(velocities, names[1], p.shape, MAX_COORDINATE)
-    t = as_time(time, "time", p.shape[1])
-    return np.concatenate([p, v], axis=2), t
-
-
-def _demo_arrays(demos: object, positions: object, velocities: object,
-                 time: object) -> tuple[object, object, object, object]:
-    """(positions, velocities, time, obstacles) from a Demonstrations or the keyword arrays."""
-    if demos is not None:
-        if any(a is not None for a in (positions, velocities, time)):
-            raise InvalidParameterError("demos: give either a Demonstrations object or the "
-                                        "positions/velocities/time arrays, not both")
-        missing = [a for a in ("positions", "velocities", "time") if not hasattr(demos, a)]
-        if missing:
-            raise ShapeError(f"demos: expected a scenes.Demonstrations with attributes "
-                             f"positions, velocities, time; {type(demos).__name__} lacks {missing}")
-        return demos.positions, demos.velocities, demos.time, getattr(demos, "obstacles", None)
-    if positions is None or velocities is None or time is None:
-        raise InvalidParameterError("demos: expected a Demonstrations object, or all of "
-                                    "positions (M, T, 3), velocities (M, T, 3), time (T,)")
-    return positions, velocities, time, None
-
-
-def _weights(states: np.ndarray, obstacles: Any,
-             weighting: ObstacleWeighting | None) -> np.ndarray | None:
-    if weighting is not None and not obstacles:
-        warnings.warn("obstacle_weighting: the demonstrations carry no recorded obstacles; "
-                      "every sample keeps weight 1", ClampWarning, stacklevel=3)
-    return demonstration_weights(states[..., :3], obstacles, weighting)
-
-
 def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
                 velocities: np.ndarray | None = None, time: np.ndarray | None = None,
                 coupled: bool = False, ridge: float = 1e-6, jitter: float = 1e-12,
@@ -342,41 +239,29 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
     (0: the plain per-step regression). The choice is in ``prior.info["start_shrinkage"]``.
     Raises InsufficientDemonstrationsError (M < 2, ...), ShapeError, NonFiniteError.
     """
-    positions, velocities, time, obstacles = _demo_arrays(demos, positions, velocities, time)
-    states, t = _stack_states(positions, velocities, time, ("positions", "velocities"), 3)
+    positions, velocities, time, obstacles = demo_arrays(demos, positions, velocities, time)
+    states, t = stack_states(positions, velocities, time, ("positions", "velocities"), 3)
     weighting = as_weighting(obstacle_weighting)
     prior = _learn(states, t, coupled=coupled, ridge=ridge, jitter=jitter,
                    prior_class=WorkspacePrior, kind=WorkspacePrior.default_kind, state_names=None,
-                   method=method, weights=_weights(states, obstacles, weighting),
+                   method=method, weights=sample_weights(states, obstacles, weighting),
                    weighting=weighting, start_shrinkage=start_shrinkage)
     prior.info["skill_region"] = SkillRegion.from_positions(states[..., :3]).to_info()
     return cast(WorkspacePrior, prior)
 
 
 def update_prior(prior: LinearGaussianPrior, demos: object) -> LinearGaussianPrior:
-    """The prior after more demonstrations (see ``LinearGaussianPrior.update``)."""
-    posterior = prior.posterior
-    if posterior is None:
-        raise InvalidParameterError(f"prior: learned with method={prior.info.get('method', 'batch')!r}"
-                                    "; only a prior learned with method='incremental' keeps the "
-                                    "posterior that update() continues from")
-    positions, velocities, time, obstacles = _demo_arrays(demos, None, None, None)
-    p = as_array(positions, "demos.positions", (None, prior.T, prior.num_axes))
-    states, t = _stack_states(p, velocities, time, ("demos.positions", "demos.velocities"),
-                              prior.num_axes)
-    if not np.allclose(t - t[0], prior.time - prior.time[0], rtol=0.0,
-                       atol=1e-9 * max(prior.dt, 1.0)):
-        raise ShapeError("demos.time: expected the prior's time steps (resample the "
-                         "demonstrations to the prior's T and dt)")
-    settings = prior.info.get("obstacle_weighting")
-    weighting = None if settings is None else ObstacleWeighting(**settings)
-    posterior = posterior.update(states, _weights(states, obstacles, weighting))
-    info = {**prior.info, "num_demos": int(prior.info.get("num_demos", 0)) + len(states)}
-    if prior.kind == WorkspacePrior.default_kind:
-        region = SkillRegion.of(prior).merged(SkillRegion.from_positions(states[..., :3]))
-        info["skill_region"] = region.to_info()
-    return prior_from_posterior(posterior, prior.time, float(prior.info.get("jitter", 0.0)),
-                                type(prior), prior.kind, prior.state_names, info)
+    """The prior after more demonstrations: ``prior.update(demos)``."""
+    return prior.update(demos)
+
+
+def prior_from_posterior(posterior: ConjugatePosterior, time: np.ndarray, jitter: float,
+                         prior_class: type[LinearGaussianPrior], kind: str,
+                         state_names: tuple[str, ...] | None,
+                         info: dict[str, Any]) -> LinearGaussianPrior:
+    """``prior_class.from_posterior(...)`` (kept for callers of the former function)."""
+    return prior_class.from_posterior(posterior, time, jitter, kind=kind,
+                                      state_names=state_names, info=info)
 
 
 def learn_joint_prior(q: np.ndarray, qdot: np.ndarray, time: np.ndarray, *,
@@ -388,7 +273,7 @@ def learn_joint_prior(q: np.ndarray, qdot: np.ndarray, time: np.ndarray, *,
     [q_j, qdot_j] blocks); same options and errors as :func:`learn_prior`.
     Returns a LinearGaussianPrior of kind "joint" with state names q0.., qdot0...
     """
-    states, t = _stack_states(q, qdot, time, ("q", "qdot"), None)
+    states, t = stack_states(q, qdot, time, ("q", "qdot"), None)
     n = states.shape[2] // 2
     if n < 1:
         raise ShapeError("q: expected at least one joint, got shape (M, T, 0)")

@@ -30,6 +30,10 @@ from scipy import stats
 
 from clamp.prior import chain
 from clamp.prior.conjugate import POSTERIOR_KEYS, ConjugatePosterior
+from clamp.prior.demonstration_states import (assemble_blocks, block_covariance, demo_arrays,
+                                              sample_weights, stack_states)
+from clamp.prior.obstacle_weighting import ObstacleWeighting
+from clamp.prior.skill import SkillRegion
 from clamp.errors import ClampTypeError, InvalidParameterError, PriorFileError, ShapeError
 from clamp.validation import as_array, as_count, as_scalar, as_time, cholesky, is_symmetric
 from skillplan.validation import as_file, as_path
@@ -261,14 +265,51 @@ class LinearGaussianPrior:
         return stats.chi2.sf(self.step_mahalanobis_squared(x), df=self.D)
 
     # ------------------------------------------------------------------ learning on
+    @classmethod
+    def from_posterior(cls, posterior: ConjugatePosterior, time: np.ndarray, jitter: float, *,
+                       kind: str | None = None, state_names: tuple[str, ...] | None = None,
+                       info: dict[str, Any] | None = None) -> LinearGaussianPrior:
+        """The prior of a conjugate posterior (:mod:`clamp.prior.conjugate`): posterior mean
+        transitions, MAP noise S / (N + k + 1) plus jitter, weighted mean and covariance of
+        the first states (floored where the demonstrations agree, as in batch learning)."""
+        D = len(posterior.first_mean)
+        Phi, u, Q = assemble_blocks(*posterior.transitions(), posterior.groups, D, jitter,
+                                    posterior.next_variance())
+        mean0, full0 = posterior.initial()
+        cov0 = block_covariance(full0, posterior.groups, jitter)
+        return cls(time, Phi, u, Q, mean0, cov0, kind=kind, info=info,
+                   state_names=state_names, posterior=posterior)
+
     def update(self, demos: Any) -> LinearGaussianPrior:
         """A new prior that has also learned from ``demos`` (a scenes.Demonstrations, or
         anything with positions / velocities (M, T, A) and time (T,) on this prior's steps),
         by the conjugate update of :mod:`clamp.prior.conjugate`; needs a prior learned with
         method="incremental" (or loaded from its file). Weighted like the original when it
         was learned with obstacle_weighting. This prior is unchanged."""
-        from clamp.prior.learning import update_prior      # learning builds priors: deferred import
-        return update_prior(self, demos)
+        posterior = self.posterior
+        if posterior is None:
+            raise InvalidParameterError(f"prior: learned with method="
+                                        f"{self.info.get('method', 'batch')!r}; only a prior "
+                                        "learned with method='incremental' keeps the "
+                                        "posterior that update() continues from")
+        positions, velocities, time, obstacles = demo_arrays(demos, None, None, None)
+        p = as_array(positions, "demos.positions", (None, self.T, self.num_axes))
+        states, t = stack_states(p, velocities, time, ("demos.positions", "demos.velocities"),
+                                 self.num_axes)
+        if not np.allclose(t - t[0], self.time - self.time[0], rtol=0.0,
+                           atol=1e-9 * max(self.dt, 1.0)):
+            raise ShapeError("demos.time: expected the prior's time steps (resample the "
+                             "demonstrations to the prior's T and dt)")
+        settings = self.info.get("obstacle_weighting")
+        weighting = None if settings is None else ObstacleWeighting(**settings)
+        posterior = posterior.update(states, sample_weights(states, obstacles, weighting))
+        info = {**self.info, "num_demos": int(self.info.get("num_demos", 0)) + len(states)}
+        if self.kind == WorkspacePrior.default_kind:
+            region = SkillRegion.of(self).merged(SkillRegion.from_positions(states[..., :3]))
+            info["skill_region"] = region.to_info()
+        return type(self).from_posterior(posterior, self.time,
+                                         float(self.info.get("jitter", 0.0)), kind=self.kind,
+                                         state_names=self.state_names, info=info)
 
     # ------------------------------------------------------------------ persistence
     def save(self, path: str | os.PathLike[str]) -> Path:
