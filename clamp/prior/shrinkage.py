@@ -22,9 +22,13 @@ are not a start offset are propagated as learned.
 
 The weight w is chosen from the demonstrations themselves: for every demonstration m, the chain
 learned from the others predicts m from m's start, mean_t + R^w_t d_m; the squared error of
-those leave-one-out predictions is quadratic in w and its minimiser (clipped to [0, 1]) is w.
-With fewer than 3 demonstrations there is nothing to leave out: w = 0 (the plain chain).
-The choice and its leave-one-out errors are recorded in ``prior.info["start_shrinkage"]``.
+those leave-one-out predictions across the motion (the part of each error normal to the mean
+path's direction at that step: demonstrations differ in speed, and an error along the path is
+a timing difference, not a wrong shape) is quadratic in w and its minimiser (clipped to
+[0, 1]) is w. With fewer than 3 demonstrations there is nothing to leave out, and the plain
+chain is a minimum-norm fit through a single direction of variation: w = 1 (the fading
+response). The choice and its leave-one-out errors are recorded in
+``prior.info["start_shrinkage"]``.
 """
 from __future__ import annotations
 
@@ -106,9 +110,18 @@ def _corrected(Phi: np.ndarray, mean: np.ndarray, target: np.ndarray
     return Phi, u
 
 
+def _normal_part(vectors: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """vectors (T, A) less their components along the unit directions of ``direction`` (T, A)
+    (left whole where the direction vanishes)."""
+    size = np.linalg.norm(direction, axis=1, keepdims=True)
+    unit = np.divide(direction, size, out=np.zeros_like(direction), where=size > 0)
+    return vectors - np.sum(vectors * unit, axis=1, keepdims=True) * unit
+
+
 def _leave_one_out(positions: np.ndarray, time: np.ndarray, fit: Fit
                    ) -> tuple[float, float, float]:
-    """(w minimising the leave-one-out squared error, rms error at w = 0 and at w) [m]."""
+    """(w minimising the leave-one-out squared error normal to the mean path, rms of that
+    error at w = 0 and at w) [m]."""
     M = len(positions)
     A = positions.shape[2]
     cross = square = plain = 0.0
@@ -117,8 +130,9 @@ def _leave_one_out(positions: np.ndarray, time: np.ndarray, fit: Fit
         mean, R = offset_responses(Phi, u, mean0, cov0)
         F = fading_responses(time, R[0], np.delete(positions, m, axis=0))
         offset = positions[m, 0] - mean[0, :A]
-        residual = positions[m] - mean[:, :A] - R[:, :A] @ offset        # (T, A)
-        step = (F[:, :A] - R[:, :A]) @ offset
+        direction = np.gradient(mean[:, :A], axis=0)                      # along the path
+        residual = _normal_part(positions[m] - mean[:, :A] - R[:, :A] @ offset, direction)
+        step = _normal_part((F[:, :A] - R[:, :A]) @ offset, direction)
         cross += float(np.sum(residual * step))
         square += float(np.sum(step * step))
         plain += float(np.sum(residual * residual))
@@ -141,15 +155,15 @@ def shrink_start_offsets(states: np.ndarray, time: np.ndarray, Phi: np.ndarray, 
     record: dict[str, Any] = {"setting": shrinkage}
     if shrinkage == AUTO:
         if M < 3:
-            record.update(weight=0.0, reason=f"{M} demonstrations: at least 3 are needed to "
-                          "choose by leave-one-out; the plain chain is kept")
-            log.info("start shrinkage: %s", record["reason"])
-            return Phi, u, record
-        weight, plain, chosen = _leave_one_out(states[..., :A], time, fit)
-        record.update(weight=weight, loo_rms_plain=plain, loo_rms=chosen,
-                      reason=f"leave-one-out over {M} demonstrations: start-conditioned "
-                      f"prediction rms {plain:.4g} -> {chosen:.4g} (position units: m in a "
-                      "workspace prior)")
+            weight = 1.0
+            record.update(weight=weight, reason=f"{M} demonstrations: at least 3 are needed "
+                          "to choose by leave-one-out; the fading response is taken whole")
+        else:
+            weight, plain, chosen = _leave_one_out(states[..., :A], time, fit)
+            record.update(weight=weight, loo_rms_plain=plain, loo_rms=chosen,
+                          reason=f"leave-one-out over {M} demonstrations: start-conditioned "
+                          f"prediction rms normal to the path {plain:.4g} -> {chosen:.4g} "
+                          "(position units: m in a workspace prior)")
     else:
         weight = float(shrinkage)
         record.update(weight=weight, reason="given")
