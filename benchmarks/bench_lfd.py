@@ -48,6 +48,13 @@ LASA 5.40 -> 4.79 (ProMP 4.90, DMP 5.47), best on 2 -> 6 of 13 shapes per settin
 start 28.2 -> 31.1, goal 34.5 -> 32.2 (DMP 33.8: now won); box_closing 11.8 / 9.1 -> 12.0 / 9.4,
 needle_threading 12.6 / 8.9 -> 13.0 / 10.1 (still won); synthetic0 unchanged (2 training demos:
 TLGC 4.4 and DMP 5.7 still win); 0 unsuccessful plans either way.
+Then the weight chosen on the leave-one-out error normal to the mean path, w = 1 for 2 demos
+and a variance floor on a coordinate the demonstrations share (commit eadd57d): LASA 4.79 / 4.80
+-> 4.70 / 4.72, best on 6 -> 9 of 13 shapes per setting (lost: CShape, NShape, Sshape, Zshape
+by 0.02-0.45 mm); synthetic0 7.51 / 7.39 -> 5.81 / 5.67 (goal now won, DMP 5.67; start still
+TLGC 4.37, whose start is off by up to 6 cm); box_closing 12.07 / 9.45, needle 13.03 / 10.20,
+pick_place 31.14 / 32.05, synthetic skills all won; 0 unsuccessful plans; wall 600 s on 2
+workers at load 6-9.
 """
 from __future__ import annotations
 
