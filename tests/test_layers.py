@@ -8,14 +8,14 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
+import grimp            # comes with import-linter (the test extra)
+import importlinter     # noqa: F401 - the test extra's; run below as lint-imports
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("skillplan", "scenes", "robots", "clamp", "tlgc")
 
 
 def test_import_linter_contracts_hold():
-    pytest.importorskip("importlinter", reason="import-linter is in the test extra")
     run = subprocess.run([sys.executable, "-c", "from importlinter.cli import lint_imports_command;"
                           " lint_imports_command()"], cwd=ROOT, capture_output=True, text=True)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-2000:]
@@ -60,7 +60,6 @@ def _cycles(graph) -> list[list[str]]:
 
 
 def test_no_import_circle():
-    grimp = pytest.importorskip("grimp", reason="grimp comes with import-linter (test extra)")
     graph = grimp.build_graph(*PACKAGES)
     assert _cycles(graph) == []
 

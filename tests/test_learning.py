@@ -91,7 +91,7 @@ def test_per_axis_covariance_equals_demonstration_covariance(synthetic, shared_d
     """ridge = 0: Phi cov Phi^T + Q = Cov(x_{i+1}) exactly (eq. 13 with 1/M), per axis block."""
     for positions, velocities, time in (synthetic, box_closing(shared_dataset("box_closing"))):
         prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=0.0,
-                            jitter=1e-24)
+                            jitter=1e-24, start_shrinkage=0.0)
         reference = biased_covariance(np.concatenate([positions, velocities], axis=2))
         assert correlation_error(prior.cov, reference, block_mask(3)) < 1e-6
         # Per-axis learning makes the axes independent: no cross-axis covariance.
@@ -101,7 +101,7 @@ def test_per_axis_covariance_equals_demonstration_covariance(synthetic, shared_d
 def test_coupled_covariance_equals_full_demonstration_covariance():
     positions, velocities, time = synthetic_states(num_demos=14, seed=3)
     prior = learn_prior(positions=positions, velocities=velocities, time=time, coupled=True,
-                        ridge=0.0, jitter=1e-24)
+                        ridge=0.0, jitter=1e-24, start_shrinkage=0.0)
     reference = biased_covariance(np.concatenate([positions, velocities], axis=2))
     assert correlation_error(prior.cov, reference, np.ones((6, 6), bool)) < 1e-6
 
@@ -110,7 +110,7 @@ def test_samples_reproduce_demonstration_covariance(shared_dataset):
     """4000 prior samples: covariance whitened by the demos' covariance ~ I (Wishart error)."""
     positions, velocities, time = box_closing(shared_dataset("box_closing"))
     prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=0.0,
-                        jitter=1e-24)
+                        jitter=1e-24, start_shrinkage=0.0)
     count = 4000
     samples = prior.sample(count, np.random.default_rng(7))
     reference = biased_covariance(np.concatenate([positions, velocities], axis=2))
@@ -133,7 +133,7 @@ def test_per_axis_regression_matches_least_squares(synthetic):
     """Each axis block of Phi_i, u_i against numpy lstsq of [p_d, v_d]_{i+1} on [1, p_d, v_d]_i."""
     positions, velocities, time = synthetic
     prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=0.0,
-                        jitter=0.0 + 1e-15)
+                        jitter=0.0 + 1e-15, start_shrinkage=0.0)
     states = np.concatenate([positions, velocities], axis=2)
     for step in (0, 17, 58):
         for d in range(3):
@@ -153,7 +153,8 @@ def test_ridge_matches_normal_equations_with_free_bias(synthetic):
     """Penalised slopes, unpenalised bias: (X^T X + ridge diag(0, 1, 1)) b = X^T y."""
     positions, velocities, time = synthetic
     ridge = 0.05
-    prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=ridge)
+    prior = learn_prior(positions=positions, velocities=velocities, time=time, ridge=ridge,
+                        start_shrinkage=0.0)
     states = np.concatenate([positions, velocities], axis=2)
     step, d = 23, 1
     idx = [d, d + 3]
@@ -188,6 +189,7 @@ def test_per_axis_structure_is_block_diagonal(synthetic):
     assert np.abs(coupled.Phi[:, ~mask]).max() > 1e-3
     region = per_axis.info.pop("skill_region")       # where the demonstrations go (clamp.prior.skill)
     assert np.allclose(region["end_mean"], positions[:, -1].mean(axis=0))
+    assert per_axis.info.pop("start_shrinkage")["setting"] == "auto"   # clamp.prior.shrinkage
     assert per_axis.info == {"method": "batch", "coupled": False, "ridge": 1e-6, "jitter": 1e-12,
                              "num_demos": 8, "obstacle_weighting": None}
 
@@ -241,7 +243,8 @@ def test_joint_space_variant():
     # The same learner as the workspace prior: a 3-joint "arm" equals the 3-axis workspace.
     p, v, t = synthetic_states()
     np.testing.assert_array_equal(learn_joint_prior(p, v, t).Phi,
-                                  learn_prior(positions=p, velocities=v, time=t).Phi)
+                                  learn_prior(positions=p, velocities=v, time=t,
+                                              start_shrinkage=0.0).Phi)
     samples = prior.sample(3, 0)
     assert samples.shape == (3, prior.T, 14)
 

@@ -18,7 +18,7 @@ from clamp.prior.obstacle_weighting import ObstacleWeighting, demonstration_weig
 from clamp.validation import as_array, as_time
 from skillplan.validation import MAX_COORDINATE
 
-__all__ = ["MIN_SPREAD", "SPREAD_FLOOR", "stack_states", "demo_arrays", "sample_weights",
+__all__ = ["MIN_SPREAD", "SPREAD_FLOOR", "AXIS_FLOOR_RATIO", "stack_states", "demo_arrays", "sample_weights",
            "scatter_blocks", "assemble_blocks", "block_covariance", "floor_agreement"]
 
 #: Smallest spread (largest standard deviation over the state's coordinates, across the
@@ -31,6 +31,13 @@ MIN_SPREAD = 1e-6
 #: the demonstrations' largest one over the coordinates is below it they agree, and the
 #: diagonal of Q_i (of the initial covariance at step 0) is raised to at least SPREAD_FLOOR**2.
 SPREAD_FLOOR = 1e-5
+
+#: At a step where the demonstrations agree in some coordinates (variance below SPREAD_FLOOR**2)
+#: but not in all, the agreeing coordinates' diagonal entries are raised to at least
+#: (AXIS_FLOOR_RATIO * the largest standard deviation of the same kind, positions or velocities)
+#: squared: two or three demonstrations that happen to share an axis (synthetic0's x and z)
+#: do not make a start or goal off that axis unreachable.
+AXIS_FLOOR_RATIO = 0.1
 
 
 def stack_states(positions: object, velocities: object, time: object, names: tuple[str, str],
@@ -103,11 +110,23 @@ def block_covariance(full: np.ndarray, groups: np.ndarray, jitter: float) -> np.
 
 
 def floor_agreement(cov: np.ndarray, variance: np.ndarray) -> np.ndarray:
-    """Covariances (..., D, D) whose diagonal entries are raised to at least SPREAD_FLOOR**2
-    where the demonstrations' variance (..., D) is below SPREAD_FLOOR**2 in every coordinate
-    (a non-negative diagonal added: still symmetric positive semi-definite)."""
+    """Covariances (..., D, D) over ``[positions (D/2), velocities (D/2)]`` whose diagonal
+    entries are raised where the demonstrations' variance (..., D) shows they agree: to at least
+    SPREAD_FLOOR**2 where it is below SPREAD_FLOOR**2 in every coordinate; where only some
+    coordinates agree, those to at least (AXIS_FLOOR_RATIO x the largest standard deviation of
+    the same kind on the diagonal)**2 (a non-negative diagonal added: still symmetric positive
+    semi-definite)."""
     floor = SPREAD_FLOOR ** 2
     diagonal = np.einsum("...ii->...i", cov)
-    agree = np.max(variance, axis=-1, keepdims=True) < floor
-    lift = np.where(agree, np.maximum(floor - diagonal, 0.0), 0.0)
-    return cov + lift[..., :, None] * np.eye(cov.shape[-1])
+    agree = variance < floor
+    everywhere = np.all(agree, axis=-1, keepdims=True)
+    lift = np.where(everywhere, np.maximum(floor - diagonal, 0.0), 0.0)
+    D = cov.shape[-1]
+    if D % 2 == 0:
+        for kind in (slice(0, D // 2), slice(D // 2, D)):
+            part = diagonal[..., kind]
+            least = AXIS_FLOOR_RATIO ** 2 * part.max(axis=-1, keepdims=True)
+            some = agree[..., kind] & ~everywhere
+            lift[..., kind] = np.where(some, np.maximum(least - part, lift[..., kind]),
+                                       lift[..., kind])
+    return cov + lift[..., :, None] * np.eye(D)

@@ -52,6 +52,7 @@ from clamp.prior.demonstration_states import (MIN_SPREAD, SPREAD_FLOOR, assemble
                                               stack_states)
 from clamp.prior.obstacle_weighting import ObstacleWeighting, as_weighting
 from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
+from clamp.prior.shrinkage import as_shrinkage, shrink_start_offsets
 from clamp.validation import as_array, as_bool, as_scalar
 from clamp.prior.skill import SkillRegion
 
@@ -146,7 +147,8 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
            prior_class: type[LinearGaussianPrior], kind: str,
            state_names: tuple[str, ...] | None, method: str = "batch",
            weights: np.ndarray | None = None,
-           weighting: ObstacleWeighting | None = None) -> LinearGaussianPrior:
+           weighting: ObstacleWeighting | None = None,
+           start_shrinkage: str | float = 0.0) -> LinearGaussianPrior:
     """Shared learner: states (M, T, D = 2A) ordered [positions, velocities] -> prior.
 
     weights (M, T) per sample (None: unweighted), weighting the settings that made them."""
@@ -183,6 +185,13 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
                       f"<= {M - 1} before jitter", ClampWarning, stacklevel=3)
     Phi, u, Q = fit_transitions(states, groups, ridge, jitter, weights)
     mean0, cov0 = _initial_state(states, groups, jitter, weights)
+
+    def refit(index: np.ndarray) -> tuple[np.ndarray, ...]:   # the learner on a subset
+        sub = None if weights is None else weights[index]
+        return (*fit_transitions(states[index], groups, ridge, jitter, sub)[:2],
+                *_initial_state(states[index], groups, jitter, sub))
+    Phi, u, info["start_shrinkage"] = shrink_start_offsets(states, time, Phi, u, mean0, cov0,
+                                                           as_shrinkage(start_shrinkage), refit)
     return prior_class(time, Phi, u, Q, mean0, cov0, kind=kind, info={**info, "ridge": ridge},
                        state_names=state_names)
 
@@ -209,7 +218,8 @@ def check_spread(states: np.ndarray) -> None:
 def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
                 velocities: np.ndarray | None = None, time: np.ndarray | None = None,
                 coupled: bool = False, ridge: float = 1e-6, jitter: float = 1e-12,
-                method: str = "batch", obstacle_weighting: Any = None) -> WorkspacePrior:
+                method: str = "batch", obstacle_weighting: Any = None,
+                start_shrinkage: str | float = "auto") -> WorkspacePrior:
     """Learn CLAMP's workspace prior over x = [p, v] (D = 6) from demonstrations.
 
     demos: a ``scenes.Demonstrations`` (anything with ``positions`` (M, T, 3) m,
@@ -222,6 +232,11 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
     :mod:`clamp.prior.conjugate`; the prior keeps its posterior, see ``WorkspacePrior.update``).
     obstacle_weighting: None, True (eps 0.3 m, sigma 0.001) or a clamp.ObstacleWeighting /
     dict: every sample weighted by its distance to its demonstration's own obstacles.
+    start_shrinkage: how a moved start is carried through the motion (batch method,
+    :mod:`clamp.prior.shrinkage`): "auto" (default) shrinks the chain's start-offset response towards
+    one fading linearly to the demonstrations' mean by the weight that best predicts every
+    demonstration from its start when learned from the others; a weight in [0, 1] fixes it
+    (0: the plain per-step regression). The choice is in ``prior.info["start_shrinkage"]``.
     Raises InsufficientDemonstrationsError (M < 2, ...), ShapeError, NonFiniteError.
     """
     positions, velocities, time, obstacles = demo_arrays(demos, positions, velocities, time)
@@ -230,7 +245,7 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
     prior = _learn(states, t, coupled=coupled, ridge=ridge, jitter=jitter,
                    prior_class=WorkspacePrior, kind=WorkspacePrior.default_kind, state_names=None,
                    method=method, weights=sample_weights(states, obstacles, weighting),
-                   weighting=weighting)
+                   weighting=weighting, start_shrinkage=start_shrinkage)
     prior.info["skill_region"] = SkillRegion.from_positions(states[..., :3]).to_info()
     return cast(WorkspacePrior, prior)
 

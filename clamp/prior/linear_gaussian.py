@@ -424,10 +424,11 @@ class LinearGaussianPrior:
                 f"dt={self.dt:.4g})")
 
     def summary(self) -> str:
-        """What was learned, one line each: size and steps, the learning settings of
-        ``info`` (method, coupled, ridge, jitter, obstacle weighting) and the demonstrations'
-        spread about their mean (``info["skill_region"]``, learned workspace priors) or, without
-        it, the prior's own marginal standard deviation of the positions."""
+        """What was learned and what the learner chose, one line each: size and steps, the
+        learning settings of ``info`` (method, coupled, ridge, jitter, obstacle weighting), the
+        start shrinkage (:mod:`clamp.prior.shrinkage`) with its leave-one-out prediction error,
+        the demonstrations' spread about their mean (``info["skill_region"]``, learned workspace
+        priors) or, without it, the prior's own marginal standard deviation of the positions."""
         info = self.info
         duration = float(self.time[-1] - self.time[0])
         lines = [f"{self!r}: {info.get('num_demos', '?')} demonstrations, {self.T} states over "
@@ -438,6 +439,12 @@ class LinearGaussianPrior:
                          f"weighting {info.get('obstacle_weighting') or 'none'}")
         else:
             lines.append("learning settings: not recorded with this prior")
+        shrink = info.get("start_shrinkage")
+        if shrink is None:
+            lines.append("start shrinkage: none (not applied by this learner)")
+        else:
+            lines.append(f"start shrinkage: weight {shrink['weight']:.3g} "
+                         f"(setting {shrink['setting']!r}; {shrink['reason']})")
         region = info.get("skill_region")
         if region is not None:
             radius = np.asarray(region["radius"], dtype=float)
@@ -449,6 +456,8 @@ class LinearGaussianPrior:
             std = np.linalg.norm(self.std[:, :self.num_axes], axis=1)
             lines.append(f"marginal position std: {std.mean():.4g} on average (max {std.max():.4g}; "
                          "the demonstrations' spread is not recorded with this prior)")
+        if "conditioned_on" in info:
+            lines.append(f"conditioned on {len(info['conditioned_on'])} position(s)")
         return "\n".join(lines)
 
 
