@@ -205,11 +205,12 @@ def test_a_velocity_excess_is_tightened_away(jaco):
     # 5 mm)
     kwargs["config"] = kwargs["config"].with_(soft_start=1.0, posture_sigma=0.0, epsilon=0.05,
                                               sigma_obs=0.005)
+    # at the demonstrations' speed (time_scale 1): the limit hinges alone, no slower re-plan
     weighted = plan(**{**kwargs, "config": kwargs["config"].with_(constraint_rounds=0)},
-                    covariance=False)
+                    covariance=False, time_scale=1.0)
     assert not weighted.success
     assert any("faster than its limit" in r for r in weighted.reasons), weighted.reasons
-    tightened = plan(**kwargs, covariance=False)
+    tightened = plan(**kwargs, covariance=False, time_scale=1.0)
     assert tightened.success, tightened.reasons
     assert "joint_limits" in tightened.attempts[0]["violated"]
     assert tightened.problem.family("joint_limits").shift is not None
