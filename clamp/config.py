@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
-import numpy as np
 
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_bool, as_count, as_scalar
@@ -302,29 +301,12 @@ def as_config(config: Any) -> PlannerConfig:
 
 
 def as_time_scale(value: Any, name: str = "time_scale") -> float | None:
-    """``value`` as a time scale: None (automatic) or a finite number >= 1; raises
-    InvalidParameterError naming ``name`` otherwise."""
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InvalidParameterError(f"{name}: expected None or a number >= 1 (1: the "
-                                    f"demonstrations' speed), got {type(value).__name__} {value!r:.40}")
-    k = float(value)
-    if not np.isfinite(k) or k < 1.0:
-        raise InvalidParameterError(f"{name}: expected None or a number >= 1 (1: the "
-                                    f"demonstrations' speed; a plan is never faster), got {k!r}")
-    return k
+    """``value`` as a time scale: None (automatic) or a finite number >= 1 (1: the
+    demonstrations' speed; a plan is never faster); a ClampError naming ``name`` otherwise."""
+    return None if value is None else as_scalar(value, name, minimum=1.0)
 
 
 def as_max_duration(value: Any, name: str = "max_duration") -> float | None:
-    """``value`` as a maximum plan duration [s]: None or a finite number > 0; raises
-    InvalidParameterError naming ``name`` otherwise."""
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InvalidParameterError(f"{name}: expected None or a duration > 0 [s], got "
-                                    f"{type(value).__name__} {value!r:.40}")
-    d = float(value)
-    if not np.isfinite(d) or d <= 0.0:
-        raise InvalidParameterError(f"{name}: expected None or a duration > 0 [s], got {d!r}")
-    return d
+    """``value`` as a maximum plan duration [s]: None or a finite number > 0; a ClampError
+    naming ``name`` otherwise."""
+    return None if value is None else as_scalar(value, name, strictly_positive=True)
