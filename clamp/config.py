@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
-
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_bool, as_count, as_scalar
 from scenes.sdf import DEFAULT_CELL_SIZE
