@@ -412,18 +412,24 @@ class _Search(PairSearch):
 
     def run(self) -> None:
         """Hull queries where a bound is below the target (:meth:`target`), exact ones where a
-        hull distance is, until neither is left (module docstring)."""
+        hull distance is, until neither is left (module docstring). The target never rises and
+        the bounds never fall, so a column without candidates never gets one again: each round
+        looks only at the columns that still had candidates (a search soon narrows to a few)."""
         batch = 1
+        active = np.arange(self.lower.shape[1])
         while True:
-            candidate = ~self.queried & (self.lower < self.target() + SLACK)
-            if candidate.any():
+            candidate = ~self.queried[:, active] & (self.lower[:, active] < self.target() + SLACK)
+            some = candidate.any(axis=0)
+            if not some.all():
+                active, candidate = active[some], candidate[:, some]
+            if active.size:
                 # both ends of every run of candidates of a pair, and each pair's lowest bound
-                self.advance(candidate)
+                self.advance(candidate, cols=active)
                 if math.isfinite(self.best):
                     continue
             pending = self.queried & ~self.measured & (self.hull < self.target() - SLACK)
             if not pending.any():
-                if candidate.any():
+                if active.size:
                     continue
                 return
             k, c = np.nonzero(pending)
@@ -439,9 +445,12 @@ class _Search(PairSearch):
         if rows.size:
             self.hulls(S[rows], cols)
         colliding = np.any(self.measured[S] & (self.exact[S] < 0.0), axis=1)
-        for i in np.flatnonzero(~colliding):
+        # each state's open pairs (hull overlapping, not yet measured); measuring one state's
+        # pairs changes no other state's row
+        open_all = self.queried[S] & ~self.measured[S] & (self.hull[S] < 0.0)
+        for i in np.flatnonzero(~colliding & open_all.any(axis=1)):
             k = S[i]
-            open_ = np.flatnonzero(self.queried[k] & ~self.measured[k] & (self.hull[k] < 0.0))
+            open_ = np.flatnonzero(open_all[i])
             for c in open_[np.argsort(self.hull[k, open_])]:
                 self.measure(np.array([k]), np.array([c]))
                 if self.exact[k, c] < 0.0:
