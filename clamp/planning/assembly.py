@@ -20,6 +20,7 @@ from clamp.planning.initialisation import (Initialisation, joint_velocities, pri
                                   straight_line_initialisation)
 from clamp.graph.keys import state_key
 from clamp.optim.optimizers import optimize
+from clamp.optim.solver import WarmStart
 from clamp.graph.problem import PlanningProblem
 from clamp.planning.request import Request, Target, as_extras, as_sdf, has_obstacles
 from clamp.validation import as_array
@@ -154,18 +155,30 @@ def split_extras(extra_factors: Sequence[ExtraFactor], T: int, robot: Any = None
 
 
 
+def free_plan(problem: PlanningProblem, config: PlannerConfig,
+              start: np.ndarray | None = None) -> np.ndarray:
+    """The free plan (T, 2n): ``problem`` without its obstacle hinges, optimised as configured
+    (one extra solve, ~20 ms) from ``problem.initial``; from ``start`` (T, 2n) with the
+    warm-start rule (:class:`~clamp.optim.solver.WarmStart`) when given: a previous free plan
+    moved to changed targets (:func:`clamp.replan`)."""
+    initial = problem.initial if start is None else start
+    free = without_family(problem, ObstacleFamily.name, initial)
+    return optimize(free, config, None if start is None else WarmStart()).theta
+
+
 def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,
-                      keep_initial: bool = False) -> PlanningProblem:
+                      keep_initial: bool = False, free: np.ndarray | None = None
+                      ) -> PlanningProblem:
     """``problem`` tied to the free plan: every state's configuration (a
     :class:`~clamp.factors.PostureFamily` of noise ``config.model.posture_sigma``), unless
     ``config.model.posture_Qc`` is 0 the motion of the deviation from it (a
     :class:`~clamp.factors.PostureMotionFamily`: a smooth detour, not a swing out and back)
     and unless ``config.model.posture_velocity_sigma`` is 0 every joint velocity (a
     :class:`~clamp.factors.PostureVelocityFamily`: no joint keeps turning after a detour),
-    starting from the free plan unless ``keep_initial``. The free plan is ``problem`` without
-    its obstacle hinges, optimised as configured (one extra solve, ~20 ms): where it keeps clear
-    of every obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
-    theta = optimize(without_family(problem, ObstacleFamily.name, problem.initial), config).theta
+    starting from the free plan unless ``keep_initial``. The free plan is ``free`` (T, 2n)
+    when given, else :func:`free_plan` of ``problem``: where it keeps clear of every
+    obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
+    theta = free_plan(problem, config) if free is None else free
     T, n, model = problem.num_states, problem.robot.n, config.model
     ties: list[Family] = [PostureFamily(np.arange(T), theta[:, :n], np.full(T, model.posture_sigma))]
     if model.posture_Qc > 0:

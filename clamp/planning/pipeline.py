@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from clamp.planning.assembly import (ExtraFactor, configured_initialisation, distance_query,
-                            given_initialisation, planner_families, split_extras,
+                            free_plan, given_initialisation, planner_families, split_extras,
                             tied_to_free_plan, without_family)
 from clamp.planning.clearance import check_clearance, contact_obstacle, pusher
 from clamp.planning.reference import planning_prior, skill_reference
@@ -54,7 +54,8 @@ class Model:
     (:func:`clamp.planning.reference.skill_reference`);
     ``initialisation``: the initial trajectory (q, qdot (T, n), path (T, 3) [m]) before the
     posture tie; ``scene`` (scenes.Scene or None), ``config``; ``extra_factors`` and ``sdf`` as
-    the caller gave them."""
+    the caller gave them; ``free_plan``: the free plan (T, 2n) the problem is tied to (None
+    without the tie)."""
 
     prior: Any
     problem: PlanningProblem
@@ -66,6 +67,7 @@ class Model:
     config: PlannerConfig
     extra_factors: tuple = ()
     sdf: Any = None
+    free_plan: np.ndarray | None = None
 
     @property
     def robot(self) -> Any:
@@ -137,10 +139,14 @@ def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerC
 
 def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig,
                 extra_factors: tuple[ExtraFactor, ...] = (), sdf: Any = None,
-                initial: np.ndarray | None = None, *, model_prior: Any = None) -> Model:
+                initial: np.ndarray | None = None, *, model_prior: Any = None,
+                free: np.ndarray | None = None, free_start: np.ndarray | None = None) -> Model:
     """:func:`model` on checked inputs: ``request`` made by :func:`make_request` for this prior,
     robot and config (the validation at the boundary), ``scene`` a scenes.Scene or None,
-    ``extra_factors`` checked by :func:`as_extras`. What :func:`clamp.plan` runs."""
+    ``extra_factors`` checked by :func:`as_extras`. What :func:`clamp.plan` runs. With the tie
+    to the free plan, :func:`clamp.replan` may give the free plan: ``free`` (T, 2n), the free
+    plan of this very request (the previous one's, when only the scene changed), or
+    ``free_start`` (T, 2n), a start near it (the previous one moved to new targets)."""
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
     extra_families, foreign = split_extras(extra_factors, T, robot)
     if model_prior is None:                       # the prior conditioned on the targets
@@ -152,10 +158,13 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
             else given_initialisation(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
     if config.model.posture_sigma > 0 and problem.has(ObstacleFamily.name):
-        problem = tied_to_free_plan(problem, config, keep_initial=initial is not None)
+        free = free_plan(problem, config, free_start) if free is None else free
+        problem = tied_to_free_plan(problem, config, initial is not None, free)
+    else:
+        free = None
     reference = skill_reference(prior, robot, request, config, model_prior)
     return Model(prior, problem, request, init, model_prior, reference, scene, config,
-                 extra_factors, sdf)
+                 extra_factors, sdf, free)
 
 
 # ------------------------------------------------------------------------------------ solve

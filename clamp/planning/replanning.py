@@ -8,6 +8,9 @@ change of the planning prior: the new conditioned prior mean minus the previous 
 when only the scene changed) is added to the previous plan's workspace states, and a few
 per-state Gauss-Newton updates (:class:`clamp.optim.solver.WorkspaceCorrection`) carry the joints
 onto them. The previous plan's own deviations from its prior (around obstacles) are kept.
+With obstacles, the free plan the new plan is tied to is the previous one's when only the
+scene changed (the same free problem) and otherwise solved from the previous one moved the
+same way, with the warm-start rule (``PlanInputs.free_plan``).
 The fast solver then runs with its warm-start rule (:class:`clamp.optim.solver.WarmStart`: small
 first damping, one small step or a small predicted decrease stops).
 """
@@ -47,9 +50,31 @@ def shifted_plan(previous: PlanResult, robot: Any, shift: np.ndarray) -> np.ndar
     if not np.any(shift):
         return theta
     x = np.hstack([previous.ee_path, previous.ee_velocity])    # the plan's workspace states
+    return _shifted(robot, theta, x, shift)
+
+
+def _shifted(robot: Any, theta: np.ndarray, x: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """Joint states theta (T, 2n) with workspace states x (T, 6) moved onto x + shift."""
     correction = WorkspaceCorrection(lambda t: StateWindow(robot, t), x + shift,
                                      np.zeros(x.shape + (theta.shape[1],)), CORRECTION_STEPS)
     return correction.apply(theta, np.zeros_like(theta))
+
+
+def _free_plan(inputs: PlanInputs, robot: Any, shift: np.ndarray, same: bool
+               ) -> dict[str, np.ndarray]:
+    """The free plan of a replan, from the previous one's (``inputs.free_plan``; nothing
+    without): itself when ``same`` (the same targets, configuration and extra factors: the
+    same free problem, only the scene changed), else the start of its solve (warm-start rule),
+    moved by ``shift`` like the plan (:func:`shifted_plan`)."""
+    free = inputs.free_plan
+    if free is None:
+        return {}
+    if same:
+        return {"free": free}
+    if np.any(shift):
+        x, _ = StateWindow(robot, free).workspace()
+        free = _shifted(robot, free, x, shift)
+    return {"free_start": free}
 
 
 def _same_targets(request: Request, inputs: PlanInputs) -> bool:
@@ -93,12 +118,15 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         prior, robot = inputs.prior, inputs.robot
         request = make_request(prior, robot, inputs.start, goal, via_points, config,
                                q_start=previous.q[0])
-        if _same_targets(request, inputs) and config.model == inputs.config.model:
+        same = _same_targets(request, inputs)
+        if same and config.model == inputs.config.model:
             model_prior = inputs.model_prior          # same targets: the same conditioned prior
         else:
             model_prior = planning_prior(prior, robot, request, config)
         shift = np.asarray(model_prior.mean) - np.asarray(inputs.model_prior.mean)
+        free = _free_plan(inputs, robot, shift, same and config == inputs.config)
         replanned = build_model(prior, robot, scene, request, config, inputs.extra_factors,
                                 inputs.sdf if scene is inputs.scene else None,
-                                shifted_plan(previous, robot, shift), model_prior=model_prior)
+                                shifted_plan(previous, robot, shift), model_prior=model_prior,
+                                **free)
         return plan_model(replanned, covariance, WarmStart(), started)

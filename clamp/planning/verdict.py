@@ -87,7 +87,8 @@ def plan_inputs(model: Model) -> PlanInputs:
     return PlanInputs(model.prior, model.robot, model.scene, request.start.value,
                       None if request.goal is None else request.goal.value,
                       tuple((index, target.value) for index, target in request.vias),
-                      model.extra_factors, model.config, model.sdf, model.model_prior)
+                      model.extra_factors, model.config, model.sdf, model.model_prior,
+                      model.free_plan)
 
 
 def evaluate(model: Model, solution: Solution, posterior: Posterior,
