@@ -81,16 +81,16 @@ class PairSearch:
         """Exact distances of cells (k, c)."""
         self._record(k, c, self.exact_values(k, c))
 
-    def hulls(self, k: np.ndarray, c: np.ndarray) -> None:
+    def hulls(self, k: np.ndarray, c: np.ndarray, cols: np.ndarray | None = None) -> None:
         """Hull distances of cells (k, c) (exact in exact columns); then the motion bound raises
-        the lower bounds of their columns."""
+        the lower bounds of their columns (``cols``: those columns, sorted, when known)."""
         values = self.bound_values(k, c)
         self.hull[k, c] = values
         self.queried[k, c] = True
         on_exact = self.col_exact[c]
         if on_exact.any():
             self._record(k[on_exact], c[on_exact], values[on_exact])
-        cols = np.unique(c)
+        cols = np.unique(c) if cols is None else cols
         known = np.where(self.queried[:, cols], self.hull[:, cols], -np.inf)
         self.lower[:, cols] = np.maximum(self.lower[:, cols], motion_lower_bounds(known, self.travel[:, cols]))
 
@@ -115,7 +115,8 @@ class PairSearch:
             rows = rows[candidate[rows].any(axis=1)]
             pick[rows, np.argmin(np.where(candidate[rows], lower[rows], np.inf), axis=1)] = True
         k, c = np.nonzero(pick)
-        self.hulls(k, cols[c])
+        # every column has a candidate, so a pick: the columns queried are ``cols``
+        self.hulls(k, cols[c], cols)
 
     def bounds(self) -> np.ndarray:
         """Best lower bound (K, P) of every cell's exact distance known so far."""

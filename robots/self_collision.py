@@ -394,9 +394,9 @@ class _Search(PairSearch):
         self.count = {"hull": 0, "exact": 0}
 
     def bound_values(self, k: np.ndarray, c: np.ndarray) -> np.ndarray:
-        exact = self.col_exact[c]
-        self.count["hull"] += int((~exact).sum())
-        self.count["exact"] += int(exact.sum())
+        exact = int(np.count_nonzero(self.col_exact[c]))
+        self.count["hull"] += len(c) - exact
+        self.count["exact"] += exact
         return self.q.hull(self.R, self.t, k, self.a[c], self.b[c])
 
     def exact_values(self, k: np.ndarray, c: np.ndarray) -> np.ndarray:
