@@ -31,7 +31,7 @@ from clamp.errors import InvalidParameterError
 from clamp.factors.family import Family
 from clamp.graph.gtsam_adapter import SharedStates, gtsam_factors
 from clamp.factors.states import StateWindow
-from clamp.graph.keys import state_key, states_to_values
+from clamp.graph.keys import state_keys, states_to_values
 from clamp.validation import as_array
 
 
@@ -65,7 +65,7 @@ class PlanningProblem:
         names = [f.name for f in self.families]
         if len(set(names)) != len(names):
             raise InvalidParameterError(f"families: names must be unique, got {names}")
-        self.keys = [state_key(i) for i in range(self.num_states)]
+        self.keys = list(state_keys(self.num_states))
         self.foreign = list(foreign)
         self._foreign_states = self._check_foreign()
         self.initial = initial
@@ -76,6 +76,8 @@ class PlanningProblem:
     # ------------------------------------------------------------------------------ structure
     def _check_foreign(self) -> list[list[int]] | None:
         """State indices of every foreign factor, or None when one is not banded."""
+        if not self.foreign:
+            return []
         position = {k: i for i, k in enumerate(self.keys)}
         out = []
         for k, factor in enumerate(self.foreign):
