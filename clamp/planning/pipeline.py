@@ -39,7 +39,7 @@ from clamp.planning.request import Request, as_extras, as_scene, check_robot
 from clamp.prior.linear_gaussian import check_prior
 from clamp.optim.solver import WarmStart
 from clamp.optim.uncertainty import plan_covariances
-from clamp.validation import as_bool
+from clamp.validation import as_array, as_bool
 from robots.collision_check import CollisionReport
 from robots.self_collision import SelfCollisionReport
 from skillplan.validation import as_instance
@@ -112,14 +112,16 @@ class Posterior:
 # ------------------------------------------------------------------------------------ model
 def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig | None,
           extra_factors: Sequence[ExtraFactor] = (), sdf: Any = None,
-          initial: np.ndarray | None = None, *, model_prior: Any = None) -> Model:
+          initial: np.ndarray | None = None, *, model_prior: Any = None,
+          free: np.ndarray | None = None, free_start: np.ndarray | None = None) -> Model:
     """The :class:`Model` of ``request`` (from :func:`clamp.planning.request.make_request` with the same
     prior, robot and config): the learned ``prior`` conditioned on the request's targets
     (``model_prior`` when the caller already has it, e.g. :func:`clamp.replan` with unchanged
     targets), the planner's families and ``extra_factors`` (see :data:`ExtraFactor`), the
     initialisation (``initial``: joint positions (T, n) or states (T, 2n) instead of the
-    configured one) and, with obstacles, the tie to the free plan's posture. Other arguments as
-    for :func:`clamp.build`. Raises ClampError subclasses on bad input."""
+    configured one) and, with obstacles, the tie to the free plan's posture (``free``: that
+    free plan (T, 2n), or ``free_start``: the start of its solve, see :func:`build_model`).
+    Other arguments as for :func:`clamp.build`. Raises ClampError subclasses on bad input."""
     check_prior(prior, workspace=True)
     check_robot(robot)
     scene, config = as_scene(scene), as_config(config)
@@ -133,8 +135,11 @@ def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerC
                          f"{prior.Phi.shape[0] + 1} states as prior (Phi {np.shape(prior.Phi)}), "
                          f"got {type(model_prior).__name__} with Phi of shape "
                          f"{np.shape(getattr(model_prior, 'Phi', None))}")
+    T = prior.Phi.shape[0] + 1
+    free = None if free is None else as_array(free, "free", (T, 2 * robot.n))
+    free_start = None if free_start is None else as_array(free_start, "free_start", (T, 2 * robot.n))
     return build_model(prior, robot, scene, request, config, tuple(as_extras(extra_factors)), sdf,
-                       initial, model_prior=model_prior)
+                       initial, model_prior=model_prior, free=free, free_start=free_start)
 
 
 def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig,

@@ -60,12 +60,13 @@ def _shifted(robot: Any, theta: np.ndarray, x: np.ndarray, shift: np.ndarray) ->
     return correction.apply(theta, np.zeros_like(theta))
 
 
-def _free_plan(inputs: PlanInputs, robot: Any, shift: np.ndarray, same: bool
-               ) -> dict[str, np.ndarray]:
-    """The free plan of a replan, from the previous one's (``inputs.free_plan``; nothing
-    without): itself when ``same`` (the same targets, configuration and extra factors: the
-    same free problem, only the scene changed), else the start of its solve (warm-start rule),
-    moved by ``shift`` like the plan (:func:`shifted_plan`)."""
+def replanned_free_plan(inputs: PlanInputs, robot: Any, shift: np.ndarray, same: bool
+                        ) -> dict[str, np.ndarray]:
+    """The free plan of a replan as keywords of :func:`clamp.planning.pipeline.model`, from the
+    previous one's (``inputs.free_plan``; none without): ``free``, itself, when ``same`` (the
+    same targets, configuration and extra factors: the same free problem, only the scene
+    changed), else ``free_start``, the start of its solve (warm-start rule), moved by ``shift``
+    like the plan (:func:`shifted_plan`)."""
     free = inputs.free_plan
     if free is None:
         return {}
@@ -124,7 +125,7 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         else:
             model_prior = planning_prior(prior, robot, request, config)
         shift = np.asarray(model_prior.mean) - np.asarray(inputs.model_prior.mean)
-        free = _free_plan(inputs, robot, shift, same and config == inputs.config)
+        free = replanned_free_plan(inputs, robot, shift, same and config == inputs.config)
         replanned = build_model(prior, robot, scene, request, config, inputs.extra_factors,
                                 inputs.sdf if scene is inputs.scene else None,
                                 shifted_plan(previous, robot, shift), model_prior=model_prior,
