@@ -71,7 +71,10 @@ class PlanningProblem:
         self.initial = initial
         self._window: StateWindow | None = None
         self._family_errors: tuple[np.ndarray, dict[str, float]] | None = None
-        self._constant: tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None = None
+        #: [the constant blocks of the linear families] (see _linear_hessian), computed on first
+        #: use; a holder shared with the problems made by with_families with the same linear
+        #: families (the same objects in the same order)
+        self._constant: list = [None]
         self._by_kinematics = sorted(self.families, key=lambda f: f.kinematics)
 
     # ------------------------------------------------------------------------------ structure
@@ -106,7 +109,12 @@ class PlanningProblem:
     def with_families(self, families: Sequence[Family], initial: np.ndarray) -> "PlanningProblem":
         """The same robot, states and foreign factors with ``families`` instead, starting at
         ``initial`` (T, 2n)."""
-        return PlanningProblem(self.robot, self.num_states, families, self.foreign, initial)
+        new = PlanningProblem(self.robot, self.num_states, families, self.foreign, initial)
+        mine = [f for f in self.families if f.linear]
+        theirs = [f for f in new.families if f.linear]
+        if len(mine) == len(theirs) and all(a is b for a, b in zip(mine, theirs)):
+            new._constant = self._constant          # the same linear blocks: computed once
+        return new
 
     def family(self, name: str) -> Family:
         """The family called ``name``."""
@@ -185,9 +193,9 @@ class PlanningProblem:
                                         "neighbours; use a GTSAM optimizer")
         T, d = self.num_states, self.dim
         window = self.window(theta)
-        if self._constant is None:
-            self._constant = self._linear_hessian(window)
-        D, E, linear_jacobians = self._constant
+        if self._constant[0] is None:
+            self._constant[0] = self._linear_hessian(window)
+        D, E, linear_jacobians = self._constant[0]
         D, E = D.copy(), E.copy()
         g = np.zeros((T, d))
         error = 0.0
