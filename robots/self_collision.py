@@ -38,7 +38,11 @@ consecutive ones below ``max_motion`` (``report.max_step``). Bounds make the exa
 - convex hulls: coal's distance of the two geometries' convex bounds (a mesh's hull, a primitive
   itself) is a lower bound of ``d(a, b)`` (exact when both are primitives), ~5 microseconds;
 - motion: a pair's distance changes by at most the summed motion of its two geometries, so a
-  hull distance at one configuration bounds its neighbours (conservative advancement).
+  hull distance at one configuration bounds its neighbours (conservative advancement). Where
+  every pair is measured on hulls, the bound is the pair's relative motion: only the joints
+  between its two links count (those upstream move both rigidly), a few times tighter; which
+  cells it leaves open changes, the result does not (every cell whose hull distance is below
+  what must be resolved is queried whatever the bounds, and only those are measured).
 
 Hull distances are computed where a bound is below the least exact distance found so far, and
 exact distances where a hull distance is (nearest first); at every support state the pairs whose
