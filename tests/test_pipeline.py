@@ -102,9 +102,8 @@ def test_replan_equals_its_stages_run_by_hand(prior, arm, request):
         model_prior = (inputs.model_prior if new_goal is goal
                        else planning_prior(prior, robot, asked, config))
         shift = model_prior.mean - inputs.model_prior.mean
-        # the previous free plan: itself when only the scene moved, else its solve's start
-        free = replanned_free_plan(inputs, robot, shift,
-                                   new_goal is goal and config == inputs.config)
+        # the previous free plan when only the scene moved (as replan gives it)
+        free = replanned_free_plan(inputs, new_goal is goal and config == inputs.config)
         planned = model(prior, robot, scene, asked, config,
                         initial=shifted_plan(previous, robot, shift), model_prior=model_prior,
                         **free)

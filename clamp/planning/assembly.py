@@ -20,7 +20,6 @@ from clamp.planning.initialisation import (Initialisation, joint_velocities, pri
                                   straight_line_initialisation)
 from clamp.graph.keys import state_key
 from clamp.optim.optimizers import optimize
-from clamp.optim.solver import WarmStart
 from clamp.graph.problem import PlanningProblem
 from clamp.planning.request import Request, Target, as_extras, as_sdf, has_obstacles
 from clamp.validation import as_array
@@ -155,15 +154,10 @@ def split_extras(extra_factors: Sequence[ExtraFactor], T: int, robot: Any = None
 
 
 
-def free_plan(problem: PlanningProblem, config: PlannerConfig,
-              start: np.ndarray | None = None) -> np.ndarray:
+def free_plan(problem: PlanningProblem, config: PlannerConfig) -> np.ndarray:
     """The free plan (T, 2n): ``problem`` without its obstacle hinges, optimised as configured
-    (one extra solve, ~20 ms) from ``problem.initial``; from ``start`` (T, 2n) with the
-    warm-start rule (:class:`~clamp.optim.solver.WarmStart`) when given: a previous free plan
-    moved to changed targets (:func:`clamp.replan`)."""
-    initial = problem.initial if start is None else start
-    free = without_family(problem, ObstacleFamily.name, initial)
-    return optimize(free, config, None if start is None else WarmStart()).theta
+    from ``problem.initial`` (one extra solve, ~20 ms)."""
+    return optimize(without_family(problem, ObstacleFamily.name, problem.initial), config).theta
 
 
 def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,

@@ -113,14 +113,14 @@ class Posterior:
 def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig | None,
           extra_factors: Sequence[ExtraFactor] = (), sdf: Any = None,
           initial: np.ndarray | None = None, *, model_prior: Any = None,
-          free: np.ndarray | None = None, free_start: np.ndarray | None = None) -> Model:
+          free: np.ndarray | None = None) -> Model:
     """The :class:`Model` of ``request`` (from :func:`clamp.planning.request.make_request` with the same
     prior, robot and config): the learned ``prior`` conditioned on the request's targets
     (``model_prior`` when the caller already has it, e.g. :func:`clamp.replan` with unchanged
     targets), the planner's families and ``extra_factors`` (see :data:`ExtraFactor`), the
     initialisation (``initial``: joint positions (T, n) or states (T, 2n) instead of the
     configured one) and, with obstacles, the tie to the free plan's posture (``free``: that
-    free plan (T, 2n), or ``free_start``: the start of its solve, see :func:`build_model`).
+    free plan (T, 2n) when known, see :func:`build_model`).
     Other arguments as for :func:`clamp.build`. Raises ClampError subclasses on bad input."""
     check_prior(prior, workspace=True)
     check_robot(robot)
@@ -137,21 +137,19 @@ def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerC
                          f"{np.shape(getattr(model_prior, 'Phi', None))}")
     T = prior.Phi.shape[0] + 1
     free = None if free is None else as_array(free, "free", (T, 2 * robot.n))
-    free_start = None if free_start is None else as_array(free_start, "free_start", (T, 2 * robot.n))
     return build_model(prior, robot, scene, request, config, tuple(as_extras(extra_factors)), sdf,
-                       initial, model_prior=model_prior, free=free, free_start=free_start)
+                       initial, model_prior=model_prior, free=free)
 
 
 def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig,
                 extra_factors: tuple[ExtraFactor, ...] = (), sdf: Any = None,
                 initial: np.ndarray | None = None, *, model_prior: Any = None,
-                free: np.ndarray | None = None, free_start: np.ndarray | None = None) -> Model:
+                free: np.ndarray | None = None) -> Model:
     """:func:`model` on checked inputs: ``request`` made by :func:`make_request` for this prior,
     robot and config (the validation at the boundary), ``scene`` a scenes.Scene or None,
     ``extra_factors`` checked by :func:`as_extras`. What :func:`clamp.plan` runs. With the tie
-    to the free plan, :func:`clamp.replan` may give the free plan: ``free`` (T, 2n), the free
-    plan of this very request (the previous one's, when only the scene changed), or
-    ``free_start`` (T, 2n), a start near it (the previous one moved to new targets)."""
+    to the free plan, :func:`clamp.replan` may give it: ``free`` (T, 2n), the free plan of
+    this very request (the previous one's, when only the scene changed)."""
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
     extra_families, foreign = split_extras(extra_factors, T, robot)
     if model_prior is None:                       # the prior conditioned on the targets
@@ -163,7 +161,7 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
             else given_initialisation(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
     if config.model.posture_sigma > 0 and problem.has(ObstacleFamily.name):
-        free = free_plan(problem, config, free_start) if free is None else free
+        free = free_plan(problem, config) if free is None else free
         problem = tied_to_free_plan(problem, config, initial is not None, free)
     else:
         free = None
