@@ -788,8 +788,11 @@ class CollisionChecker:
             return out
         R, t, row = poses.rows(k)
         cutoffs = np.broadcast_to(np.asarray(cutoff, dtype=float), (len(k),)).tolist()
+        transform = coal.Transform3s()            # one placement, set per query (no new object)
         for m, (r, gg, oo) in enumerate(zip(row.tolist(), g.tolist(), o.tolist())):
-            out[m] = self._distance(shapes[gg], coal.Transform3s(R[r, gg], t[r, gg]), gg, oo, cutoffs[m])
+            transform.setRotation(R[r, gg])
+            transform.setTranslation(t[r, gg])
+            out[m] = self._distance(shapes[gg], transform, gg, oo, cutoffs[m])
         return out
 
     def _distance(self, shape: Any, transform: Any, g: int, o: int, cutoff: float = math.inf) -> float:

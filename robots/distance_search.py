@@ -81,34 +81,42 @@ class PairSearch:
         """Exact distances of cells (k, c)."""
         self._record(k, c, self.exact_values(k, c))
 
-    def hulls(self, k: np.ndarray, c: np.ndarray) -> None:
+    def hulls(self, k: np.ndarray, c: np.ndarray, cols: np.ndarray | None = None) -> None:
         """Hull distances of cells (k, c) (exact in exact columns); then the motion bound raises
-        the lower bounds of their columns."""
+        the lower bounds of their columns (``cols``: those columns, sorted, when known)."""
         values = self.bound_values(k, c)
         self.hull[k, c] = values
         self.queried[k, c] = True
         on_exact = self.col_exact[c]
         if on_exact.any():
             self._record(k[on_exact], c[on_exact], values[on_exact])
-        cols = np.unique(c)
+        cols = np.unique(c) if cols is None else cols
         known = np.where(self.queried[:, cols], self.hull[:, cols], -np.inf)
         self.lower[:, cols] = np.maximum(self.lower[:, cols], motion_lower_bounds(known, self.travel[:, cols]))
 
-    def advance(self, candidate: np.ndarray, rows: np.ndarray | None = None) -> None:
+    def advance(self, candidate: np.ndarray, rows: np.ndarray | None = None,
+                cols: np.ndarray | None = None) -> None:
         """Hull distances of candidate cells (K, P) bool: both ends of every run of candidates
         of a column (conservative advancement: each answer's motion bound may rule out the
         rest of the run) and the candidate of least bound of each of ``rows`` (the support
-        states), or of each column when rows is None."""
+        states), or of each column when rows is None. ``cols``: when given, ``candidate`` is
+        (K, len(cols)), the candidates of those columns only (every other column has none);
+        the work is then done on them alone (a search narrows to a few columns)."""
+        if cols is None:
+            cols = np.flatnonzero(candidate.any(axis=0))
+            candidate = candidate[:, cols]
         inner = np.zeros_like(candidate)
         inner[1:-1] = candidate[:-2] & candidate[2:]
         pick = candidate & ~inner
+        lower = self.lower[:, cols]
         if rows is None:
-            cols = np.flatnonzero(candidate.any(axis=0))
-            pick[np.argmin(np.where(candidate[:, cols], self.lower[:, cols], np.inf), axis=0), cols] = True
+            pick[np.argmin(np.where(candidate, lower, np.inf), axis=0), np.arange(len(cols))] = True
         else:
             rows = rows[candidate[rows].any(axis=1)]
-            pick[rows, np.argmin(np.where(candidate[rows], self.lower[rows], np.inf), axis=1)] = True
-        self.hulls(*np.nonzero(pick))
+            pick[rows, np.argmin(np.where(candidate[rows], lower[rows], np.inf), axis=1)] = True
+        k, c = np.nonzero(pick)
+        # every column has a candidate, so a pick: the columns queried are ``cols``
+        self.hulls(k, cols[c], cols)
 
     def bounds(self) -> np.ndarray:
         """Best lower bound (K, P) of every cell's exact distance known so far."""

@@ -69,6 +69,9 @@ def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float,
     error = np.linalg.norm(residual, axis=1)
     lam = np.full(len(q), float(damping))
     eye = np.eye(3)
+    if len(q) == 1:
+        return _single(robot, ee, targets, q, jac, residual, error, lam, eye, tol, int(max_iter),
+                       max_step)
     for _ in range(int(max_iter)):
         active = np.flatnonzero(error > tol)
         if active.size == 0 or (until_any and active.size < len(error)):
@@ -89,6 +92,33 @@ def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float,
         keep = active[better]
         q[keep], jac[keep], residual[keep], error[keep] = q_new[better], jac_new[better], res_new[better], err_new[better]
         lam[active] = np.where(better, np.maximum(la * 0.5, 1e-6), np.minimum(la * 4.0, 1e3))
+    return q, error
+
+
+def _single(robot, ee, targets, q, jac, residual, error, lam, eye, tol, max_iter, max_step):
+    """:func:`damped_least_squares` of one problem (B = 1): the same steps on the same (1, ...)
+    arrays, without the bookkeeping of which problems are still active (the many small calls
+    of a trajectory's sequential pass)."""
+    lower, upper = robot.lower_limits, robot.upper_limits
+    for _ in range(max_iter):
+        if not error[0] > tol:
+            break
+        gradient = np.einsum("bin,bi->bn", jac, residual)                  # descent direction J^T e
+        blocked = ((q <= lower + 1e-12) & (gradient < 0)) | ((q >= upper - 1e-12) & (gradient > 0))
+        jf = jac * ~blocked[:, None, :]
+        system = jf @ jf.transpose(0, 2, 1) + (lam ** 2)[:, None, None] * eye
+        step = np.einsum("bin,bi->bn", jf, np.linalg.solve(system, residual[..., None])[..., 0])
+        size = np.abs(step).max(axis=1, keepdims=True)
+        step *= np.minimum(1.0, max_step / np.maximum(size, 1e-300))
+        q_new = np.clip(q + step, lower, upper)
+        pos_new, jac_new = _position_jacobian(robot, ee, q_new)
+        res_new = targets - pos_new
+        err_new = np.linalg.norm(res_new, axis=1)
+        if err_new[0] < error[0]:
+            q, jac, residual, error = q_new, jac_new, res_new, err_new
+            lam = np.maximum(lam * 0.5, 1e-6)
+        else:
+            lam = np.minimum(lam * 4.0, 1e3)
     return q, error
 
 

@@ -138,6 +138,7 @@ class SerialChain:
         self.is_prismatic = np.array([k == PRISMATIC for k in self.kinds])
         self.idx_q = np.array([model.joints[k].idx_q for k in range(1, model.njoints)])
         self.nq = model.nq
+        self._pinocchio_index: tuple[np.ndarray, ...] | None = None   # see to_pinocchio
         placement_rotations = np.array([model.jointPlacements[k].rotation for k in range(1, n + 1)])
         placement_translations = np.array([model.jointPlacements[k].translation for k in range(1, n + 1)])
         # Internally every joint frame is turned by a constant rotation U_k so that its z axis is
@@ -185,14 +186,16 @@ class SerialChain:
     # ------------------------------------------------------ joint conversions
     def to_pinocchio(self, q: np.ndarray) -> np.ndarray:
         """Joint values (..., n) -> Pinocchio configuration (..., nq) with (cos, sin) pairs."""
+        if self._pinocchio_index is None:
+            continuous = np.array([kind == CONTINUOUS for kind in self.kinds])
+            self._pinocchio_index = (np.flatnonzero(continuous), self.idx_q[continuous],
+                                     np.flatnonzero(~continuous), self.idx_q[~continuous])
+        cont, at, plain, plain_at = self._pinocchio_index
         out = np.zeros(q.shape[:-1] + (self.nq,))
-        for k, kind in enumerate(self.kinds):
-            i = self.idx_q[k]
-            if kind == CONTINUOUS:
-                out[..., i] = np.cos(q[..., k])
-                out[..., i + 1] = np.sin(q[..., k])
-            else:
-                out[..., i] = q[..., k]
+        angles = q[..., cont]
+        out[..., at] = np.cos(angles)
+        out[..., at + 1] = np.sin(angles)
+        out[..., plain_at] = q[..., plain]
         return out
 
     def from_pinocchio(self, q_pin: np.ndarray) -> np.ndarray:

@@ -256,15 +256,17 @@ class Robot:
         if self._pin_data is None:
             self._pin_data = model.createData()
             self._ee_frame = frame_index(model, self.end_effector)
+            self._base_frame_index = (None if self.base_frame is None
+                                      else frame_index(model, self.base_frame))
         data = self._pin_data
-        q_pin = self.to_pinocchio(q)
+        q_pin = self.chain.to_pinocchio(np.asarray(q, dtype=float))   # validated: no checks
         pin.computeJointJacobians(model, data, q_pin)
         pin.updateFramePlacements(model, data)
         position = data.oMf[self._ee_frame].translation
         jac = pin.getFrameJacobian(model, data, self._ee_frame,
                                    pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
-        if self.base_frame is not None:
-            base = data.oMf[frame_index(model, self.base_frame)]
+        if self._base_frame_index is not None:
+            base = data.oMf[self._base_frame_index]
             position = base.rotation.T @ (position - base.translation)
             jac = base.rotation.T @ jac
         return np.array(position), np.array(jac[:, :self.n])   # reduced model: v = the chain's joints

@@ -38,7 +38,11 @@ consecutive ones below ``max_motion`` (``report.max_step``). Bounds make the exa
 - convex hulls: coal's distance of the two geometries' convex bounds (a mesh's hull, a primitive
   itself) is a lower bound of ``d(a, b)`` (exact when both are primitives), ~5 microseconds;
 - motion: a pair's distance changes by at most the summed motion of its two geometries, so a
-  hull distance at one configuration bounds its neighbours (conservative advancement).
+  hull distance at one configuration bounds its neighbours (conservative advancement). Where
+  every pair is measured on hulls, the bound is the pair's relative motion: only the joints
+  between its two links count (those upstream move both rigidly), a few times tighter; which
+  cells it leaves open changes, the result does not (every cell whose hull distance is below
+  what must be resolved is queried whatever the bounds, and only those are measured).
 
 Hull distances are computed where a bound is below the least exact distance found so far, and
 exact distances where a hull distance is (nearest first); at every support state the pairs whose
@@ -205,6 +209,26 @@ def _sphere_lower(geo, R: np.ndarray, t: np.ndarray, a: np.ndarray, b: np.ndarra
     centre = np.einsum("kgij,gj->kgi", R, geo.sphere_centre) + t              # (K, G, 3)
     gap = np.linalg.norm(centre[:, a] - centre[:, b], axis=2)
     return gap - geo.sphere_radius[a] - geo.sphere_radius[b]
+
+
+def _pair_travel(checker: CollisionChecker, q: np.ndarray, sub, a: np.ndarray, b: np.ndarray
+                 ) -> np.ndarray:
+    """Accumulated bound (K, P) of how far the two geometries of each pair (a, b) move relative
+    to each other along the checked configurations: their distance changes by at most that.
+    The joints upstream of both move them rigidly together, so only the joints between them
+    count: sum over j in (L_up, L_down] of |dq_j| rho_j(down), the downstream geometry's motion
+    radius (docs/decisions.md#verdict-geometry); the sum of both geometries' own motion
+    bounds counted every joint up to each (twice the upstream ones)."""
+    geo = checker._geo
+    ja, jb = geo.joints[a], geo.joints[b]
+    down = np.where(ja >= jb, a, b)
+    joint = np.arange(1, geo.motion_radius.shape[1] + 1)[:, None]           # (n, 1)
+    weights = np.where(joint > np.minimum(ja, jb)[None], geo.motion_radius[down].T, 0.0)
+    if len(q) == 1:
+        return np.zeros((1, len(a)))
+    counts = np.diff(sub.support)
+    step = (np.abs(np.diff(q, axis=0)) @ weights) / counts[:, None]       # (T-1, P)
+    return np.concatenate([np.zeros((1, len(a))), np.cumsum(np.repeat(step, counts, axis=0), axis=0)])
 
 
 def _link_relations(robot: Robot, geo) -> dict[tuple[str, str], str]:
@@ -394,9 +418,9 @@ class _Search(PairSearch):
         self.count = {"hull": 0, "exact": 0}
 
     def bound_values(self, k: np.ndarray, c: np.ndarray) -> np.ndarray:
-        exact = self.col_exact[c]
-        self.count["hull"] += int((~exact).sum())
-        self.count["exact"] += int(exact.sum())
+        exact = int(np.count_nonzero(self.col_exact[c]))
+        self.count["hull"] += len(c) - exact
+        self.count["exact"] += exact
         return self.q.hull(self.R, self.t, k, self.a[c], self.b[c])
 
     def exact_values(self, k: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -412,18 +436,24 @@ class _Search(PairSearch):
 
     def run(self) -> None:
         """Hull queries where a bound is below the target (:meth:`target`), exact ones where a
-        hull distance is, until neither is left (module docstring)."""
+        hull distance is, until neither is left (module docstring). The target never rises and
+        the bounds never fall, so a column without candidates never gets one again: each round
+        looks only at the columns that still had candidates (a search soon narrows to a few)."""
         batch = 1
+        active = np.arange(self.lower.shape[1])
         while True:
-            candidate = ~self.queried & (self.lower < self.target() + SLACK)
-            if candidate.any():
+            candidate = ~self.queried[:, active] & (self.lower[:, active] < self.target() + SLACK)
+            some = candidate.any(axis=0)
+            if not some.all():
+                active, candidate = active[some], candidate[:, some]
+            if active.size:
                 # both ends of every run of candidates of a pair, and each pair's lowest bound
-                self.advance(candidate)
+                self.advance(candidate, cols=active)
                 if math.isfinite(self.best):
                     continue
             pending = self.queried & ~self.measured & (self.hull < self.target() - SLACK)
             if not pending.any():
-                if candidate.any():
+                if active.size:
                     continue
                 return
             k, c = np.nonzero(pending)
@@ -439,9 +469,12 @@ class _Search(PairSearch):
         if rows.size:
             self.hulls(S[rows], cols)
         colliding = np.any(self.measured[S] & (self.exact[S] < 0.0), axis=1)
-        for i in np.flatnonzero(~colliding):
+        # each state's open pairs (hull overlapping, not yet measured); measuring one state's
+        # pairs changes no other state's row
+        open_all = self.queried[S] & ~self.measured[S] & (self.hull[S] < 0.0)
+        for i in np.flatnonzero(~colliding & open_all.any(axis=1)):
             k = S[i]
-            open_ = np.flatnonzero(self.queried[k] & ~self.measured[k] & (self.hull[k] < 0.0))
+            open_ = np.flatnonzero(open_all[i])
             for c in open_[np.argsort(self.hull[k, open_])]:
                 self.measure(np.array([k]), np.array([c]))
                 if self.exact[k, c] < 0.0:
@@ -480,7 +513,15 @@ def self_collision_report(robot: Robot, q: Any, time: Any = None, max_motion: fl
     travel = checker._travel(q, sub)                               # (K, G)
     lower = _sphere_lower(geo, R, t, a, b)
     t_broad = _clock.perf_counter()
-    search = _Search(queries, R, t, a, b, lower, travel[:, a] + travel[:, b], tolerance)
+    if (queries.exact[a] | queries.exact[b]).any():
+        pair_travel = travel[:, a] + travel[:, b]
+    else:
+        # every pair measured on hulls: the relative motion bound (tighter) narrows the search
+        # without changing its result (every cell whose hull distance is below the target is
+        # queried whatever the bounds, and only those are measured); an exact column's hull
+        # distance would be a result of its own, so there the plain sum is kept
+        pair_travel = _pair_travel(checker, q, sub, a, b)
+    search = _Search(queries, R, t, a, b, lower, pair_travel, tolerance)
     search.run()
     states = search.settle_states(sub.support)
     kk, c = search.nearest

@@ -14,7 +14,7 @@ from clamp import (PlannerConfig, evaluate, make_request, model, plan, plan_mode
 from clamp.planning.reference import planning_prior
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.planning.pipeline import Posterior
-from clamp.planning.replanning import shifted_plan
+from clamp.planning.replanning import replanned_free_plan, shifted_plan
 from clamp.optim.solver import WarmStart
 from scenes import Box, Scene
 
@@ -85,7 +85,8 @@ def test_the_model_graph_can_be_inspected_before_solving(prior, sawyer):
 @pytest.mark.parametrize("arm", ["jaco", "sawyer"])
 def test_replan_equals_its_stages_run_by_hand(prior, arm, request):
     """tests/test_replan.py's cases (moved goal with two configurations, moved box) replanned
-    by replan() and by the public stages: the same plan to 1e-12, the same verdict."""
+    by replan() and by the public stages (the previous free plan given as replan gives it):
+    the same plan to 1e-12, the same verdict."""
     robot = request.getfixturevalue(arm)
     goal = prior.mean[-1, :3]
     previous = plan(prior, robot, Scene([BOX]), START, goal, covariance=False)
@@ -102,8 +103,11 @@ def test_replan_equals_its_stages_run_by_hand(prior, arm, request):
         model_prior = (inputs.model_prior if new_goal is goal
                        else planning_prior(prior, robot, asked, config))
         shift = model_prior.mean - inputs.model_prior.mean
+        # the previous free plan when only the scene moved (as replan gives it)
+        free = replanned_free_plan(inputs, new_goal is goal and config == inputs.config)
         planned = model(prior, robot, scene, asked, config,
-                        initial=shifted_plan(previous, robot, shift), model_prior=model_prior)
+                        initial=shifted_plan(previous, robot, shift), model_prior=model_prior,
+                        **free)
         solution = solve(planned, warm_start=WarmStart())
         staged = evaluate(planned, solution, posterior(planned, solution, False), {},
                           time.perf_counter())

@@ -15,6 +15,7 @@ robot's own collision geometry against the scene's exact obstacles (``context.cl
 """
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -27,8 +28,18 @@ from robots.contact import collision_reason
 from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
-#: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3))
+#: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3)); a query that
+#: takes a keyword ``gradient`` (e.g. scenes.Scene.query) is asked for the distance alone
+#: (``gradient=False``) where no Jacobian is needed: the error evaluations
 DistanceQuery = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+def _takes_gradient(query: Callable) -> bool:
+    """Whether ``query`` accepts the keyword ``gradient``."""
+    try:
+        return "gradient" in inspect.signature(query).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 class ObstacleFamily(Family):
@@ -52,6 +63,7 @@ class ObstacleFamily(Family):
             raise ClampTypeError(f"query: expected a function points (..., 3) -> (distance, "
                                     f"gradient) (e.g. scene.query), got {type(query).__name__}")
         self.query = query
+        self._distance_only = _takes_gradient(query)
         self.epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
         super().__init__(indices, len(self.radii), sigma=sigma)
 
@@ -72,12 +84,21 @@ class ObstacleFamily(Family):
         """Deepest penetration [m] of a sphere into an obstacle over the family's states
         (r_s - d(c_s); negative: every sphere is clear by that much, or by at least the
         query's clip)."""
-        distance, _ = self.query(window.sphere_centres()[window.local(self.first)])
+        distance = self._distance(window.sphere_centres()[window.local(self.first)])
         return float(np.max(self.radii - distance))
+
+    def _distance(self, points: np.ndarray) -> np.ndarray:
+        """The query's distances (...,) [m] at points (..., 3), without the gradient when the
+        query can leave it out (the same values)."""
+        if self._distance_only:
+            return self.query(points, gradient=False)[0]
+        return self.query(points)[0]
 
     def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         i = window.local(self.first[rows])
         reach = self.epsilon + self.radii
+        if not jacobians:
+            return Constraint(reach - self._distance(window.sphere_centres()[i]), None)
         distance, gradient = self.query(window.sphere_centres()[i])
 
         def jacobian(states: np.ndarray, active: np.ndarray) -> np.ndarray:
@@ -87,4 +108,4 @@ class ObstacleFamily(Family):
             jac = np.zeros((len(states), len(self.radii), 2 * n))
             jac[:, :, :n] = -np.einsum("rsk,rskj->rsj", g, centre_jac)
             return jac
-        return Constraint(reach - distance, jacobian if jacobians else None)
+        return Constraint(reach - distance, jacobian)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import lru_cache
 
 import gtsam
 import numpy as np
@@ -12,6 +13,13 @@ STATE_SYMBOL = "x"
 def state_key(index: int) -> int:
     """Key of the joint state theta_i = [q, qdot] (2n,) of support state ``index``."""
     return gtsam.symbol(STATE_SYMBOL, int(index))
+
+
+@lru_cache(maxsize=8)
+def state_keys(num_states: int) -> tuple[int, ...]:
+    """Keys of the joint states of support states 0 .. num_states - 1 (the problems of one
+    plan share them; a few lengths are kept)."""
+    return tuple(state_key(i) for i in range(int(num_states)))
 
 
 def values_to_states(values: gtsam.Values | gtsam.VectorValues, keys: Sequence[int]) -> np.ndarray:

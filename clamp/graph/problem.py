@@ -31,7 +31,7 @@ from clamp.errors import InvalidParameterError
 from clamp.factors.family import Family
 from clamp.graph.gtsam_adapter import SharedStates, gtsam_factors
 from clamp.factors.states import StateWindow
-from clamp.graph.keys import state_key, states_to_values
+from clamp.graph.keys import state_keys, states_to_values
 from clamp.validation import as_array
 
 
@@ -65,17 +65,23 @@ class PlanningProblem:
         names = [f.name for f in self.families]
         if len(set(names)) != len(names):
             raise InvalidParameterError(f"families: names must be unique, got {names}")
-        self.keys = [state_key(i) for i in range(self.num_states)]
+        self.keys = list(state_keys(self.num_states))
         self.foreign = list(foreign)
         self._foreign_states = self._check_foreign()
         self.initial = initial
         self._window: StateWindow | None = None
-        self._constant: tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None = None
+        self._family_errors: tuple[np.ndarray, dict[str, float]] | None = None
+        #: [the constant blocks of the linear families] (see _linear_hessian), computed on first
+        #: use; a holder shared with the problems made by with_families with the same linear
+        #: families (the same objects in the same order)
+        self._constant: list = [None]
         self._by_kinematics = sorted(self.families, key=lambda f: f.kinematics)
 
     # ------------------------------------------------------------------------------ structure
     def _check_foreign(self) -> list[list[int]] | None:
         """State indices of every foreign factor, or None when one is not banded."""
+        if not self.foreign:
+            return []
         position = {k: i for i, k in enumerate(self.keys)}
         out = []
         for k, factor in enumerate(self.foreign):
@@ -103,7 +109,12 @@ class PlanningProblem:
     def with_families(self, families: Sequence[Family], initial: np.ndarray) -> "PlanningProblem":
         """The same robot, states and foreign factors with ``families`` instead, starting at
         ``initial`` (T, 2n)."""
-        return PlanningProblem(self.robot, self.num_states, families, self.foreign, initial)
+        new = PlanningProblem(self.robot, self.num_states, families, self.foreign, initial)
+        mine = [f for f in self.families if f.linear]
+        theirs = [f for f in new.families if f.linear]
+        if len(mine) == len(theirs) and all(a is b for a, b in zip(mine, theirs)):
+            new._constant = self._constant          # the same linear blocks: computed once
+        return new
 
     def family(self, name: str) -> Family:
         """The family called ``name``."""
@@ -145,12 +156,17 @@ class PlanningProblem:
         return values
 
     def family_errors(self, theta: np.ndarray) -> dict[str, float]:
-        """Error of every family (and "foreign" if any) at theta (T, 2n)."""
+        """Error of every family (and "foreign" if any) at theta (T, 2n). The last answer is
+        kept: the constrained solve's prior cost and the verdict ask it of the same optimum."""
+        last = self._family_errors
+        if last is not None and np.array_equal(last[0], theta):
+            return dict(last[1])
         window = self.window(theta)
         out = {f.name: f.error(window) for f in self.families}
         if self.foreign:
             out["foreign"] = self._foreign_error(theta)
-        return out
+        self._family_errors = (np.array(theta, dtype=float), out)        # a copy: theta may change
+        return dict(out)
 
     def _foreign_error(self, theta: np.ndarray) -> float:
         if self._foreign_states is None:
@@ -177,9 +193,9 @@ class PlanningProblem:
                                         "neighbours; use a GTSAM optimizer")
         T, d = self.num_states, self.dim
         window = self.window(theta)
-        if self._constant is None:
-            self._constant = self._linear_hessian(window)
-        D, E, linear_jacobians = self._constant
+        if self._constant[0] is None:
+            self._constant[0] = self._linear_hessian(window)
+        D, E, linear_jacobians = self._constant[0]
         D, E = D.copy(), E.copy()
         g = np.zeros((T, d))
         error = 0.0

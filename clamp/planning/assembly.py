@@ -154,18 +154,25 @@ def split_extras(extra_factors: Sequence[ExtraFactor], T: int, robot: Any = None
 
 
 
+def free_plan(problem: PlanningProblem, config: PlannerConfig) -> np.ndarray:
+    """The free plan (T, 2n): ``problem`` without its obstacle hinges, optimised as configured
+    from ``problem.initial`` (one extra solve, ~20 ms)."""
+    return optimize(without_family(problem, ObstacleFamily.name, problem.initial), config).theta
+
+
 def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,
-                      keep_initial: bool = False) -> PlanningProblem:
+                      keep_initial: bool = False, free: np.ndarray | None = None
+                      ) -> PlanningProblem:
     """``problem`` tied to the free plan: every state's configuration (a
     :class:`~clamp.factors.PostureFamily` of noise ``config.model.posture_sigma``), unless
     ``config.model.posture_Qc`` is 0 the motion of the deviation from it (a
     :class:`~clamp.factors.PostureMotionFamily`: a smooth detour, not a swing out and back)
     and unless ``config.model.posture_velocity_sigma`` is 0 every joint velocity (a
     :class:`~clamp.factors.PostureVelocityFamily`: no joint keeps turning after a detour),
-    starting from the free plan unless ``keep_initial``. The free plan is ``problem`` without
-    its obstacle hinges, optimised as configured (one extra solve, ~20 ms): where it keeps clear
-    of every obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
-    theta = optimize(without_family(problem, ObstacleFamily.name, problem.initial), config).theta
+    starting from the free plan unless ``keep_initial``. The free plan is ``free`` (T, 2n)
+    when given, else :func:`free_plan` of ``problem``: where it keeps clear of every
+    obstacle by ``epsilon`` it is the tied problem's optimum as it is."""
+    theta = free_plan(problem, config) if free is None else free
     T, n, model = problem.num_states, problem.robot.n, config.model
     ties: list[Family] = [PostureFamily(np.arange(T), theta[:, :n], np.full(T, model.posture_sigma))]
     if model.posture_Qc > 0:

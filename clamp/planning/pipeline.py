@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from clamp.planning.assembly import (ExtraFactor, configured_initialisation, distance_query,
-                            given_initialisation, planner_families, split_extras,
+                            free_plan, given_initialisation, planner_families, split_extras,
                             tied_to_free_plan, without_family)
 from clamp.planning.clearance import check_clearance, contact_obstacle, pusher
 from clamp.planning.reference import planning_prior, skill_reference
@@ -39,7 +39,7 @@ from clamp.planning.request import Request, as_extras, as_scene, check_robot
 from clamp.prior.linear_gaussian import check_prior
 from clamp.optim.solver import WarmStart
 from clamp.optim.uncertainty import plan_covariances
-from clamp.validation import as_bool
+from clamp.validation import as_array, as_bool
 from robots.collision_check import CollisionReport
 from robots.self_collision import SelfCollisionReport
 from skillplan.validation import as_instance
@@ -56,7 +56,8 @@ class Model:
     is, in words (``PlanResult.skill["reference"]``);
     ``initialisation``: the initial trajectory (q, qdot (T, n), path (T, 3) [m]) before the
     posture tie; ``scene`` (scenes.Scene or None), ``config``; ``extra_factors`` and ``sdf`` as
-    the caller gave them."""
+    the caller gave them; ``free_plan``: the free plan (T, 2n) the problem is tied to (None
+    without the tie)."""
 
     prior: Any
     problem: PlanningProblem
@@ -69,6 +70,7 @@ class Model:
     extra_factors: tuple = ()
     sdf: Any = None
     reference_name: str = "prior conditioned on the targets"
+    free_plan: np.ndarray | None = None
 
     @property
     def robot(self) -> Any:
@@ -113,14 +115,16 @@ class Posterior:
 # ------------------------------------------------------------------------------------ model
 def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig | None,
           extra_factors: Sequence[ExtraFactor] = (), sdf: Any = None,
-          initial: np.ndarray | None = None, *, model_prior: Any = None) -> Model:
+          initial: np.ndarray | None = None, *, model_prior: Any = None,
+          free: np.ndarray | None = None) -> Model:
     """The :class:`Model` of ``request`` (from :func:`clamp.planning.request.make_request` with the same
     prior, robot and config): the learned ``prior`` conditioned on the request's targets
     (``model_prior`` when the caller already has it, e.g. :func:`clamp.replan` with unchanged
     targets), the planner's families and ``extra_factors`` (see :data:`ExtraFactor`), the
     initialisation (``initial``: joint positions (T, n) or states (T, 2n) instead of the
-    configured one) and, with obstacles, the tie to the free plan's posture. Other arguments as
-    for :func:`clamp.build`. Raises ClampError subclasses on bad input."""
+    configured one) and, with obstacles, the tie to the free plan's posture (``free``: that
+    free plan (T, 2n) when known, see :func:`build_model`).
+    Other arguments as for :func:`clamp.build`. Raises ClampError subclasses on bad input."""
     check_prior(prior, workspace=True)
     check_robot(robot)
     scene, config = as_scene(scene), as_config(config)
@@ -134,16 +138,21 @@ def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerC
                          f"{prior.Phi.shape[0] + 1} states as prior (Phi {np.shape(prior.Phi)}), "
                          f"got {type(model_prior).__name__} with Phi of shape "
                          f"{np.shape(getattr(model_prior, 'Phi', None))}")
+    T = prior.Phi.shape[0] + 1
+    free = None if free is None else as_array(free, "free", (T, 2 * robot.n))
     return build_model(prior, robot, scene, request, config, tuple(as_extras(extra_factors)), sdf,
-                       initial, model_prior=model_prior)
+                       initial, model_prior=model_prior, free=free)
 
 
 def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig,
                 extra_factors: tuple[ExtraFactor, ...] = (), sdf: Any = None,
-                initial: np.ndarray | None = None, *, model_prior: Any = None) -> Model:
+                initial: np.ndarray | None = None, *, model_prior: Any = None,
+                free: np.ndarray | None = None) -> Model:
     """:func:`model` on checked inputs: ``request`` made by :func:`make_request` for this prior,
     robot and config (the validation at the boundary), ``scene`` a scenes.Scene or None,
-    ``extra_factors`` checked by :func:`as_extras`. What :func:`clamp.plan` runs."""
+    ``extra_factors`` checked by :func:`as_extras`. What :func:`clamp.plan` runs. With the tie
+    to the free plan, :func:`clamp.replan` may give it: ``free`` (T, 2n), the free plan of
+    this very request (the previous one's, when only the scene changed)."""
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
     extra_families, foreign = split_extras(extra_factors, T, robot)
     if model_prior is None:                       # the prior conditioned on the targets
@@ -155,11 +164,14 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
             else given_initialisation(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
     if config.model.posture_sigma > 0 and problem.has(ObstacleFamily.name):
-        problem = tied_to_free_plan(problem, config, keep_initial=initial is not None)
+        free = free_plan(problem, config) if free is None else free
+        problem = tied_to_free_plan(problem, config, initial is not None, free)
+    else:
+        free = None
     reference, reference_name = skill_reference(prior, robot, request, config, model_prior,
                                                 extra_families)
     return Model(prior, problem, request, init, model_prior, reference, scene, config,
-                 extra_factors, sdf, reference_name)
+                 extra_factors, sdf, reference_name, free)
 
 
 # ------------------------------------------------------------------------------------ solve

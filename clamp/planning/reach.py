@@ -11,6 +11,7 @@ largest over the neutral and 32 seeded random configurations (Jaco2 1.26 m, Sawy
 """
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 import numpy as np
@@ -24,10 +25,26 @@ from skillplan.validation import as_trailing
 REACH_FACTOR = 3.0
 #: (divisor, what the positions then look like, the fix), tried in this order
 _UNITS = ((100.0, "centimetres", "divide by 100"), (1000.0, "millimetres", "divide by 1000"))
+#: reach_radius per robot (its kinematics do not change)
+_REACH: "weakref.WeakKeyDictionary[Any, float]" = weakref.WeakKeyDictionary()
 
 
 def reach_radius(robot: Any) -> float:
-    """Upper bound [m] on the end effector's distance from the base origin (module docstring)."""
+    """Upper bound [m] on the end effector's distance from the base origin (module docstring);
+    computed once per robot."""
+    try:
+        return _REACH[robot]
+    except (KeyError, TypeError):
+        pass
+    reach = _reach_radius(robot)
+    try:
+        _REACH[robot] = reach
+    except TypeError:                      # not weakly referenceable: not cached
+        pass
+    return reach
+
+
+def _reach_radius(robot: Any) -> float:
     rng = np.random.default_rng(0)
     q = np.stack([robot.neutral_configuration()]
                  + [robot.random_configuration(rng) for _ in range(32)])

@@ -16,7 +16,8 @@ class PlanInputs:
     """What a plan was asked (kept by :func:`clamp.plan` on ``PlanResult.inputs`` for
     :func:`clamp.replan`): the arguments of the call (start, goal and via points as validated:
     arrays (n,) [rad] or (3,) [m]) and the prior it planned with (``model_prior``: the learned
-    prior conditioned on the start, goal and via points)."""
+    prior conditioned on the start, goal and via points); ``free_plan``: the free plan (T, 2n)
+    the plan was tied to (None without obstacles or the tie), a replan's start of its own."""
 
     prior: Any
     robot: Any
@@ -28,6 +29,7 @@ class PlanInputs:
     config: Any
     sdf: Any
     model_prior: Any
+    free_plan: Any = None
 
 
 @dataclass

@@ -16,6 +16,7 @@ from clamp.planning.clearance import check_clearance
 from clamp.config import PlannerConfig
 from clamp.planning.limit_report import limit_violations
 from clamp.errors import ClampTypeError
+from clamp.factors.self_collision import CLEARANCE_TOLERANCE
 from clamp.factors import (JointLimitFamily, ObstacleFamily, SelfCollisionFamily, SkillTubeFamily,
                            declared_families, lazy_families)
 from clamp.planning.pipeline import (Model, Posterior, Solution, check_context, ordered_checks,
@@ -64,7 +65,9 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     if start.kind == "joint":
         reasons += limit_violations(robot, request.q_start[None], None,
                                     config.checks.limit_tolerance, what="start configuration")
-    own = self_collision_report(robot, request.q_start[None])
+    # collision and depth are exact at any tolerance: the check's (a clearance far from zero
+    # then needs no exact mesh query)
+    own = self_collision_report(robot, request.q_start[None], tolerance=CLEARANCE_TOLERANCE)
     if own.collision:
         reasons.append("start configuration is in " + own.reason)
     if has_obstacles(scene):
@@ -87,7 +90,8 @@ def plan_inputs(model: Model) -> PlanInputs:
     return PlanInputs(model.prior, model.robot, model.scene, request.start.value,
                       None if request.goal is None else request.goal.value,
                       tuple((index, target.value) for index, target in request.vias),
-                      model.extra_factors, model.config, model.sdf, model.model_prior)
+                      model.extra_factors, model.config, model.sdf, model.model_prior,
+                      model.free_plan)
 
 
 def evaluate(model: Model, solution: Solution, posterior: Posterior,
