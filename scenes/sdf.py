@@ -124,7 +124,7 @@ class SignedDistanceField:
         InvalidArgumentError names cell_size, the bounds, the grid shape and the estimate.
         The returned field's values are read-only (a scene caches and shares it).
 
-        Accuracy at 1 cm (tests/test_sdf.py): both modes stay within one cell of the analytic
+        Accuracy at 1 cm (tests/scenes/test_sdf.py): both modes stay within one cell of the analytic
         distance inside the grid; near curved surfaces the EDT mode's staircase tilts the
         gradient by up to ~25 degrees (mean ~6 degrees at 3-10 cm), the exact mode by < 5.
         """

@@ -23,7 +23,7 @@ The two checks of the verdict (:func:`skill_checks`):
   demonstrations agree (a lid's sliding part: radius ~5 mm) a 2 cm departure fails; where they
   vary (the reaching part: radius ~5 cm) a 20 cm detour passes.
 
-Calibration (``tests/test_skill.py``, leave-one-out: learn from all demonstrations but one,
+Calibration (``tests/clamp/prior/test_skill.py``, leave-one-out: learn from all demonstrations but one,
 judge the held-out one from its own start): on box_closing.mat the held-out demonstrations'
 largest ratio is 1.0-2.5 and their end 0.3-1.6 end radii from the others' mean end; on the
 synthetic skills (two seeds each) 0.7-3.5 and at most 1.97. Both limits pass every held-out

@@ -3,7 +3,7 @@
 - analytic Jacobians against central finite differences at random points (every hinge shifted
   too, so the shifted kernel is covered);
 - the GTSAM adapters (``problem.graph()``) against the fast kernel: error and whitened
-  linearization per factor (as tests/test_families.py does for every family);
+  linearization per factor (as tests/clamp/factors/test_families.py does for every family);
 - a plan whose free path dips below the plane ends above it, with success: measured here on
   the spheres' world centres from Pinocchio's own frame placements, at every support state and
   densely in between, independently of the planner's vectorized sphere kinematics;
@@ -22,7 +22,7 @@ from clamp.factors import StateWindow
 from clamp.factors.table_plane import TablePlaneFamily
 from clamp.graph.problem import PlanningProblem
 from scenes import make_demonstrations
-from tests.test_families import (assert_jacobians_match_finite_differences, dense_residual,
+from tests.clamp.factors.test_families import (assert_jacobians_match_finite_differences, dense_residual,
                                  random_theta)
 
 T = 6

@@ -9,7 +9,7 @@
 - GTSAM's Marginals on the graph equal the plan's posterior covariances.
 
 (Per-factor and whole-graph error / linearization equality at random points are in
-tests/test_families.py.)
+tests/clamp/factors/test_families.py.)
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ import pytest
 from clamp import PlannerConfig, build, learn_prior, optimize, plan
 from clamp.graph.keys import state_key, values_to_states
 from tests.regression.cases import REFERENCE_BOX, REFERENCE_START
-from tests.test_families import user_factor
+from tests.clamp.factors.test_families import user_factor
 
 TIGHT = PlannerConfig().with_(relative_error_tol=1e-10, absolute_error_tol=1e-10,
                               convergence_patience=10, max_iterations=5000)

@@ -84,7 +84,7 @@ def test_the_model_graph_can_be_inspected_before_solving(prior, sawyer):
 
 @pytest.mark.parametrize("arm", ["jaco", "sawyer"])
 def test_replan_equals_its_stages_run_by_hand(prior, arm, request):
-    """tests/test_replan.py's cases (moved goal with two configurations, moved box) replanned
+    """tests/clamp/planning/test_replan.py's cases (moved goal with two configurations, moved box) replanned
     by replan() and by the public stages (the previous free plan given as replan gives it):
     the same plan to 1e-12, the same verdict."""
     robot = request.getfixturevalue(arm)

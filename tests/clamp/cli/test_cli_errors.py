@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 CLAMP = ["-m", "clamp"]
 TLGC = ["-m", "tlgc.cli"]
 SPHERES = ["-m", "robots.sphere_cli"]

@@ -19,7 +19,7 @@ from clamp.batch.problems import make_problem, write_problems
 from scenes import Box, Scene
 
 SHORT = {"skill": "box_closing", "seed": 0, "num_demos": 6, "num_points": 40}
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _problems(count: int, seed: int = 0) -> list:

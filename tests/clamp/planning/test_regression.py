@@ -11,7 +11,7 @@ import pytest
 
 from tests.regression.cases import CASES, run_case
 
-FIXTURES = np.load(Path(__file__).parent / "regression" / "plans.npz")
+FIXTURES = np.load(Path(__file__).resolve().parents[3] / "tests" / "regression" / "plans.npz")
 
 
 @pytest.mark.parametrize("name", CASES)

@@ -26,7 +26,7 @@ from clamp.errors import ClampTypeError, InvalidParameterError  # noqa: E402
 from clamp.viz.viewer import PlanViewer, tube_mesh  # noqa: E402
 from scenes import Box, Scene, make_demonstrations  # noqa: E402
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
+DOCS = Path(__file__).resolve().parents[3] / "docs"
 
 
 @pytest.fixture(scope="module")
@@ -209,7 +209,7 @@ def test_view_plans_the_recorded_problem_again(plan_folder):
 def test_clamp_view_serves_until_interrupted(plan_folder, tmp_path):
     import signal
     import sys
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[3])}
     # stderr to a file, not a pipe nobody reads while the server runs: a full pipe would block
     # the process on a write and keep it from exiting
     with open(tmp_path / "stderr.txt", "w+") as stderr:

@@ -1,5 +1,5 @@
 """Tests of clamp.prior.chain, the linear Gaussian chain's algebra, against dense Gaussian
-algebra: the joint Gaussian over all the states of small random chains (tests.test_prior's
+algebra: the joint Gaussian over all the states of small random chains (tests.clamp.prior.test_prior's
 dense_gaussian), its marginals, conditionals and conditioning on observations."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from clamp.prior import chain
-from tests.test_prior import dense_gaussian, random_system
+from tests.clamp.prior.test_prior import dense_gaussian, random_system
 
 CHAINS = [(T, D, seed) for seed in range(3) for T, D in ((2, 2), (6, 4), (9, 6))]
 

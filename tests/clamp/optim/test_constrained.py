@@ -20,7 +20,7 @@ from clamp.optim.constrained import augmented
 from clamp.errors import InvalidParameterError
 from clamp.factors import PostureFamily, SelfCollisionFamily
 from clamp.graph.problem import PlanningProblem
-from tests.test_families import (assert_jacobians_match_finite_differences, dense_residual,
+from tests.clamp.factors.test_families import (assert_jacobians_match_finite_differences, dense_residual,
                                  make_families, random_theta, whitened_rows)
 
 

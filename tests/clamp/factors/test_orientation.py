@@ -1,5 +1,5 @@
 """End-effector orientation: robot rotation Jacobian, the orientation family (rotation target
-by finite differences; the free-axis kind is in tests/test_families.py with every family) and
+by finite differences; the free-axis kind is in tests/clamp/factors/test_families.py with every family) and
 box_closing with the tool vertical over the last 40 % of the states on both arms."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from clamp.factors import OrientationFamily, StateWindow
 from clamp.viz.plan_plots import plot_orientation
 from robots.kinematics import frame_index
 from scenes import Box, Scene, make_demonstrations
-from tests.test_families import STEP, dense_residual, random_theta
+from tests.clamp.factors.test_families import STEP, dense_residual, random_theta
 
 START = [0.2054, -0.4722, 0.2625]
 README_BOX = Box.from_reference([0.32, -0.32, 0.13, 0.09, 0.06, 0.28])

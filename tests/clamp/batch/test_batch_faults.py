@@ -23,7 +23,7 @@ from clamp.errors import InvalidParameterError
 from clamp.batch.problems import make_problem, write_problems
 from test_batch import SHORT, _problems
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
 
 

@@ -18,7 +18,7 @@ from scenes import (DemonstrationFileError, InvalidArgumentError, load_bag_demon
                     load_demonstrations, make_demonstrations)
 from scenes.bags import REST_SPEED
 from scenes.errors import ScenesTypeError
-from tests.test_joint_demonstrations import joint_recordings
+from tests.scenes.test_joint_demonstrations import joint_recordings
 
 TYPES = get_typestore(Stores.ROS2_HUMBLE)
 EXTRA_JOINTS = ("j2s6s200_joint_finger_1", "j2s6s200_joint_finger_2")

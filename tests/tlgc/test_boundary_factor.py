@@ -1,7 +1,7 @@
 """The TLGC boundary factor for CLAMP: distance, hinge, the family's arguments, the demo.
 
 The family's Jacobians and GTSAM adapters are checked with every other family in
-tests/test_families.py."""
+tests/clamp/factors/test_families.py."""
 from __future__ import annotations
 
 import numpy as np
