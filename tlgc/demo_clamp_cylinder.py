@@ -63,21 +63,23 @@ def run_clamp_cylinder_demo(skill: str = "reach_from_above", robot_name: str = "
                             num_states: int = 40, goal_offset: float = 0.05,
                             jitter: float = 1e-4, sigma: float = 0.005, margin: float = 0.0,
                             start_ratio: float = 0.3, seed: int = 0,
-                            config: Any = None) -> ClampCylinderDemo:
+                            config: Any = None,
+                            start_shrinkage: str | float = "auto") -> ClampCylinderDemo:
     """Plan the skill twice (without / with :class:`BoundaryFamily`) and compare.
 
     num_states T support states (demonstrations resampled to T, same total duration as the
     250-step reference); goal_offset [m] beyond the last boundary along its normal; jitter is
     added to the learned prior's covariances (a softer prior lets the goal pull the plan);
     sigma [m], margin [m] of the boundary factor; start at ``start_ratio`` of the first
-    boundary along its normal; config: a clamp.PlannerConfig for both plans (None: defaults).
+    boundary along its normal; config: a clamp.PlannerConfig for both plans (None: defaults);
+    start_shrinkage: the learner's (clamp.learn_prior; "auto" by default).
     """
 
     if not 0.0 <= start_ratio < 1.0:
         raise TLGCArgumentError(f"start_ratio: expected a number in [0, 1), got {start_ratio!r}")
     demos = make_demonstrations(skill, num_demos=6, num_points=num_states,
                                 dt=0.16 * 250 / num_states, seed=seed)
-    prior = learn_prior(demos, jitter=jitter)
+    prior = learn_prior(demos, jitter=jitter, start_shrinkage=start_shrinkage)
     cylinder = fit_cylinder(demos, "spline")
     robot = load_robot(robot_name)
     start = cylinder.directrix[0] + start_ratio * cylinder.radius(0, 0.0) * cylinder.normals[0]

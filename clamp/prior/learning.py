@@ -234,9 +234,10 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
     dict: every sample weighted by its distance to its demonstration's own obstacles.
     start_shrinkage: how a moved start is carried through the motion (batch method,
     :mod:`clamp.prior.shrinkage`): "auto" (default) shrinks the chain's start-offset response towards
-    one fading linearly to the demonstrations' mean by the weight that best predicts every
-    demonstration from its start when learned from the others; a weight in [0, 1] fixes it
-    (0: the plain per-step regression). The choice is in ``prior.info["start_shrinkage"]``.
+    a blend of two that fade to the demonstrations' mean (as their spread narrows; as their
+    own start gain falls) by the weights that best predict every demonstration from its start
+    when learned from the others; a weight in [0, 1] fixes that of the spread fade (0: the
+    plain per-step regression). The choice is in ``prior.info["start_shrinkage"]``.
     Raises InsufficientDemonstrationsError (M < 2, ...), ShapeError, NonFiniteError.
     """
     positions, velocities, time, obstacles = demo_arrays(demos, positions, velocities, time)

@@ -443,7 +443,11 @@ class LinearGaussianPrior:
         if shrink is None:
             lines.append("start shrinkage: none (not applied by this learner)")
         else:
-            lines.append(f"start shrinkage: weight {shrink['weight']:.3g} "
+            blend = shrink.get("weights")
+            shapes = ("" if not blend else " = " + " + ".join(
+                f"{w:.3g} {name}" for name, w in blend.items() if w) if any(blend.values())
+                else "")
+            lines.append(f"start shrinkage: weight {shrink['weight']:.3g}{shapes} "
                          f"(setting {shrink['setting']!r}; {shrink['reason']})")
         region = info.get("skill_region")
         if region is not None:

@@ -50,7 +50,9 @@ def run_case(name: str):
     from scenes import Box, Scene
     if name == "jaco_boundary":
         from tlgc.demo_clamp_cylinder import run_clamp_cylinder_demo
-        return run_clamp_cylinder_demo(config=_config()).with_factor
+        # planned on the plain chain as well: start_shrinkage=0.0 gives its final error to 1e-12
+        # (with the default "auto" blend of fading shapes the plan moves 13 mm, error +0.04 %)
+        return run_clamp_cylinder_demo(config=_config(), start_shrinkage=0.0).with_factor
     data = _box_closing()
     if data is None:
         return None

@@ -112,3 +112,37 @@ def test_an_axis_two_demonstrations_share_still_moves_with_the_start():
     assert np.linalg.norm(moved[0] - start) < 1e-4
     assert abs(moved[prior.T // 2, 2] - prior.mean[prior.T // 2, 2]) < 0.02
     assert np.linalg.norm(moved[-1] - prior.mean[-1, :3]) < 1e-3
+
+
+def early_fading(num_demos=6, T=120, seed=5):
+    """As :func:`converging`, but every start offset is gone within the first 30 % of the
+    motion (as the synthetic skills' are) while the demonstrations still spread later."""
+    demos = converging(num_demos, T, seed)
+    tau = np.linspace(0.0, 1.0, T)
+    mean = demos.positions.mean(axis=0)
+    offsets = demos.positions[:, :1] - mean[:1]
+    keep = (1.0 - tau) ** 2                        # converging()'s own fade of the offset
+    drop = np.clip(1.0 - tau / 0.3, 0.0, None) ** 2
+    positions = demos.positions + offsets * (drop - keep)[None, :, None]
+    return Demonstrations(positions, np.gradient(positions, demos.time, axis=1), demos.time)
+
+
+def test_weights_per_shape_are_recorded_and_summed():
+    prior = learn_prior(converging())
+    record = prior.info["start_shrinkage"]
+    assert set(record["weights"]) == {"spread", "regressed"}
+    assert all(w >= 0.0 for w in record["weights"].values())
+    assert record["weight"] == pytest.approx(sum(record["weights"].values()))
+    assert record["weight"] <= 1.0 + 1e-9
+    assert "spread" in prior.summary() or "regressed" in prior.summary()
+
+
+def test_an_offset_the_demonstrations_drop_early_is_dropped_early():
+    """The regressed shape follows the demonstrations' own start gain: where they lose their
+    start offset within a third of the motion it takes the larger weight, and the chosen
+    blend predicts held-out demonstrations better than the spread shape whole."""
+    demos = early_fading()
+    record = learn_prior(demos).info["start_shrinkage"]
+    assert record["weights"]["regressed"] > record["weights"]["spread"]
+    assert loo_rms(demos) < loo_rms(demos, start_shrinkage=1.0)
+    assert loo_rms(demos) < loo_rms(demos, start_shrinkage=0.0)
