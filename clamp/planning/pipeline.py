@@ -23,14 +23,16 @@ import numpy as np
 from clamp.planning.assembly import (ExtraFactor, configured_initialisation, distance_query,
                             given_initialisation, planner_families, split_extras,
                             tied_to_free_plan, without_family)
-from clamp.planning.clearance import check_clearance, contact_obstacle, pusher
+from clamp.planning.clearance import check_clearance, pusher
 from clamp.planning.reference import planning_prior, skill_reference
 from clamp.config import PlannerConfig
 from clamp.optim.constrained import Candidate, Feasibility, Judge, Progress, solve_constrained
-from clamp.planning.detours import detour_restarts
+from clamp.planning.detours import detour_search, detour_trajectory
+from clamp.planning.reach import reach_radius
+from clamp.prior.skill import TUBE_RATIO, SkillRegion
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
-from clamp.factors import (CheckContext, ConstraintCheck, ObstacleFamily, PostureFamily,
-                           SelfCollisionFamily, lazy_families)
+from clamp.factors import (CheckContext, ConstraintCheck, EEPositionFamily, ObstacleFamily,
+                           PostureFamily, SelfCollisionFamily, lazy_families)
 from clamp.planning.initialisation import Initialisation
 from clamp.optim.optimizers import Optimized
 from clamp.graph.problem import PlanningProblem
@@ -162,9 +164,13 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
 def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
     """Other starts when the problem as built fails its checks (see :mod:`clamp.optim.constrained`),
     all without the posture tie (the free plan's posture is what led into the obstacles; a
-    tied detour is pulled back into it): the configured initialisation, detours of the initial
-    path around the obstacle nearest the closest optimum, a straight line in joint space (see
-    docs/decisions.md#untied-restarts)."""
+    tied detour is pulled back into it): the configured initialisation; when the closest
+    optimum did not complete the skill (and no goal was asked), the same with the
+    demonstrations' mean end as a goal factor ("to_end"); the detour search
+    (:func:`clamp.planning.detours.detour_search`: over, left, right and under every obstacle
+    that blocks the skill's path, two heights each, ranked in the workspace; the best
+    ``config.constraints.detours``); a straight line in joint space (see
+    docs/decisions.md#untied-restarts and docs/decisions.md#detour-search)."""
     prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
                                             model.request, model.config)
     problem, init = model.problem, model.initialisation
@@ -173,18 +179,42 @@ def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
     def generate(progress: Progress) -> Iterable[Candidate]:
         if problem.has(PostureFamily.name):
             yield Candidate("untied", untied)
-        report = progress.closest.reports.get(ObstacleFamily.name) if progress.closest else None
-        if report is not None and report.nearest is not None:
-            for name, theta in detour_restarts(
-                    robot, init.path, request.q_start, float(prior.dt),
-                    contact_obstacle(robot, scene, report.nearest), config.model.epsilon,
-                    report.nearest.index, config.checks.ik_tolerance):
-                yield Candidate(name, untied.with_families(untied.families, theta))
+        closest = progress.closest
+        if (closest is not None and not closest.violated and not closest.accepted
+                and request.goal is None and not progress.feasible):
+            end = SkillRegion.of(prior).end_mean
+            yield Candidate("to_end", untied.with_families(
+                [*untied.families, EEPositionFamily([problem.num_states - 1], end[None],
+                                                    [config.model.goal_sigma])], init.theta))
+        if config.constraints.detours > 0 and scene is not None:
+            reference = np.asarray(model.reference.mean)[:, :3]
+            tube = TUBE_RATIO * SkillRegion.of(prior).tube
+            ranked = detour_search(init.path, scene.obstacles, reference, tube,
+                                   2.0 * config.model.epsilon, np.zeros(3), reach_radius(robot),
+                                   _focus(closest))
+            for name, path, _ in ranked[:config.constraints.detours]:
+                theta = detour_trajectory(robot, path, request.q_start, float(prior.dt),
+                                          config.checks.ik_tolerance)
+                yield Candidate(f"detour_{name}", untied.with_families(untied.families, theta))
         if config.optimizer.initialisation != "straight_line":
             line = configured_initialisation(prior, robot, request,
                                              config.with_(initialisation="straight_line"))
             yield Candidate("straight_line", untied.with_families(untied.families, line.theta))
     return generate
+
+
+def _focus(closest: Feasibility | None) -> int | None:
+    """The state where the closest optimum failed: the skill's worst state when it left the
+    tube, else the obstacle contact's (None: neither)."""
+    if closest is None:
+        return None
+    skill = closest.reports.get("skill_tube")
+    if skill is not None and not getattr(skill, "within_tube", True):
+        return int(skill.worst)
+    contact = closest.reports.get(ObstacleFamily.name)
+    if contact is not None and getattr(contact, "nearest", None) is not None:
+        return int(round(float(contact.nearest.index)))
+    return None
 
 
 def check_context(model: Model, final: bool = False) -> CheckContext:
