@@ -167,6 +167,9 @@ class ConstraintConfig:
     #: detours solved at most when the skill is blocked: the best of the ranked detour search
     #: (:func:`clamp.planning.detours.detour_search`; 0: none; see docs/decisions.md#detour-search)
     detours: int = 3
+    #: other inverse-kinematics solutions of an end-effector start tried after the detours
+    #: (:func:`clamp.planning.pipeline.other_branches`; 0: none)
+    ik_branches: int = 2
     #: time of the constrained solve, in units of its first solve's (the problem as built,
     #: judged), after which no further start is tried past the first restart (a time budget
     #: that scales with the problem and the machine's load; None: unbounded; see
@@ -309,6 +312,7 @@ class PlannerConfig:
         as_scalar(a.margin_floor, "config.constraints.margin_floor", minimum=0.0)
         as_scalar(a.polish_reach, "config.constraints.polish_reach", minimum=0.0)
         as_count(a.detours, "config.constraints.detours", minimum=0)
+        as_count(a.ik_branches, "config.constraints.ik_branches", minimum=0)
         if a.search_budget is not None:
             as_scalar(a.search_budget, "config.constraints.search_budget", minimum=0.0)
         return self

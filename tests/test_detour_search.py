@@ -145,7 +145,8 @@ def test_a_hair_short_plan_is_polished_to_pass_with_its_margins():
     result = plan(prior, robot, scene, start, covariance=False,
                   config=PlannerConfig(search_budget=None))
     assert result.success, result.reasons
-    polished = [a for a in result.attempts if a["round"] > PlannerConfig().optimizer.constraint_rounds]
+    rounds = PlannerConfig().optimizer.constraint_rounds
+    polished = [a for a in result.attempts if a["round"] > rounds]
     assert polished and polished[-1]["feasible"]           # the last update was a polish round
     report = CollisionChecker(robot, coal_obstacles(scene.obstacles)).check(result.q)
     assert not report.collision and report.min_distance > 0.0
@@ -153,3 +154,23 @@ def test_a_hair_short_plan_is_polished_to_pass_with_its_margins():
     speed = np.abs(np.diff(result.q, axis=0)) / np.diff(result.time)[:, None]
     assert np.all(speed <= np.asarray(robot.velocity_limits) * (1.0 + 1e-9))
     assert result.skill["max_tube_ratio"] <= TUBE_RATIO
+
+
+def test_other_ik_branches_of_the_start(blocked):
+    """The search's other starts of an end-effector start: other inverse-kinematics solutions,
+    each reaching the start position, BRANCH_APART from the planner's start configuration and
+    from each other, within the limits; none for a joint start."""
+    from clamp.planning.pipeline import BRANCH_APART, model, other_branches
+    from clamp.planning.request import make_request
+    prior, robot, scene = blocked
+    config = PlannerConfig()
+    request = make_request(prior, robot, START, config=config)
+    branches = other_branches(model(prior, robot, scene, request, config), 2)
+    assert 1 <= len(branches) <= 2
+    for k, q0 in enumerate(branches):
+        assert np.linalg.norm(robot.fk(q0[None])[0] - START) <= config.checks.ik_tolerance
+        assert np.max(np.abs(q0 - request.q_start)) >= BRANCH_APART
+        assert all(np.max(np.abs(q0 - q)) >= BRANCH_APART for q in branches[:k])
+        assert np.all(robot.within_limits(q0[None]))
+    joint = make_request(prior, robot, request.q_start, config=config)
+    assert other_branches(model(prior, robot, scene, joint, config), 2) == []

@@ -31,8 +31,9 @@ from clamp.planning.detours import detour_search, detour_trajectory
 from clamp.planning.reach import reach_radius
 from clamp.prior.skill import TUBE_RATIO, SkillRegion
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
-from clamp.factors import (CheckContext, ConstraintCheck, EEPositionFamily, ObstacleFamily,
-                           PostureFamily, SelfCollisionFamily, lazy_families)
+from clamp.factors import (CheckContext, ConstraintCheck, EEPositionFamily, JointTargetFamily,
+                           ObstacleFamily, PostureFamily, SelfCollisionFamily, lazy_families)
+from robots.self_collision import self_collision_report
 from clamp.planning.initialisation import Initialisation
 from clamp.optim.optimizers import Optimized
 from clamp.graph.problem import PlanningProblem
@@ -161,6 +162,11 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
 
 
 # ------------------------------------------------------------------------------------ solve
+#: [rad] another IK branch of the start differs from the start configuration (and from the other
+#: branches) by at least this in some joint
+BRANCH_APART = 0.5
+
+
 def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
     """Other starts when the problem as built fails its checks (see :mod:`clamp.optim.constrained`),
     all without the posture tie (the free plan's posture is what led into the obstacles; a
@@ -196,11 +202,56 @@ def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
                 theta = detour_trajectory(robot, path, request.q_start, float(prior.dt),
                                           config.checks.ik_tolerance)
                 yield Candidate(f"detour_{name}", untied.with_families(untied.families, theta))
+        for k, q0 in enumerate(other_branches(model, config.constraints.ik_branches)):
+            theta = detour_trajectory(robot, init.path, q0, float(prior.dt),
+                                      config.checks.ik_tolerance)
+            yield Candidate(f"ik_branch_{k}", untied.with_families(
+                [started_at(f, q0) for f in untied.families], theta))
         if config.optimizer.initialisation != "straight_line":
             line = configured_initialisation(prior, robot, request,
                                              config.with_(initialisation="straight_line"))
             yield Candidate("straight_line", untied.with_families(untied.families, line.theta))
     return generate
+
+
+def other_branches(model: Model, count: int) -> list[np.ndarray]:
+    """Up to ``count`` other inverse-kinematics solutions (n,) of an end-effector start (the
+    user gave a position; the planner chose ``request.q_start``): from seeded random
+    configurations, each at least :data:`BRANCH_APART` from the start configuration and from
+    each other in some joint, within the limits, clear of the arm itself and of the scene;
+    none for a joint start."""
+    request, robot, config = model.request, model.robot, model.config
+    if count <= 0 or request.start.kind != "position":
+        return []
+    out: list[np.ndarray] = []
+    rng = np.random.default_rng(0)
+    for attempt in range(4 * count):
+        if len(out) >= count:
+            break
+        ik = robot.ik(request.start.value, seed=robot.random_configuration(rng),
+                      tol=config.checks.ik_tolerance, rng=attempt)
+        q0 = np.asarray(ik.q, dtype=float)
+        if (ik.error > config.checks.ik_tolerance
+                or not bool(np.all(robot.within_limits(q0[None], tolerance=0.0)))
+                or any(float(np.max(np.abs(q0 - q))) < BRANCH_APART
+                       for q in (request.q_start, *out))):
+            continue
+        if self_collision_report(robot, q0[None]).collision:
+            continue
+        report = check_clearance(robot, model.scene, q0[None])
+        if report is not None and report.collision:
+            continue
+        out.append(q0)
+    return out
+
+
+def started_at(family: Any, q0: np.ndarray) -> Any:
+    """``family`` with its joint target at state 0 moved to q0 (n,) (others as they are)."""
+    if family.name != JointTargetFamily.name or 0 not in family.first:
+        return family
+    targets = np.array(family.targets, dtype=float)
+    targets[family.first == 0] = q0
+    return JointTargetFamily(family.first, targets, 1.0 / np.asarray(family.whitening))
 
 
 def _focus(closest: Feasibility | None) -> int | None:
