@@ -210,11 +210,6 @@ class Family:
         docs/decisions.md#relaxed-margins-and-active-multipliers)."""
         return None
 
-    def restored(self) -> "Family | None":
-        """A copy with the margin :meth:`relaxed` took partly given back (the constrained solve
-        asks when the family fails itself), or None when it has its configured margin."""
-        return None
-
     def __init__(self, first: np.ndarray, dim: int, sigma: float | np.ndarray | None = None,
                  sqrt_information: np.ndarray | None = None):
         self.first = as_indices(first, f"{self.name} indices")

@@ -56,8 +56,6 @@ class ObstacleFamily(Family):
                                     f"gradient) (e.g. scene.query), got {type(query).__name__}")
         self.query = query
         self.epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
-        #: [m] the safety distance as configured (epsilon is smaller once relaxed)
-        self.configured = self.epsilon
         super().__init__(indices, len(self.radii), sigma=sigma)
 
     @classmethod
@@ -78,15 +76,6 @@ class ObstacleFamily(Family):
         it is there already."""
         epsilon = max(0.5 * self.epsilon, floor)
         if epsilon >= self.epsilon:
-            return None
-        new = copy.copy(self)
-        new.configured, new.epsilon = self.configured, epsilon
-        return new
-
-    def restored(self) -> "ObstacleFamily | None":
-        """A copy with twice the relaxed epsilon (at most the configured one), or None."""
-        epsilon = min(2.0 * self.epsilon, self.configured)
-        if epsilon <= self.epsilon:
             return None
         new = copy.copy(self)
         new.epsilon = epsilon

@@ -25,8 +25,7 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
    configured noise (stiffened at its next update) and holds from the start of every later
    candidate. A constraint family that holds while another fails gives way: its margin
    shrinks (:meth:`~clamp.factors.Family.relaxed`, down to ``margin_floor``) and, with
-   ``update_active``, its active hinges' multipliers are updated too; a family that fails gets
-   a relaxed margin partly back (:meth:`~clamp.factors.Family.restored`; see
+   ``update_active``, its active hinges' multipliers are updated too (see
    docs/decisions.md#relaxed-margins-and-active-multipliers);
 4. re-solve from the optimum with the solver's warm-start rule; at most ``rounds`` updates per
    candidate (one more when a lazy constraint joins on the last), and up to ``polish_rounds``
@@ -36,8 +35,7 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
 Candidates: the problem as built, then the restarts the caller generates from what the loop
 found so far (the untied problem, the skill's end as a goal, the detour search, a straight
 line); past the first restart, none begins once the loop has taken ``search_budget`` times
-its first candidate's time, and a restart whose optimum after an update is another
-candidate's of the same round (:data:`SAME_OPTIMUM`) is given up (see
+the longer of its first candidate's time and its first restart's first solve (see
 docs/decisions.md#detour-search). The
 planner gives its tied problem (obstacles, tied to the free plan) one solve (``first_rounds``
 0) and the restarts the rounds (see docs/decisions.md#the-tied-problems-one-solve). Once
@@ -68,9 +66,6 @@ from clamp.optim.solver import WarmStart
 
 log = logging.getLogger(__name__)
 
-#: [rad] a restart whose optimum (after an update) is within this of another start's optimum of
-#: the same round, in every joint and state, is given up (it would repeat that start's rounds)
-SAME_OPTIMUM = 0.02
 
 @dataclass(frozen=True)
 class Feasibility:
@@ -201,7 +196,6 @@ def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[st
             out.append(family)
             previous[family.name] = 0.0          # its first update stiffens it
             continue
-        family = family.restored() or family     # fails itself: its margin comes back
         shift, violation = _violation(family, window)
         if violation > schedule.progress * previous.get(family.name, 0.0):
             family = family.reweighted(schedule.stiffen)
@@ -266,20 +260,10 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
             progress.closest = verdict
         return out, verdict
 
-    seen: dict[int, list[tuple[str, np.ndarray]]] = {}   # round -> (candidate, optimum q)
-
-    def repeats(name: str, r: int, theta: np.ndarray) -> bool:
-        """Whether another candidate's optimum of round r is this one (every joint within
-        SAME_OPTIMUM): its next rounds would repeat that candidate's."""
-        q = theta[:, :problem.robot.n]
-        same = any(other != name and float(np.max(np.abs(q - q_other))) < SAME_OPTIMUM
-                   for other, q_other in seen.get(r, ()))
-        seen.setdefault(r, []).append((name, q))
-        return same
-
     def run(candidate: Candidate, warm: WarmStart | None, budget: int) -> int | None:
         """The outer loop on one candidate; the round it became feasible, or None."""
         nonlocal initial_error
+        clock = time.perf_counter()
         current = candidate.problem
         carried = [lazy[name]() for name in sorted(joined) if not current.has(name)]
         if carried:        # a constraint that joined on an earlier start holds from the start
@@ -303,14 +287,14 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
         while True:
             out, verdict = solve(candidate.name, r, current, warm, soft)
             soft = None
+            if r == 0 and len(unit) == 1:        # the first restart's first solve (from scratch)
+                unit.append(time.perf_counter() - clock)
             if verdict.ok:
                 return r
             joins = budget > 0 and any(name in lazy and not current.has(name)
                                        for name in verdict.violated)
             if _faulted(verdict) or not verdict.violated:
                 return None       # a refused skill needs another start, not stiffer hinges
-            if r > 0 and repeats(candidate.name, r, out.theta):
-                return None       # back where another start went: its rounds are known
             if r >= budget and not (joins and r == budget):
                 # a hair short: keep updating the active constraints (polish rounds)
                 # (not bounded by the search budget: a hair short is finished, not searched)
@@ -325,12 +309,14 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
                                 config.constraints)
             warm, r = WarmStart(), r + 1
 
-    unit: list[float] = []          # [s] the problem as built's solve: the budget's unit
+    #: [s] the problem as built's solve (judged) and the first restart's first solve (from
+    #: scratch): the budget's unit is the longer
+    unit: list[float] = []
 
     def within_budget() -> bool:
         limit = config.constraints.search_budget
         return (limit is None or not unit
-                or time.perf_counter() - started <= limit * unit[0])
+                or time.perf_counter() - started <= limit * max(unit))
 
     first_ok = run(Candidate("configured", problem), warm_start,
                    rounds if first_rounds is None else min(int(first_rounds), rounds))
