@@ -58,8 +58,9 @@ class ModelConfig:
     limit_sigma: float = 1e-3
     #: [rad] the position hinges start this far inside the limits
     limit_margin: float = 0.0
-    #: [rad/s] the velocity hinges start this far inside the limits
-    velocity_margin: float = 0.0
+    #: [rad/s] the velocity hinges start this far inside the limits (a plan on a velocity limit
+    #: otherwise ends a hair beyond it between states; see docs/decisions.md#velocity_margin)
+    velocity_margin: float = 0.01
     #: [rad] with obstacles, every state's configuration is tied to the plan the skill makes in
     #: the empty scene (the free plan) with this noise (``clamp.factors.posture``; 0 = off; see
     #: docs/decisions.md#posture_sigma)
@@ -147,6 +148,31 @@ class ConstraintConfig:
     #: relative error decrease below which the soft first solve stops (after one such step;
     #: 3e-2 took fewer iterations than 1e-2 and 3e-3 on box_closing with random boxes, both arms)
     soft_start_tolerance: float = 3e-2
+    #: extra updates a start gets, past its rounds, while every check it fails is within its
+    #: family's ``near`` of passing (a hair short: 1.5 mm of depth, 3 % of a limit, 10 % of
+    #: the tube; see docs/decisions.md#polish-rounds)
+    polish_rounds: int = 3
+    #: [m] the least safety margin a constraint family's hinges keep when they give way to
+    #: another that fails against them (``Family.relaxed``: the obstacle hinges' epsilon halves
+    #: per update down to this; see docs/decisions.md#relaxed-margins-and-active-multipliers)
+    margin_floor: float = 0.005
+    #: a start gets the polish rounds while every check it fails is within this many times its
+    #: family's ``near`` (1: only a hair short)
+    polish_reach: float = 2.0
+    #: every round also updates the multipliers of the constraint families that hold but
+    #: whose hinges are active (the textbook augmented Lagrangian), not only the violated ones
+    update_active: bool = True
+    #: detours solved at most when the skill is blocked: the best of the ranked detour search
+    #: (:func:`clamp.planning.detours.detour_search`; 0: none; see docs/decisions.md#detour-search)
+    detours: int = 3
+    #: other inverse-kinematics solutions of an end-effector start tried after the detours
+    #: (:func:`clamp.planning.pipeline.other_branches`; 0: none)
+    ik_branches: int = 2
+    #: time of the constrained solve, in units of its first solve's (the problem as built,
+    #: judged), after which no further start is tried past the first restart (a time budget
+    #: that scales with the problem and the machine's load; None: unbounded; see
+    #: docs/decisions.md#detour-search)
+    search_budget: float | None = 8.0
 
 
 @dataclass(frozen=True)
@@ -247,7 +273,8 @@ class PlannerConfig:
         for group, name in (("model", "workspace_start"), ("model", "fix_start_configuration"),
                             ("model", "obstacle_factors"), ("model", "joint_limits"),
                             ("model", "condition_on_targets"),
-                            ("optimizer", "blend_start_offset")):
+                            ("optimizer", "blend_start_offset"),
+                            ("constraints", "update_active")):
             as_bool(getattr(getattr(self, group), name), f"config.{group}.{name}")
         pair = o.straight_line_configurations
         if pair is not None and (not isinstance(pair, (tuple, list)) or len(pair) != 2):
@@ -279,6 +306,13 @@ class PlannerConfig:
         as_scalar(a.stiffen, "config.constraints.stiffen", minimum=1.0)
         as_count(a.wanted, "config.constraints.wanted", minimum=1)
         as_scalar(a.soft_start_tolerance, "config.constraints.soft_start_tolerance", minimum=0.0)
+        as_count(a.polish_rounds, "config.constraints.polish_rounds", minimum=0)
+        as_scalar(a.margin_floor, "config.constraints.margin_floor", minimum=0.0)
+        as_scalar(a.polish_reach, "config.constraints.polish_reach", minimum=0.0)
+        as_count(a.detours, "config.constraints.detours", minimum=0)
+        as_count(a.ik_branches, "config.constraints.ik_branches", minimum=0)
+        if a.search_budget is not None:
+            as_scalar(a.search_budget, "config.constraints.search_budget", minimum=0.0)
         return self
 
 

@@ -198,6 +198,17 @@ class Family:
     #: the verdict checks every plan with it, whether or not the problem holds the family (its
     #: :meth:`check` is a classmethod); the solve's judge only when the problem holds it
     always_checked: bool = False
+    #: a constraint family violated by at most this (its check's ``amount``, in its units) is
+    #: a hair short of passing: the constrained solve keeps updating the start that came this
+    #: near (``polish_rounds``; 0.0: never; see docs/decisions.md#polish-rounds)
+    near: float = 0.0
+
+    def relaxed(self, floor: float) -> "Family | None":
+        """A copy whose hinges start nearer the constraint (a smaller safety margin, never
+        below ``floor`` in its units), or None when it has none to give: the constrained solve
+        relaxes a constraint that holds while another fails against it (see
+        docs/decisions.md#relaxed-margins-and-active-multipliers)."""
+        return None
 
     def __init__(self, first: np.ndarray, dim: int, sigma: float | np.ndarray | None = None,
                  sqrt_information: np.ndarray | None = None):

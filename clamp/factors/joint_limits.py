@@ -77,6 +77,8 @@ class JointLimitFamily(Family):
     role = "constraint"
     check_rank = 20
     always_checked = True
+    #: [rad or rad/s] beyond a limit: a hair short (about 3 % of a limit; issue 27)
+    near = 0.03
 
     def __init__(self, indices: Sequence[int], lower: np.ndarray, upper: np.ndarray,
                  velocity_limits: np.ndarray, sigma: float, margin: float = 0.0,

@@ -15,6 +15,7 @@ robot's own collision geometry against the scene's exact obstacles (``context.cl
 """
 from __future__ import annotations
 
+import copy
 import inspect
 from collections.abc import Callable, Sequence
 
@@ -52,6 +53,8 @@ class ObstacleFamily(Family):
     check_rank = 0
     decisive = True
     always_checked = True
+    #: [m] of penetration on the collision geometry: a hair short (issue 27)
+    near = 0.0015
 
     def __init__(self, indices: Sequence[int], radii: np.ndarray, query: DistanceQuery,
                  epsilon: float, sigma: float):
@@ -79,6 +82,16 @@ class ObstacleFamily(Family):
                                max(0.0, -float(report.min_distance)),
                                () if reason is None else (reason,), report,
                                clearance=float(report.min_distance), listed=False)
+
+    def relaxed(self, floor: float) -> "ObstacleFamily | None":
+        """A copy with half the safety distance epsilon (at least ``floor`` [m]), or None when
+        it is there already."""
+        epsilon = max(0.5 * self.epsilon, floor)
+        if epsilon >= self.epsilon:
+            return None
+        new = copy.copy(self)
+        new.epsilon = epsilon
+        return new
 
     def penetration(self, window: StateWindow) -> float:
         """Deepest penetration [m] of a sphere into an obstacle over the family's states

@@ -60,6 +60,8 @@ class SelfCollisionFamily(Family):
     kinematics = 2
     role = "constraint"
     lazy = True
+    #: [m] of overlap between two links: a hair short (issue 27)
+    near = 0.0015
     check_rank = 10
 
     def __init__(self, indices: Sequence[int], spheres: SelfCollisionSpheres, epsilon: float, sigma: float,

@@ -49,6 +49,8 @@ class SkillTubeFamily(Family):
     kinematics = 1
     role = "constraint"
     lazy = True
+    #: [demonstration spreads] beyond the limit: 10 % of the tube (issue 27)
+    near = 0.1 * TUBE_RATIO
     check_rank = 40
     only_if_clear = True
 

@@ -22,12 +22,21 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
    either), its penalty mu grows by ``stiffen`` ** 2 (noise / stiffen, shifts / stiffen ** 2).
    A constraint a check finds violated that the problem does not yet hold (``lazy``:
    self-collision, the skill's tube; see docs/decisions.md#lazy-constraints) joins here at its
-   configured noise;
+   configured noise (stiffened at its next update) and holds from the start of every later
+   candidate. A constraint family that holds while another fails gives way: its margin
+   shrinks (:meth:`~clamp.factors.Family.relaxed`, down to ``margin_floor``) and, with
+   ``update_active``, its active hinges' multipliers are updated too (see
+   docs/decisions.md#relaxed-margins-and-active-multipliers);
 4. re-solve from the optimum with the solver's warm-start rule; at most ``rounds`` updates per
-   candidate (one more when a lazy constraint joins on the last).
+   candidate (one more when a lazy constraint joins on the last), and up to ``polish_rounds``
+   more while every failed check is within ``polish_reach`` times its family's ``near`` (a
+   hair short; see docs/decisions.md#polish-rounds).
 
 Candidates: the problem as built, then the restarts the caller generates from what the loop
-found so far (the untied problem, detours around the obstacle met, a straight line). The
+found so far (the untied problem, the skill's end as a goal, the detour search, a straight
+line); past the first restart, none begins once the loop has taken ``search_budget`` times
+the longer of its first candidate's time and its first restart's first solve (see
+docs/decisions.md#detour-search). The
 planner gives its tied problem (obstacles, tied to the free plan) one solve (``first_rounds``
 0) and the restarts the rounds (see docs/decisions.md#the-tied-problems-one-solve). Once
 ``wanted`` candidates are feasible, or
@@ -36,7 +45,8 @@ feasible one of least prior cost (graph error of the cost families). The result'
 the one the chosen optimum solves, shifts and weights included: its GTSAM graph at the plan is
 the one the solver finished on.
 
-The schedule's constants (progress, stiffen, wanted, soft_start_tolerance) are the
+The schedule's constants (progress, stiffen, wanted, soft_start_tolerance, polish_rounds,
+polish_reach, margin_floor, update_active, detours, ik_branches, search_budget) are the
 ``constraints`` group of the configuration (:class:`clamp.config.ConstraintConfig`).
 """
 from __future__ import annotations
@@ -55,6 +65,7 @@ from clamp.graph.problem import PlanningProblem
 from clamp.optim.solver import WarmStart
 
 log = logging.getLogger(__name__)
+
 
 @dataclass(frozen=True)
 class Feasibility:
@@ -169,12 +180,21 @@ def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[st
     window = problem.window(theta)
     out = []
     for family in families:
+        if (family.role == "constraint" and family.name not in violated and violated
+                and family.name in present):
+            # holds while another fails: its margin gives way (down to the floor) and, where
+            # its hinges are active, its multipliers are updated all the same
+            family = family.relaxed(schedule.margin_floor) or family
+            if schedule.update_active:
+                shift, _ = _violation(family, window)
+                if np.any(shift > 0.0):
+                    family = family.with_shift(shift)
         if family.role != "constraint" or family.name not in violated:
             out.append(family)
             continue
         if family.name not in present:           # joins now, at its configured noise
             out.append(family)
-            previous[family.name] = np.inf
+            previous[family.name] = 0.0          # its first update stiffens it
             continue
         shift, violation = _violation(family, window)
         if violation > schedule.progress * previous.get(family.name, 0.0):
@@ -216,6 +236,7 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
     progress = Progress()
     timings: dict[str, float] = {}
     initial_error = None        # set by the first solve's soft stage; else that solve's own
+    joined: set[str] = set()    # lazy constraints that joined on some start
 
     def solve(name: str, r: int, current: PlanningProblem, warm: WarmStart | None,
               before: Optimized | None = None) -> tuple[Optimized, Feasibility]:
@@ -242,7 +263,11 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
     def run(candidate: Candidate, warm: WarmStart | None, budget: int) -> int | None:
         """The outer loop on one candidate; the round it became feasible, or None."""
         nonlocal initial_error
+        clock = time.perf_counter()
         current = candidate.problem
+        carried = [lazy[name]() for name in sorted(joined) if not current.has(name)]
+        if carried:        # a constraint that joined on an earlier start holds from the start
+            current = current.with_families([*current.families, *carried], current.initial)
         soft = None
         factor = float(config.optimizer.soft_start)
         if warm is None and factor > 1.0 and current.has(ObstacleFamily.name):
@@ -258,26 +283,51 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
                 current = current.with_families(current.families, soft.theta)
                 warm = WarmStart()
         previous: dict[str, float] = {}
-        r = 0
+        r = polished = 0
         while True:
             out, verdict = solve(candidate.name, r, current, warm, soft)
             soft = None
+            if r == 0 and len(unit) == 1:        # the first restart's first solve (from scratch)
+                unit.append(time.perf_counter() - clock)
             if verdict.ok:
                 return r
             joins = budget > 0 and any(name in lazy and not current.has(name)
                                        for name in verdict.violated)
-            if (_faulted(verdict) or not verdict.violated
-                    or (r >= budget and not (joins and r == budget))):
+            if _faulted(verdict) or not verdict.violated:
                 return None       # a refused skill needs another start, not stiffer hinges
+            if r >= budget and not (joins and r == budget):
+                # a hair short: keep updating the active constraints (polish rounds)
+                # (not bounded by the search budget: a hair short is finished, not searched)
+                if not (budget > 0 and polished < config.constraints.polish_rounds
+                        and verdict.accepted
+                        and _near(verdict, current, config.constraints.polish_reach)):
+                    return None
+                polished += 1
+            joined.update(name for name in verdict.violated
+                          if name in lazy and not current.has(name))
             current = augmented(current, out.theta, verdict.violated, previous, lazy,
                                 config.constraints)
             warm, r = WarmStart(), r + 1
 
+    #: [s] the problem as built's solve (judged) and the first restart's first solve (from
+    #: scratch): the budget's unit is the longer
+    unit: list[float] = []
+
+    def within_budget() -> bool:
+        limit = config.constraints.search_budget
+        return (limit is None or not unit
+                or time.perf_counter() - started <= limit * max(unit))
+
     first_ok = run(Candidate("configured", problem), warm_start,
                    rounds if first_rounds is None else min(int(first_rounds), rounds))
+    unit.append(time.perf_counter() - started)
     if first_ok is None and rounds > 0 and not _faulted(found[-1][2]):
-        for candidate in restarts(progress):
+        for k, candidate in enumerate(restarts(progress)):
             if progress.feasible >= config.constraints.wanted:
+                break
+            if k > 0 and not within_budget():      # the first restart always runs
+                log.info("search budget of %.3g first solves spent: no start past %s",
+                         config.constraints.search_budget, candidate.name)
                 break
             ok = run(candidate, None, rounds if first_ok is None else first_ok)
             first_ok = ok if first_ok is None else first_ok
@@ -292,6 +342,15 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
         log.info("no plan meets every constraint after %d attempts; kept the closest (%s)",
                  len(found), ", ".join(verdict.violated) or "refused by the skill checks")
     return ConstrainedSolve(chosen, solved, verdict, attempts)
+
+
+def _near(verdict: Feasibility, problem: PlanningProblem, reach: float = 1.0) -> bool:
+    """Whether every check ``verdict`` fails is a constraint family of ``problem`` violated by
+    at most ``reach`` times its ``near`` (a hair short of passing: worth more updates of the
+    same start)."""
+    near = {f.name: reach * float(getattr(f, "near", 0.0)) for f in problem.families}
+    return all(check.name in near and check.amount <= near[check.name]
+               for check in verdict.checks if check.violated)
 
 
 def _faulted(verdict: Feasibility) -> bool:

@@ -23,14 +23,17 @@ import numpy as np
 from clamp.planning.assembly import (ExtraFactor, configured_initialisation, distance_query,
                             free_plan, given_initialisation, planner_families, split_extras,
                             tied_to_free_plan, without_family)
-from clamp.planning.clearance import check_clearance, contact_obstacle, pusher
+from clamp.planning.clearance import check_clearance, pusher
 from clamp.planning.reference import planning_prior, skill_reference
 from clamp.config import PlannerConfig
 from clamp.optim.constrained import Candidate, Feasibility, Judge, Progress, solve_constrained
-from clamp.planning.detours import detour_restarts
+from clamp.planning.detours import detour_search, detour_trajectory
+from clamp.planning.reach import reach_radius
+from clamp.prior.skill import TUBE_RATIO, SkillRegion
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
-from clamp.factors import (CheckContext, ConstraintCheck, ObstacleFamily, PostureFamily,
-                           SelfCollisionFamily, lazy_families)
+from clamp.factors import (CheckContext, ConstraintCheck, EEPositionFamily, JointTargetFamily,
+                           ObstacleFamily, PostureFamily, SelfCollisionFamily, lazy_families)
+from robots.self_collision import self_collision_report
 from clamp.planning.initialisation import Initialisation
 from clamp.optim.optimizers import Optimized
 from clamp.graph.problem import PlanningProblem
@@ -175,12 +178,21 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
 
 
 # ------------------------------------------------------------------------------------ solve
+#: [rad] another IK branch of the start differs from the start configuration (and from the other
+#: branches) by at least this in some joint
+BRANCH_APART = 0.5
+
+
 def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
     """Other starts when the problem as built fails its checks (see :mod:`clamp.optim.constrained`),
     all without the posture tie (the free plan's posture is what led into the obstacles; a
-    tied detour is pulled back into it): the configured initialisation, detours of the initial
-    path around the obstacle nearest the closest optimum, a straight line in joint space (see
-    docs/decisions.md#untied-restarts)."""
+    tied detour is pulled back into it): the configured initialisation; when the closest
+    optimum did not complete the skill (and no goal was asked), the same with the
+    demonstrations' mean end as a goal factor ("to_end"); the detour search
+    (:func:`clamp.planning.detours.detour_search`: over, left, right and under every obstacle
+    that blocks the skill's path, two heights each, ranked in the workspace; the best
+    ``config.constraints.detours``); a straight line in joint space (see
+    docs/decisions.md#untied-restarts and docs/decisions.md#detour-search)."""
     prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
                                             model.request, model.config)
     problem, init = model.problem, model.initialisation
@@ -189,18 +201,87 @@ def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
     def generate(progress: Progress) -> Iterable[Candidate]:
         if problem.has(PostureFamily.name):
             yield Candidate("untied", untied)
-        report = progress.closest.reports.get(ObstacleFamily.name) if progress.closest else None
-        if report is not None and report.nearest is not None:
-            for name, theta in detour_restarts(
-                    robot, init.path, request.q_start, float(prior.dt),
-                    contact_obstacle(robot, scene, report.nearest), config.model.epsilon,
-                    report.nearest.index, config.checks.ik_tolerance):
-                yield Candidate(name, untied.with_families(untied.families, theta))
+        closest = progress.closest
+        if (closest is not None and not closest.violated and not closest.accepted
+                and request.goal is None and not progress.feasible):
+            end = SkillRegion.of(prior).end_mean
+            yield Candidate("to_end", untied.with_families(
+                [*untied.families, EEPositionFamily([problem.num_states - 1], end[None],
+                                                    [config.model.goal_sigma])], init.theta))
+        if config.constraints.detours > 0 and scene is not None:
+            reference = np.asarray(model.reference.mean)[:, :3]
+            tube = TUBE_RATIO * SkillRegion.of(prior).tube
+            ranked = detour_search(init.path, scene.obstacles, reference, tube,
+                                   2.0 * config.model.epsilon, np.zeros(3), reach_radius(robot),
+                                   _focus(closest))
+            for name, path, _ in ranked[:config.constraints.detours]:
+                theta = detour_trajectory(robot, path, request.q_start, float(prior.dt),
+                                          config.checks.ik_tolerance)
+                yield Candidate(f"detour_{name}", untied.with_families(untied.families, theta))
+        for k, q0 in enumerate(other_branches(model, config.constraints.ik_branches)):
+            theta = detour_trajectory(robot, init.path, q0, float(prior.dt),
+                                      config.checks.ik_tolerance)
+            yield Candidate(f"ik_branch_{k}", untied.with_families(
+                [started_at(f, q0) for f in untied.families], theta))
         if config.optimizer.initialisation != "straight_line":
             line = configured_initialisation(prior, robot, request,
                                              config.with_(initialisation="straight_line"))
             yield Candidate("straight_line", untied.with_families(untied.families, line.theta))
     return generate
+
+
+def other_branches(model: Model, count: int) -> list[np.ndarray]:
+    """Up to ``count`` other inverse-kinematics solutions (n,) of an end-effector start (the
+    user gave a position; the planner chose ``request.q_start``): from seeded random
+    configurations, each at least :data:`BRANCH_APART` from the start configuration and from
+    each other in some joint, within the limits, clear of the arm itself and of the scene;
+    none for a joint start."""
+    request, robot, config = model.request, model.robot, model.config
+    if count <= 0 or request.start.kind != "position":
+        return []
+    out: list[np.ndarray] = []
+    rng = np.random.default_rng(0)
+    for attempt in range(4 * count):
+        if len(out) >= count:
+            break
+        ik = robot.ik(request.start.value, seed=robot.random_configuration(rng),
+                      tol=config.checks.ik_tolerance, rng=attempt)
+        q0 = np.asarray(ik.q, dtype=float)
+        if (ik.error > config.checks.ik_tolerance
+                or not bool(np.all(robot.within_limits(q0[None], tolerance=0.0)))
+                or any(float(np.max(np.abs(q0 - q))) < BRANCH_APART
+                       for q in (request.q_start, *out))):
+            continue
+        if self_collision_report(robot, q0[None]).collision:
+            continue
+        report = check_clearance(robot, model.scene, q0[None])
+        if report is not None and report.collision:
+            continue
+        out.append(q0)
+    return out
+
+
+def started_at(family: Any, q0: np.ndarray) -> Any:
+    """``family`` with its joint target at state 0 moved to q0 (n,) (others as they are)."""
+    if family.name != JointTargetFamily.name or 0 not in family.first:
+        return family
+    targets = np.array(family.targets, dtype=float)
+    targets[family.first == 0] = q0
+    return JointTargetFamily(family.first, targets, 1.0 / np.asarray(family.whitening))
+
+
+def _focus(closest: Feasibility | None) -> int | None:
+    """The state where the closest optimum failed: the skill's worst state when it left the
+    tube, else the obstacle contact's (None: neither)."""
+    if closest is None:
+        return None
+    skill = closest.reports.get("skill_tube")
+    if skill is not None and not getattr(skill, "within_tube", True):
+        return int(skill.worst)
+    contact = closest.reports.get(ObstacleFamily.name)
+    if contact is not None and getattr(contact, "nearest", None) is not None:
+        return int(round(float(contact.nearest.index)))
+    return None
 
 
 def check_context(model: Model, final: bool = False) -> CheckContext:

@@ -7,7 +7,8 @@
   becomes its current residual, its noise is divided by the configuration's ``stiffen`` at its
   first update (and its shifts by stiffen^2, so lambda = mu s is the same multiplier), a family
   the checks did not name is left as it is, a lazy family joins unshifted at its configured
-  noise; the schedule's constants are the ``constraints`` group of PlannerConfig.
+  noise and is stiffened at its first update after joining; the schedule's constants are the
+  ``constraints`` group of PlannerConfig.
 """
 from __future__ import annotations
 
@@ -94,7 +95,9 @@ def test_one_multiplier_update(setup):
     lazy = {name: (lambda name=name: next(f for f in families if f.name == name))
             for name in ("self_collision", "skill_tube")}
     previous: dict[str, float] = {}
-    new = augmented(problem, theta, ["obstacle", "self_collision"], previous, lazy)
+    # the violated families alone: no multiplier update nor margin relaxed elsewhere
+    plain = ConstraintConfig(update_active=False, margin_floor=1.0)
+    new = augmented(problem, theta, ["obstacle", "self_collision"], previous, lazy, plain)
     STIFFEN, PROGRESS = ConstraintConfig().stiffen, ConstraintConfig().progress
 
     obstacle, updated = problem.family("obstacle"), new.family("obstacle")
@@ -107,13 +110,13 @@ def test_one_multiplier_update(setup):
         assert new.family(name) is problem.family(name)
     joined = new.family("self_collision")
     assert isinstance(joined, SelfCollisionFamily) and joined.shift is None
-    assert previous["self_collision"] == np.inf
+    assert previous["self_collision"] == 0.0     # its first update will stiffen it
     np.testing.assert_array_equal(new.initial, theta)
 
     # a second update that made progress (violation below PROGRESS x the last) keeps the
     # noise: the shift accumulates the residual of the shifted hinge, i.e. max(0, g + s)
     previous["obstacle"] = 1e9
-    again = augmented(new, theta, ["obstacle"], previous, lazy)
+    again = augmented(new, theta, ["obstacle"], previous, lazy, plain)
     np.testing.assert_allclose(again.family("obstacle").whitening, updated.whitening)
     np.testing.assert_allclose(again.family("obstacle").shift,
                                dense_residual(updated, robot, theta))
@@ -121,8 +124,14 @@ def test_one_multiplier_update(setup):
     assert again.family(PostureFamily.name) is new.family(PostureFamily.name)
     assert not again.has("skill_tube")
 
+    # the joined family's first update stiffens it, whatever its violation (issue 27: a lazy
+    # constraint at its configured noise lost against the stiffened obstacle hinges)
+    stiffer = augmented(new, theta, ["self_collision"], dict(previous), lazy, plain)
+    np.testing.assert_allclose(stiffer.family("self_collision").whitening,
+                               STIFFEN * joined.whitening)
+
     # the skill's tube joins (a lazy constraint), the rest as it was
-    tube = augmented(again, theta, ["skill_tube"], previous, lazy)
+    tube = augmented(again, theta, ["skill_tube"], previous, lazy, plain)
     assert tube.family("skill_tube").shift is None
     for name in ("obstacle", PostureFamily.name, "self_collision"):
         assert tube.family(name) is again.family(name)
@@ -132,6 +141,32 @@ def test_one_multiplier_update(setup):
     assert config.constraints.stiffen == 2.0 and config.optimizer == PlannerConfig().optimizer
     softer = augmented(problem, theta, ["obstacle"], {}, lazy, config.constraints)
     np.testing.assert_allclose(softer.family("obstacle").whitening, 2.0 * obstacle.whitening)
+
+
+def test_families_that_hold_give_way_to_one_that_fails(setup):
+    """With ``update_active`` (the default), a constraint family the checks did not name but
+    whose hinges are active keeps its noise and takes its current residuals as shifts (its
+    multipliers are updated as the textbook augmented Lagrangian does), and the obstacle
+    hinges' safety distance halves (down to ``margin_floor``) while another constraint fails;
+    cost families are the same objects."""
+    robot, theta, families, _ = setup
+    kept = [f for f in families if f.name not in ("self_collision", "skill_tube")]
+    problem = PlanningProblem(robot, len(theta), kept, [], theta)
+    new = augmented(problem, theta, ["joint_limits"], {}, {}, ConstraintConfig())
+    for name in ("workspace_gp", "joint_gp", PostureFamily.name):
+        assert new.family(name) is problem.family(name)
+    before, after = problem.family("obstacle"), new.family("obstacle")
+    np.testing.assert_allclose(after.whitening, before.whitening)
+    assert after.epsilon == pytest.approx(max(0.5 * before.epsilon, 0.005))
+    np.testing.assert_allclose(after.shift, dense_residual(before.relaxed(0.005), robot, theta))
+    orientation = new.family("orientation")
+    np.testing.assert_allclose(orientation.whitening, problem.family("orientation").whitening)
+    np.testing.assert_allclose(orientation.shift,
+                               dense_residual(problem.family("orientation"), robot, theta))
+    # at the floor the margin stays
+    floor = ConstraintConfig(margin_floor=before.epsilon)
+    assert augmented(problem, theta, ["joint_limits"], {}, {}, floor).family("obstacle") \
+        .epsilon == before.epsilon
 
 
 def test_constraint_config_defaults_and_checks():
