@@ -92,9 +92,11 @@ def test_a_requested_scale_and_a_maximum_duration(jaco, slow, fast):
     np.testing.assert_allclose(jaco.fk(doubled.q), jaco.fk(result.q), atol=0.01)   # same path
     _, fast_prior, _ = fast
     duration = float(fast_prior.time[-1])
+    # 1.2x the demonstrated duration for a skill demonstrated 3x too fast (at 2x the planner
+    # finds a motion within the limits on the skill's tube: that is a success, not this test)
     bounded = plan(fast_prior, jaco, None, np.asarray(fast_prior.mean)[0, :3],
-                   max_duration=2.0 * duration)
-    assert bounded.time_scale <= 2.0 + 1e-12
+                   max_duration=1.2 * duration)
+    assert bounded.time_scale <= 1.2 + 1e-12
     assert not bounded.success
     assert any("max_duration" in reason for reason in bounded.reasons), bounded.reasons
 

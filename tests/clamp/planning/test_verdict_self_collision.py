@@ -14,7 +14,7 @@ import fidelity_checks as fc  # noqa: E402
 from clamp import PlannerConfig, plan  # noqa: E402
 
 REPRODUCERS = {"sawyer": ([-0.093, 0.107, 0.165], ("right_l0", "right_l4_2")),
-               "jaco": ([-0.025, -0.05, 0.113], ("j2s6s200_link_1", "j2s6s200_link_6"))}
+               "jaco": ([-0.025, -0.05, 0.113], ("j2s6s200_link_2", "j2s6s200_link_6"))}
 NO_REPAIR = PlannerConfig().with_(constraint_rounds=0)
 
 
@@ -22,8 +22,9 @@ NO_REPAIR = PlannerConfig().with_(constraint_rounds=0)
 def test_a_plan_through_itself_fails_naming_both_links(arm, prior, request):
     robot = request.getfixturevalue(arm)
     goal, links = REPRODUCERS[arm]
+    # at the demonstrations' speed (time_scale 1): the reproducer as it was found
     result = plan(prior, robot, None, prior.mean[0, :3], goal=goal, config=NO_REPAIR,
-                  covariance=False)
+                  covariance=False, time_scale=1.0)
     assert "self" in fc.GeometryCheck(robot).first_contacts(result.q)     # independently
     assert not result.success
     reason = next(r for r in result.reasons if r.startswith("self-collision"))
