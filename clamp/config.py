@@ -168,10 +168,10 @@ class ConstraintConfig:
     #: other inverse-kinematics solutions of an end-effector start tried after the detours
     #: (:func:`clamp.planning.pipeline.other_branches`; 0: none)
     ik_branches: int = 2
-    #: time of the constrained solve, in units of its first solve's (the problem as built,
-    #: judged), after which no further start is tried past the first restart (a time budget
-    #: that scales with the problem and the machine's load; None: unbounded; see
-    #: docs/decisions.md#detour-search)
+    #: work of the constrained solve (solver trials and judged optima: counted, not timed, so a
+    #: plan is the same at any load), in units of the larger of its first solve's (the problem
+    #: as built, judged) and its first restart's first solve's, after which no further start is
+    #: tried past the first restart (None: unbounded; see docs/decisions.md#detour-search)
     search_budget: float | None = 8.0
 
 

@@ -34,8 +34,9 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
 
 Candidates: the problem as built, then the restarts the caller generates from what the loop
 found so far (the untied problem, the skill's end as a goal, the detour search, a straight
-line); past the first restart, none begins once the loop has taken ``search_budget`` times
-the longer of its first candidate's time and its first restart's first solve (see
+line); past the first restart, none begins once the loop's work (solver trials and judged
+optima, counted rather than timed: the same plan at any load) is ``search_budget`` times the
+larger of its first candidate's and its first restart's first solve's (see
 docs/decisions.md#detour-search). The
 planner gives its tied problem (obstacles, tied to the free plan) one solve (``first_rounds``
 0) and the restarts the rounds (see docs/decisions.md#the-tied-problems-one-solve). Once
@@ -263,7 +264,7 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
     def run(candidate: Candidate, warm: WarmStart | None, budget: int) -> int | None:
         """The outer loop on one candidate; the round it became feasible, or None."""
         nonlocal initial_error
-        clock = time.perf_counter()
+        begun = work()
         current = candidate.problem
         carried = [lazy[name]() for name in sorted(joined) if not current.has(name)]
         if carried:        # a constraint that joined on an earlier start holds from the start
@@ -288,7 +289,7 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
             out, verdict = solve(candidate.name, r, current, warm, soft)
             soft = None
             if r == 0 and len(unit) == 1:        # the first restart's first solve (from scratch)
-                unit.append(time.perf_counter() - clock)
+                unit.append(work() - begun)
             if verdict.ok:
                 return r
             joins = budget > 0 and any(name in lazy and not current.has(name)
@@ -309,18 +310,22 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
                                 config.constraints)
             warm, r = WarmStart(), r + 1
 
-    #: [s] the problem as built's solve (judged) and the first restart's first solve (from
-    #: scratch): the budget's unit is the longer
-    unit: list[float] = []
+    def work() -> int:
+        """The loop's work so far: solver trials (linearisations) and judged optima; counted,
+        not timed, so that the budget gives the same plan on any machine at any load."""
+        return totals["trials"] + len(attempts)
+
+    #: the work of the problem as built's solve (judged) and of the first restart's first solve
+    #: (from scratch): the budget's unit is the larger
+    unit: list[int] = []
 
     def within_budget() -> bool:
         limit = config.constraints.search_budget
-        return (limit is None or not unit
-                or time.perf_counter() - started <= limit * max(unit))
+        return limit is None or not unit or work() <= limit * max(unit)
 
     first_ok = run(Candidate("configured", problem), warm_start,
                    rounds if first_rounds is None else min(int(first_rounds), rounds))
-    unit.append(time.perf_counter() - started)
+    unit.append(work())
     if first_ok is None and rounds > 0 and not _faulted(found[-1][2]):
         for k, candidate in enumerate(restarts(progress)):
             if progress.feasible >= config.constraints.wanted:

@@ -110,7 +110,7 @@ def lasa_problem(shape: str, held: int):
     from pathlib import Path
     from scenes import Demonstrations
     from scenes.datasets import DATASETS_ENV
-    root = Path(os.environ.get(DATASETS_ENV) or Path(__file__).resolve().parents[2] / "shared"
+    root = Path(os.environ.get(DATASETS_ENV) or Path(__file__).resolve().parents[4] / "shared"
                 / "datasets")
     if not (root / LASA_FILE).is_file():
         pytest.skip(f"{LASA_FILE} not found in ../shared/datasets (set SKILLPLAN_DATASETS)")
