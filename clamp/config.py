@@ -174,7 +174,7 @@ class ConstraintConfig:
     #: judged), after which no further start is tried past the first restart (a time budget
     #: that scales with the problem and the machine's load; None: unbounded; see
     #: docs/decisions.md#detour-search)
-    search_budget: float | None = 8.0
+    search_budget: float | None = 16.0
 
 
 @dataclass(frozen=True)
