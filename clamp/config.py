@@ -172,7 +172,7 @@ class ConstraintConfig:
     #: plan is the same at any load), in units of the larger of its first solve's (the problem
     #: as built, judged) and its first restart's first solve's, after which no further start is
     #: tried past the first restart (None: unbounded; see docs/decisions.md#detour-search)
-    search_budget: float | None = 8.0
+    search_budget: float | None = 16.0
 
 
 @dataclass(frozen=True)

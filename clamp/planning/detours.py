@@ -9,13 +9,12 @@ path (:func:`blocking_obstacles`), the path moved over, left, right and under it
 two heights (the least that takes the path past the obstacle's face by the clearance, and
 that plus :data:`SECOND_HEIGHT`), faded in and out over the states near the obstacle; ranked
 in the workspace before any solve (:func:`rank_detours`: the hand point's own clearance,
-the skill's tube, the arm's reach), best first. :func:`detour_restarts` turns one path into a
+the skill's tube, the arm's reach), best first. :func:`detour_trajectory` turns one path into a
 joint trajectory (inverse kinematics seeded at the start). :func:`detour_paths` is the older
-pair (pushed away from the obstacle's centre, lifted over it).
+pair (pushed away from an obstacle's bounding sphere, lifted over it), which the search
+replaced: it left the skill's tube by construction.
 """
 from __future__ import annotations
-
-from collections.abc import Iterable
 
 import numpy as np
 
@@ -61,25 +60,6 @@ def detour_paths(path: np.ndarray, centre: np.ndarray, radius: float, clearance:
     for name, direction in (("detour_away", away), ("detour_over", np.array([0.0, 0.0, 1.0]))):
         out.append((name, path + amplitude * window[:, None] * direction))
     return out
-
-
-def bounding_sphere(obstacle) -> tuple[np.ndarray, float]:
-    """Centre (3,) and radius [m] of a ball containing a scene obstacle (from its AABB)."""
-    box = np.asarray(obstacle.aabb(), dtype=float)
-    return 0.5 * (box[0] + box[1]), 0.5 * float(np.linalg.norm(box[1] - box[0]))
-
-
-def detour_restarts(robot, path: np.ndarray, q_start: np.ndarray, dt: float, obstacle,
-                    clearance: float, index: float, tolerance: float
-                    ) -> Iterable[tuple[str, np.ndarray]]:
-    """Joint-state trajectories (T, 2n) of :func:`detour_paths` around ``obstacle`` (a scene
-    obstacle met near state ``index``), by inverse kinematics seeded at q_start (n,); generated
-    lazily (each costs an IK of the path)."""
-    centre, radius = bounding_sphere(obstacle)
-    for name, detour in detour_paths(path, centre, radius, clearance, index):
-        q = np.array(robot.ik_trajectory(detour, seed=q_start, tol=tolerance).q, dtype=float)
-        q[0] = q_start
-        yield name, np.concatenate([q, joint_velocities(q, dt)], axis=1)
 
 
 def blocking_obstacles(obstacles, path: np.ndarray, tube: np.ndarray,
