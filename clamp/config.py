@@ -136,17 +136,16 @@ class ConstraintConfig:
     ``soft_start`` of :class:`OptimizerConfig`)."""
 
     #: a constraint family's violation must fall below this fraction of the previous round's,
-    #: or its penalty grows
+    #: or its penalty grows (see docs/decisions.md#progress-and-stiffen)
     progress: float = 0.25
     #: noise divisor of a constraint family whose violation did not fall enough (penalty x
     #: stiffen ** 2)
     stiffen: float = 4.0
     #: feasible candidates after which the restarts stop (1: the first feasible restart is
-    #: kept; 2 -> 1 on 80 scene-benchmark Jaco problems (Qc 1e-3, 3 rounds): the same
-    #: completions and path measures, planning time p95 13.6x -> 10.8x the free plan's)
+    #: kept; see docs/decisions.md#wanted)
     wanted: int = 1
-    #: relative error decrease below which the soft first solve stops (after one such step;
-    #: 3e-2 took fewer iterations than 1e-2 and 3e-3 on box_closing with random boxes, both arms)
+    #: relative error decrease (dimensionless) below which the soft first solve stops, after
+    #: one such step (see docs/decisions.md#soft_start_tolerance)
     soft_start_tolerance: float = 3e-2
     #: extra updates a start gets, past its rounds, while every check it fails is within its
     #: family's ``near`` of passing (a hair short: 1.5 mm of depth, 3 % of a limit, 10 % of
