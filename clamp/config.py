@@ -93,7 +93,7 @@ class ModelConfig:
 class OptimizerConfig:
     """How the graph is optimised (see :mod:`clamp.optim.solver` for the fast solver's rules)."""
 
-    #: one of :data:`clamp.optim.optimizers.OPTIMIZERS` ("fast": our Levenberg-Marquardt on the
+    #: one of :data:`OPTIMIZERS` ("fast": our Levenberg-Marquardt on the
     #: state array; the others GTSAM's optimizers on ``problem.graph()``)
     optimizer: str = "fast"
     #: "prior_mean" (IK of the prior mean moved to the start) or "straight_line" (joint space)

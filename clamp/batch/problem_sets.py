@@ -26,9 +26,7 @@ from clamp.batch.problems import Problem, make_problem
 from clamp.prior.linear_gaussian import check_prior
 from clamp.validation import ERRORS, as_count, as_scalar
 from skillplan.validation import as_generator, as_instance, as_path, as_sequence, as_seed
-from clamp.batch.runner import load_prior
 from scenes import Box, Cylinder, Sphere
-from scenes import Box, Sphere
 from robots.collision_check import CollisionChecker
 from scenes.coal_shapes import coal_obstacles
 from clamp.batch.runner import load_prior, load_robot

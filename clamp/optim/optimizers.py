@@ -1,8 +1,8 @@
 """The optimizers a planning problem can be solved with, in one place.
 
-:data:`OPTIMIZERS`: "fast" (:func:`clamp.optim.solver.levenberg_marquardt` on the state array) and
+:data:`clamp.config.OPTIMIZERS`: "fast" (:func:`clamp.optim.solver.levenberg_marquardt` on the state array) and
 GTSAM's Levenberg-Marquardt, Dogleg and Gauss-Newton on ``problem.graph()``. Adding or swapping
-an optimizer touches this file only. GTSAM runs its own loop (``optimize()``: its iterations,
+an optimizer touches this file and its name in clamp.config. GTSAM runs its own loop (``optimize()``: its iterations,
 its convergence rule); its iteration hook logs each iteration (debug level) and advances a
 progress bar (:mod:`skillplan.progress`, drawn when an optimisation lasts more than
 :data:`PROGRESS_DELAY` seconds).
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import gtsam
 import numpy as np
 
-from clamp.config import OPTIMIZERS, PlannerConfig, as_config
+from clamp.config import PlannerConfig, as_config
 from clamp.errors import ClampTypeError
 from clamp.graph.keys import values_to_states
 from clamp.graph.problem import PlanningProblem

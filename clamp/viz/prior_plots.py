@@ -17,7 +17,7 @@ import os
 import numpy as np
 from matplotlib.figure import Figure
 
-from clamp.errors import ClampTypeError, ShapeError
+from clamp.errors import ShapeError
 from clamp.prior.linear_gaussian import LinearGaussianPrior, check_prior, envelope_quantile
 from clamp.validation import as_array, as_count
 from skillplan.command_line import save_figure

@@ -29,7 +29,6 @@ from typing import Any
 import numpy as np
 
 from clamp.errors import AnimationError, ClampTypeError, InvalidParameterError
-from skillplan.validation import as_shaped
 from scenes import Box, Capsule, Cylinder, Sphere, TriangleMesh
 from clamp.planning.result import PlanResult
 from skillplan.validation import as_instance, as_shaped
