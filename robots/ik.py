@@ -76,15 +76,8 @@ def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float,
         active = np.flatnonzero(error > tol)
         if active.size == 0 or (until_any and active.size < len(error)):
             break
-        qa, ja, ra, la = q[active], jac[active], residual[active], lam[active]
-        gradient = np.einsum("bin,bi->bn", ja, ra)                  # descent direction J^T e
-        blocked = ((qa <= lower + 1e-12) & (gradient < 0)) | ((qa >= upper - 1e-12) & (gradient > 0))
-        jf = ja * ~blocked[:, None, :]
-        system = jf @ jf.transpose(0, 2, 1) + (la ** 2)[:, None, None] * eye
-        step = np.einsum("bin,bi->bn", jf, np.linalg.solve(system, ra[..., None])[..., 0])
-        size = np.abs(step).max(axis=1, keepdims=True)
-        step *= np.minimum(1.0, max_step / np.maximum(size, 1e-300))
-        q_new = np.clip(qa + step, lower, upper)
+        la = lam[active]
+        q_new = _step(q[active], jac[active], residual[active], la, lower, upper, eye, max_step)
         pos_new, jac_new = _position_jacobian(robot, ee, q_new)
         res_new = targets[active] - pos_new
         err_new = np.linalg.norm(res_new, axis=1)
@@ -95,6 +88,20 @@ def damped_least_squares(robot, targets: np.ndarray, q0: np.ndarray, tol: float,
     return q, error
 
 
+def _step(q, jac, residual, lam, lower, upper, eye, max_step):
+    """The damped least-squares step of problems q (B, n): joints at a limit the step would push
+    through held, the step scaled to at most ``max_step`` rad, the result projected onto the
+    limits (the new configurations (B, n))."""
+    gradient = np.einsum("bin,bi->bn", jac, residual)                  # descent direction J^T e
+    blocked = ((q <= lower + 1e-12) & (gradient < 0)) | ((q >= upper - 1e-12) & (gradient > 0))
+    jf = jac * ~blocked[:, None, :]
+    system = jf @ jf.transpose(0, 2, 1) + (lam ** 2)[:, None, None] * eye
+    step = np.einsum("bin,bi->bn", jf, np.linalg.solve(system, residual[..., None])[..., 0])
+    size = np.abs(step).max(axis=1, keepdims=True)
+    step *= np.minimum(1.0, max_step / np.maximum(size, 1e-300))
+    return np.clip(q + step, lower, upper)
+
+
 def _single(robot, ee, targets, q, jac, residual, error, lam, eye, tol, max_iter, max_step):
     """:func:`damped_least_squares` of one problem (B = 1): the same steps on the same (1, ...)
     arrays, without the bookkeeping of which problems are still active (the many small calls
@@ -103,14 +110,7 @@ def _single(robot, ee, targets, q, jac, residual, error, lam, eye, tol, max_iter
     for _ in range(max_iter):
         if not error[0] > tol:
             break
-        gradient = np.einsum("bin,bi->bn", jac, residual)                  # descent direction J^T e
-        blocked = ((q <= lower + 1e-12) & (gradient < 0)) | ((q >= upper - 1e-12) & (gradient > 0))
-        jf = jac * ~blocked[:, None, :]
-        system = jf @ jf.transpose(0, 2, 1) + (lam ** 2)[:, None, None] * eye
-        step = np.einsum("bin,bi->bn", jf, np.linalg.solve(system, residual[..., None])[..., 0])
-        size = np.abs(step).max(axis=1, keepdims=True)
-        step *= np.minimum(1.0, max_step / np.maximum(size, 1e-300))
-        q_new = np.clip(q + step, lower, upper)
+        q_new = _step(q, jac, residual, lam, lower, upper, eye, max_step)
         pos_new, jac_new = _position_jacobian(robot, ee, q_new)
         res_new = targets - pos_new
         err_new = np.linalg.norm(res_new, axis=1)
