@@ -153,6 +153,11 @@ def test_the_arm_is_a_viser_urdf_following_set_time(planned):
         np.testing.assert_allclose(ee, result.ee_path[-1], atol=1e-6)
 
 
+def arm_drawn(image: np.ndarray) -> bool:
+    """The arm is drawn: many dark grey pixels on the light page."""
+    return int((image.max(axis=2) < 120).sum()) > 3000
+
+
 @pytest.mark.skipif(CHROMIUM is None, reason=MISSING)
 def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
     demos, result = planned
@@ -160,14 +165,13 @@ def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
     with clamp.show(result, demonstrations=demos) as viewer:
         port = viewer.port
         viewer.set_time(0.5 * viewer.duration)
-        first = screenshot(viewer.url, tmp_path / "before.png", (1000, 700))
+        first = screenshot(viewer.url, tmp_path / "before.png", (1000, 700), ready=arm_drawn)
         new = viewer.move_obstacle(0, moved_box_centre(result))
-        second = screenshot(viewer.url, tmp_path / "after.png", (1000, 700))
+        second = screenshot(viewer.url, tmp_path / "after.png", (1000, 700), ready=arm_drawn)
     assert port_is_closed(port) and wait_for_threads(before) == set()
     assert np.max(np.abs(new.q - result.q)) > 0.01
     assert first.shape == second.shape == (700, 1000, 3)
-    # the arm is drawn: many dark grey pixels on the light page
-    assert (first.max(axis=2) < 120).sum() > 3000 and (second.max(axis=2) < 120).sum() > 3000
+    assert arm_drawn(first) and arm_drawn(second)
     changed = np.abs(first - second).max(axis=2) > 40
     assert changed.sum() > 1000, "the page looks the same after the box moved and the plan changed"
     if os.environ.get("SKILLPLAN_VIEWER_PNG"):           # a copy to look at (e.g. /tmp/viewer_urdf.png)
