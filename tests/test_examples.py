@@ -76,7 +76,7 @@ def test_export_and_retime_within_limits_on_both_arms(runs):
     from robots import JointTrajectory, load_robot
     from robots.retiming import toppra_available
     from robots.trajectory import finite_difference
-    from test_retiming import ee_distance_to_path
+    from tests.robots.test_retiming import ee_distance_to_path
     folder = Path(re.search(r"wrote (.*)", runs["export_and_retime"].stdout).group(1).strip())
     for name in ("jaco", "sawyer"):
         robot = load_robot(name)
