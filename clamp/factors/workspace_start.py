@@ -2,7 +2,10 @@
 
 With the learned prior this is (mean0, cov0) from the demonstrations' first states. When the
 skill is reproduced from a new start position, :func:`shifted_start_mean` moves the position
-part of the mean to the requested start and keeps the learned initial velocity.
+part of the mean to the requested start and the velocity part to the velocity the learned
+initial state expects there (the Gaussian conditioned on its position): with the position held
+at the start, the factor's minimiser is then the learned prior conditioned on the start, as
+:func:`clamp.condition_prior` gives it.
 """
 from __future__ import annotations
 
@@ -14,11 +17,16 @@ from .family import Family, Linearization, covariance_root
 from .states import StateWindow
 
 
-def shifted_start_mean(mean0: np.ndarray, start_position: np.ndarray) -> np.ndarray:
-    """Learned initial mean (6,) with its position replaced by ``start_position`` (3,) [m]."""
-    mean = np.array(mean0, dtype=float, copy=True)
-    mean[:3] = start_position
-    return mean
+def shifted_start_mean(mean0: np.ndarray, cov0: np.ndarray, start_position: np.ndarray
+                       ) -> np.ndarray:
+    """Learned initial state N(mean0 (6,), cov0 (6, 6)) conditioned on its position being
+    ``start_position`` (3,) [m]: the mean (6,) [m, m/s] with that position and the velocity
+    mean0[3:] + cov0[3:, :3] cov0[:3, :3]^-1 (start_position - mean0[:3])."""
+    mean0 = np.asarray(mean0, dtype=float)
+    cov0 = np.asarray(cov0, dtype=float)
+    offset = np.asarray(start_position, dtype=float) - mean0[:3]
+    gain = np.linalg.lstsq(cov0[:3, :3], cov0[:3, 3:], rcond=1e-12)[0].T    # (3, 3)
+    return np.concatenate([mean0[:3] + offset, mean0[3:] + gain @ offset])
 
 
 class WorkspaceStartFamily(Family):

@@ -94,7 +94,7 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
     families: list[Family] = [WorkspaceGPFamily(prior.Phi, prior.u, prior.Q)]
     if model.workspace_start:
         families.append(WorkspaceStartFamily(
-            shifted_start_mean(np.asarray(prior.mean0), request.start_position),
+            shifted_start_mean(prior.mean0, prior.cov0, request.start_position),
             np.asarray(prior.cov0)))
     families.append(JointGPFamily(T, n, dt, model.Qc))
     start = request.start

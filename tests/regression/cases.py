@@ -43,16 +43,11 @@ def _box_closing():
     return demos, learn_prior(demos, start_shrinkage=0.0)
 
 
-def run_case(name: str):
-    """Plan case ``name`` with the current planner; None when its data set is missing."""
-    from clamp import plan
+def case_inputs(name: str) -> dict | None:
+    """The arguments of ``clamp.plan`` for box_closing case ``name`` (not jaco_boundary); None
+    when its data set is missing."""
     from robots import load_robot
     from scenes import Box, Scene
-    if name == "jaco_boundary":
-        from tlgc.demo_clamp_cylinder import run_clamp_cylinder_demo
-        # planned on the plain chain as well: start_shrinkage=0.0 gives its final error to 1e-12
-        # (with the default "auto" blend of fading shapes the plan moves 13 mm, error +0.04 %)
-        return run_clamp_cylinder_demo(config=_config(), start_shrinkage=0.0).with_factor
     data = _box_closing()
     if data is None:
         return None
@@ -73,4 +68,17 @@ def run_case(name: str):
         sdf = scene.sdf(0.01)   # the fixtures' obstacle distance: the 1 cm grid of the time
     if kind == "goal":
         goal = np.asarray(prior.mean)[-1, :3] + np.array([0.0, 0.03, 0.0])
-    return plan(prior, robot, scene, start, goal=goal, config=_config(), sdf=sdf)
+    return dict(prior=prior, robot=robot, scene=scene, start=start, goal=goal, config=_config(),
+                sdf=sdf)
+
+
+def run_case(name: str):
+    """Plan case ``name`` with the current planner; None when its data set is missing."""
+    from clamp import plan
+    if name == "jaco_boundary":
+        from tlgc.demo_clamp_cylinder import run_clamp_cylinder_demo
+        # planned on the plain chain as well: start_shrinkage=0.0 gives its final error to 1e-12
+        # (with the default "auto" blend of fading shapes the plan moves 13 mm, error +0.04 %)
+        return run_clamp_cylinder_demo(config=_config(), start_shrinkage=0.0).with_factor
+    inputs = case_inputs(name)
+    return None if inputs is None else plan(**inputs)
