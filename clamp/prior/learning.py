@@ -190,8 +190,8 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
         sub = None if weights is None else weights[index]
         return (*fit_transitions(states[index], groups, ridge, jitter, sub)[:2],
                 *_initial_state(states[index], groups, jitter, sub))
-    Phi, u, info["start_shrinkage"] = shrink_start_offsets(states, time, Phi, u, mean0, cov0,
-                                                           as_shrinkage(start_shrinkage), refit)
+    Phi, u, cov0, info["start_shrinkage"] = shrink_start_offsets(
+        states, time, Phi, u, mean0, cov0, as_shrinkage(start_shrinkage), refit)
     return prior_class(time, Phi, u, Q, mean0, cov0, kind=kind, info={**info, "ridge": ridge},
                        state_names=state_names)
 

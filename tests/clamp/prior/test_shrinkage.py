@@ -86,6 +86,28 @@ def test_full_weight_carries_a_moved_start_as_the_fading_target():
     assert np.linalg.norm(moved[-1] - demos.positions[:, -1].mean(axis=0)) < 1e-3
 
 
+def test_the_initial_velocity_moves_with_the_start_as_the_fading_target():
+    """The velocity a moved start implies is the target's (none: the demonstrations' mean
+    initial velocity), not the per-step regression of the first velocities on the first
+    positions (from 3-10 samples); with a weight w, (1 - w) of that regression; the initial
+    covariance stays positive definite."""
+    demos = converging(num_demos=4)
+    plain = learn_prior(demos, start_shrinkage=0.0)
+    prior = learn_prior(demos, start_shrinkage=1.0)
+    offset = np.array([0.02, -0.01, 0.0])
+    conditioned = condition_prior(prior, [(0, prior.mean[0, :3] + offset)]).mean[0]
+    regressed = condition_prior(plain, [(0, plain.mean[0, :3] + offset)]).mean[0, 3:] \
+        - plain.mean[0, 3:]
+    assert np.linalg.norm(regressed) > 1e-3                                       # [m/s]
+    np.testing.assert_allclose(conditioned[3:], prior.mean[0, 3:], atol=1e-3 * np.linalg.norm(regressed))
+    half = learn_prior(demos, start_shrinkage=0.5)
+    moved = condition_prior(half, [(0, half.mean[0, :3] + offset)]).mean[0, 3:] - half.mean[0, 3:]
+    np.testing.assert_allclose(moved, 0.5 * regressed, atol=1e-2 * np.linalg.norm(regressed))
+    # the positions' covariance kept (up to the lift back to the learner's jitter floor)
+    np.testing.assert_allclose(prior.cov0[:3, :3], plain.cov0[:3, :3], rtol=1e-2, atol=1e-7)
+    assert np.linalg.eigvalsh(prior.cov0).min() > 0.0
+
+
 def test_two_demonstrations_take_the_fading_response():
     demos = make_demonstrations("box_closing", num_demos=2, num_points=40, seed=1)
     with pytest.warns(Warning):
