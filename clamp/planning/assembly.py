@@ -20,6 +20,7 @@ from clamp.planning.initialisation import (Initialisation, joint_velocities, pri
                                   straight_line_initialisation)
 from clamp.graph.keys import state_key
 from clamp.optim.optimizers import optimize
+from clamp.optim.solver import WarmStart
 from clamp.graph.problem import PlanningProblem
 from clamp.planning.request import Request, Target, as_extras, as_sdf, has_obstacles
 from clamp.validation import as_array
@@ -154,10 +155,17 @@ def split_extras(extra_factors: Sequence[ExtraFactor], T: int, robot: Any = None
 
 
 
-def free_plan(problem: PlanningProblem, config: PlannerConfig) -> np.ndarray:
+def free_plan(problem: PlanningProblem, config: PlannerConfig,
+              start: np.ndarray | None = None) -> np.ndarray:
     """The free plan (T, 2n): ``problem`` without its obstacle hinges, optimised as configured
-    from ``problem.initial`` (one extra solve, ~20 ms)."""
-    return optimize(without_family(problem, ObstacleFamily.name, problem.initial), config).theta
+    from ``problem.initial`` (one extra solve, ~10 ms), or from ``start`` (T, 2n), a guess
+    near it, with the solver's warm-start rule (:class:`~clamp.optim.solver.WarmStart`; a
+    replan: the previous free plan moved to the new targets, one step, ~5 ms)."""
+    if start is None:
+        return optimize(without_family(problem, ObstacleFamily.name, problem.initial),
+                        config).theta
+    return optimize(without_family(problem, ObstacleFamily.name, start), config,
+                    WarmStart()).theta
 
 
 def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,

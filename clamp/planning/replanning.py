@@ -8,8 +8,11 @@ change of the planning prior: the new conditioned prior mean minus the previous 
 when only the scene changed) is added to the previous plan's workspace states, and a few
 per-state Gauss-Newton updates (:class:`clamp.optim.solver.WorkspaceCorrection`) carry the joints
 onto them. The previous plan's own deviations from its prior (around obstacles) are kept.
-With obstacles, the free plan the new plan is tied to is the previous one's when only the
-scene changed (the same free problem, ``PlanInputs.free_plan``), else solved again.
+With obstacles, the free plan the new plan is tied to is the previous one's when the free
+problem is the same (the same targets and configuration: only the scene changed,
+``PlanInputs.free_plan``); else it is solved from the previous free plan
+moved the same way, with the warm-start rule (:func:`clamp.planning.assembly.free_plan`), and
+the moved previous plan follows that solve's correction (:func:`replan_start`).
 The fast solver then runs with its warm-start rule (:class:`clamp.optim.solver.WarmStart`: small
 first damping, one small step or a small predicted decrease stops).
 """
@@ -41,29 +44,32 @@ _KEEP = object()
 CORRECTION_STEPS = 1
 
 
-def shifted_plan(previous: PlanResult, robot: Any, shift: np.ndarray) -> np.ndarray:
-    """The joint states (T, 2n) of ``previous`` (planned for ``robot``) moved so that their
-    workspace states [p, v] gain ``shift`` (T, 6) [m, m/s]: the initial trajectory of a replan
-    (``shift``: the new conditioned prior mean minus the previous one)."""
-    theta = np.hstack([previous.q, previous.qdot])
+def shifted_states(robot: Any, theta: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """Joint states theta (T, 2n) of ``robot`` moved so that their workspace states [p, v]
+    gain ``shift`` (T, 6) [m, m/s] (``theta`` itself when the shift is zero)."""
     if not np.any(shift):
         return theta
-    x = np.hstack([previous.ee_path, previous.ee_velocity])    # the plan's workspace states
+    x, _ = StateWindow(robot, theta).workspace()               # the states' [p, v] (T, 6)
     correction = WorkspaceCorrection(lambda t: StateWindow(robot, t), x + shift,
                                      np.zeros(x.shape + (theta.shape[1],)), CORRECTION_STEPS)
     return correction.apply(theta, np.zeros_like(theta))
 
 
-def replanned_free_plan(inputs: PlanInputs, same: bool) -> dict[str, np.ndarray]:
-    """The free plan of a replan as keywords of :func:`clamp.planning.pipeline.model`: the
-    previous one (``inputs.free_plan``) when ``same`` (the same targets, configuration and
-    extra factors: the same free problem, only the scene changed), ``{"free": it}``; else none
-    (solved again from the replan's initial trajectory, as before: warm-starting it from the
-    previous free plan moved to the new targets was measured slower, Sawyer goal moved 5 cm
-    39 -> 52 ms, the tied solve 1 -> 4 iterations)."""
-    if same and inputs.free_plan is not None:
-        return {"free": inputs.free_plan}
-    return {}
+def replan_start(previous: PlanResult, robot: Any, shift: np.ndarray,
+                 same_free_problem: bool) -> dict[str, np.ndarray]:
+    """Where a replan starts, as keywords of :func:`clamp.planning.pipeline.model`: ``initial``,
+    the previous plan (planned for ``robot``) with its workspace states moved by ``shift``
+    (T, 6) [m, m/s] (the new conditioned prior mean minus the previous one); with a previous
+    free plan (``previous.inputs.free_plan``), ``free``: it, when ``same_free_problem`` (the
+    same targets and configuration: the same free problem); else ``free_start``: it moved the same way, the guess the new free
+    plan is solved from (warm-start rule, ~1 step instead of a solve from the initial
+    trajectory: box_closing, goal moved 5 cm, the same free plan to 0.001 mm)."""
+    start = {"initial": shifted_states(robot, np.hstack([previous.q, previous.qdot]), shift)}
+    free = previous.inputs.free_plan
+    if free is not None:
+        start.update({"free": free} if same_free_problem
+                     else {"free_start": shifted_states(robot, free, shift)})
+    return start
 
 
 def _same_targets(request: Request, inputs: PlanInputs) -> bool:
@@ -113,11 +119,11 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         else:
             model_prior = planning_prior(prior, robot, request, config)
         shift = np.asarray(model_prior.mean) - np.asarray(inputs.model_prior.mean)
-        free = replanned_free_plan(inputs, same and config == inputs.config)
         replanned = build_model(prior, robot, scene, request, config, inputs.extra_factors,
                                 inputs.sdf if scene is inputs.scene else None,
-                                shifted_plan(previous, robot, shift), model_prior=model_prior,
-                                **free)
+                                model_prior=model_prior,
+                                **replan_start(previous, robot, shift,
+                                               same and config == inputs.config))
         result = plan_model(replanned, covariance, WarmStart(), started)
         result.time_scale = previous.time_scale   # the inputs are the scaled prior and config
         return result

@@ -14,7 +14,7 @@ from clamp import (PlannerConfig, evaluate, make_request, model, plan, plan_mode
 from clamp.planning.reference import planning_prior
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.planning.pipeline import Posterior
-from clamp.planning.replanning import replanned_free_plan, shifted_plan
+from clamp.planning.replanning import replan_start
 from clamp.optim.solver import WarmStart
 from scenes import Box, Scene
 
@@ -103,11 +103,12 @@ def test_replan_equals_its_stages_run_by_hand(prior, arm, request):
         model_prior = (inputs.model_prior if new_goal is goal
                        else planning_prior(prior, robot, asked, config))
         shift = model_prior.mean - inputs.model_prior.mean
-        # the previous free plan when only the scene moved (as replan gives it)
-        free = replanned_free_plan(inputs, new_goal is goal and config == inputs.config)
-        planned = model(prior, robot, scene, asked, config,
-                        initial=shifted_plan(previous, robot, shift), model_prior=model_prior,
-                        **free)
+        # the previous plan moved, and the previous free plan when only the scene moved, else
+        # its moved guess (as replan gives them)
+        start = replan_start(previous, robot, shift,
+                             new_goal is goal and config == inputs.config)
+        assert ("free" in start) == (new_goal is goal) != ("free_start" in start)
+        planned = model(prior, robot, scene, asked, config, model_prior=model_prior, **start)
         solution = solve(planned, warm_start=WarmStart())
         staged = evaluate(planned, solution, posterior(planned, solution, False), {},
                           time.perf_counter())
