@@ -9,8 +9,8 @@ when only the scene changed) is added to the previous plan's workspace states, a
 per-state Gauss-Newton updates (:class:`clamp.optim.solver.WorkspaceCorrection`) carry the joints
 onto them. The previous plan's own deviations from its prior (around obstacles) are kept.
 With obstacles, the free plan the new plan is tied to is the previous one's when the free
-problem is the same (the same targets and configuration: only the scene changed,
-``PlanInputs.free_plan``); else it is solved from the previous free plan
+problem is the same (the same targets and model configuration: only the scene or the
+solver's settings changed, e.g. ``PlannerConfig.fast()``; ``PlanInputs.free_plan``); else it is solved from the previous free plan
 moved the same way, with the warm-start rule (:func:`clamp.planning.assembly.free_plan`), and
 the moved previous plan follows that solve's correction (:func:`replan_start`).
 The fast solver then runs with its warm-start rule (:class:`clamp.optim.solver.WarmStart`: small
@@ -61,7 +61,8 @@ def replan_start(previous: PlanResult, robot: Any, shift: np.ndarray,
     the previous plan (planned for ``robot``) with its workspace states moved by ``shift``
     (T, 6) [m, m/s] (the new conditioned prior mean minus the previous one); with a previous
     free plan (``previous.inputs.free_plan``), ``free``: it, when ``same_free_problem`` (the
-    same targets and configuration: the same free problem); else ``free_start``: it moved the same way, the guess the new free
+    same targets and ``config.model``: the same free problem, solved as the previous
+    configuration asked; the solver's settings only say how closely); else ``free_start``: it moved the same way, the guess the new free
     plan is solved from (warm-start rule, ~1 step instead of a solve from the initial
     trajectory: box_closing, goal moved 5 cm, the same free plan to 0.001 mm)."""
     start = {"initial": shifted_states(robot, np.hstack([previous.q, previous.qdot]), shift)}
@@ -123,7 +124,7 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
                                 inputs.sdf if scene is inputs.scene else None,
                                 model_prior=model_prior,
                                 **replan_start(previous, robot, shift,
-                                               same and config == inputs.config))
+                                               same and config.model == inputs.config.model))
         result = plan_model(replanned, covariance, WarmStart(), started)
         result.time_scale = previous.time_scale   # the inputs are the scaled prior and config
         return result
