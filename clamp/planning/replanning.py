@@ -45,14 +45,16 @@ CORRECTION_STEPS = 1
 
 
 def shifted_states(robot: Any, theta: np.ndarray, shift: np.ndarray) -> np.ndarray:
-    """Joint states theta (T, 2n) of ``robot`` moved so that their workspace states [p, v]
-    gain ``shift`` (T, 6) [m, m/s] (``theta`` itself when the shift is zero)."""
+    """Joint states theta (K, 2n) of ``robot`` moved so that their workspace states [p, v]
+    gain ``shift`` (K, 6) [m, m/s] (``theta`` itself when the shift is zero). Every state is
+    moved on its own: K may stack several trajectories."""
     if not np.any(shift):
         return theta
-    x, _ = StateWindow(robot, theta).workspace()               # the states' [p, v] (T, 6)
+    x, jacobian = StateWindow(robot, theta).workspace()        # the states' [p, v] (K, 6)
     correction = WorkspaceCorrection(lambda t: StateWindow(robot, t), x + shift,
-                                     np.zeros(x.shape + (theta.shape[1],)), CORRECTION_STEPS)
-    return correction.apply(theta, np.zeros_like(theta))
+                                     np.zeros(x.shape + (theta.shape[1],)), CORRECTION_STEPS - 1)
+    out = correction.update(theta, jacobian, shift)            # the first update: x known
+    return correction.apply(out, np.zeros_like(out)) if CORRECTION_STEPS > 1 else out
 
 
 def replan_start(previous: PlanResult, robot: Any, shift: np.ndarray,
@@ -62,15 +64,17 @@ def replan_start(previous: PlanResult, robot: Any, shift: np.ndarray,
     (T, 6) [m, m/s] (the new conditioned prior mean minus the previous one); with a previous
     free plan (``previous.inputs.free_plan``), ``free``: it, when ``same_free_problem`` (the
     same targets and ``config.model``: the same free problem, solved as the previous
-    configuration asked; the solver's settings only say how closely); else ``free_start``: it moved the same way, the guess the new free
-    plan is solved from (warm-start rule, ~1 step instead of a solve from the initial
-    trajectory: box_closing, goal moved 5 cm, the same free plan to 0.001 mm)."""
-    start = {"initial": shifted_states(robot, np.hstack([previous.q, previous.qdot]), shift)}
+    configuration asked; the solver's settings only say how closely); else ``free_start``:
+    it moved the same way, the guess the new free plan is solved from (warm-start rule, ~1
+    step instead of a solve from the initial trajectory: box_closing, goal moved 5 cm, the
+    same free plan to 0.001 mm)."""
+    theta = np.hstack([previous.q, previous.qdot])
     free = previous.inputs.free_plan
-    if free is not None:
-        start.update({"free": free} if same_free_problem
-                     else {"free_start": shifted_states(robot, free, shift)})
-    return start
+    if free is None or same_free_problem:
+        start = {"initial": shifted_states(robot, theta, shift)}
+        return start if free is None else {**start, "free": free}
+    moved = shifted_states(robot, np.vstack([theta, free]), np.vstack([shift, shift]))
+    return {"initial": moved[:len(theta)], "free_start": moved[len(theta):]}
 
 
 def _same_targets(request: Request, inputs: PlanInputs) -> bool:
