@@ -122,7 +122,7 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         if same and config.model == inputs.config.model:
             model_prior = inputs.model_prior          # same targets: the same conditioned prior
         else:
-            model_prior = planning_prior(prior, robot, request, config)
+            model_prior = planning_prior(prior, robot, request, config, inputs.model_prior)
         shift = np.asarray(model_prior.mean) - np.asarray(inputs.model_prior.mean)
         replanned = build_model(prior, robot, scene, request, config, inputs.extra_factors,
                                 inputs.sdf if scene is inputs.scene else None,

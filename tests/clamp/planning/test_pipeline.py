@@ -102,7 +102,7 @@ def test_replan_equals_its_stages_run_by_hand(prior, arm, request):
         asked = make_request(prior, robot, inputs.start, new_goal, inputs.via_points, config,
                              q_start=previous.q[0])
         model_prior = (inputs.model_prior if new_goal is goal
-                       else planning_prior(prior, robot, asked, config))
+                       else planning_prior(prior, robot, asked, config, inputs.model_prior))
         shift = model_prior.mean - inputs.model_prior.mean
         # the previous plan moved, and the previous free plan when only the scene moved, else
         # its moved guess (as replan gives them)
