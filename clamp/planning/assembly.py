@@ -155,17 +155,24 @@ def split_extras(extra_factors: Sequence[ExtraFactor], T: int, robot: Any = None
 
 
 
+#: accepted steps of the free plan's update from a guess near it (:func:`free_plan`); the tied
+#: solve that follows starts there and judges convergence on the joint problem (box_closing,
+#: goal moved 5 cm: the same plans as from a converged free plan, one linearization less)
+FREE_UPDATE_STEPS = 1
+
+
 def free_plan(problem: PlanningProblem, config: PlannerConfig,
               start: np.ndarray | None = None) -> np.ndarray:
     """The free plan (T, 2n): ``problem`` without its obstacle hinges, optimised as configured
-    from ``problem.initial`` (one extra solve, ~10 ms), or from ``start`` (T, 2n), a guess
-    near it, with the solver's warm-start rule (:class:`~clamp.optim.solver.WarmStart`; a
-    replan: the previous free plan moved to the new targets, one step, ~5 ms)."""
+    from ``problem.initial`` (one extra solve, ~10 ms), or updated from ``start`` (T, 2n), a
+    guess near it, by at most :data:`FREE_UPDATE_STEPS` steps of the solver's warm-start rule
+    (:class:`~clamp.optim.solver.WarmStart`; a replan: the previous free plan moved to the
+    new targets, ~3 ms)."""
     if start is None:
         return optimize(without_family(problem, ObstacleFamily.name, problem.initial),
                         config).theta
-    return optimize(without_family(problem, ObstacleFamily.name, start), config,
-                    WarmStart()).theta
+    return optimize(without_family(problem, ObstacleFamily.name, start),
+                    config.with_(max_iterations=FREE_UPDATE_STEPS), WarmStart()).theta
 
 
 def tied_to_free_plan(problem: PlanningProblem, config: PlannerConfig,
