@@ -160,7 +160,7 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
     to the free plan, :func:`clamp.replan` may give it: ``free`` (T, 2n), the free plan of
     this very request (the previous one's, when only the scene changed); or ``free_start``
     (T, 2n), a guess of it (the previous free plan moved to the new targets): the free plan is
-    then solved from the guess with the warm-start rule, and the tied problem starts from
+    then solved from the guess (as configured), and the tied problem starts from
     ``initial`` moved by that solve's correction of the guess (free plan - ``free_start``):
     the previous plan follows its free plan (it is the new free plan where the previous plan
     was its free plan)."""

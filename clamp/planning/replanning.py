@@ -10,9 +10,11 @@ per-state Gauss-Newton updates (:class:`clamp.optim.solver.WorkspaceCorrection`)
 onto them. The previous plan's own deviations from its prior (around obstacles) are kept.
 With obstacles, the free plan the new plan is tied to is the previous one's when the free
 problem is the same (the same targets and model configuration: only the scene or the
-solver's settings changed, e.g. ``PlannerConfig.fast()``; ``PlanInputs.free_plan``); else it is solved from the previous free plan
-moved the same way, with the warm-start rule (:func:`clamp.planning.assembly.free_plan`), and
-the moved previous plan follows that solve's correction (:func:`replan_start`).
+solver's settings changed, e.g. ``PlannerConfig.fast()``; ``PlanInputs.free_plan``); else it
+is solved as configured from the previous free plan moved the same way
+(:func:`clamp.planning.assembly.free_plan`), and the moved previous plan follows that solve's
+correction (:func:`replan_start`): where the previous plan was its free plan, the tied solve
+starts at the new free plan.
 The fast solver then runs with its warm-start rule (:class:`clamp.optim.solver.WarmStart`: small
 first damping, one small step or a small predicted decrease stops).
 """
@@ -65,9 +67,9 @@ def replan_start(previous: PlanResult, robot: Any, shift: np.ndarray,
     free plan (``previous.inputs.free_plan``), ``free``: it, when ``same_free_problem`` (the
     same targets and ``config.model``: the same free problem, solved as the previous
     configuration asked; the solver's settings only say how closely); else ``free_start``:
-    it moved the same way, the guess the new free plan is solved from (warm-start rule, ~1
-    step instead of a solve from the initial trajectory: box_closing, goal moved 5 cm, the
-    same free plan to 0.001 mm)."""
+    it moved the same way, the guess the new free plan is solved from; the moved previous
+    plan then follows that solve's correction (:func:`clamp.planning.pipeline.build_model`):
+    where the previous plan was its free plan, the tied solve starts at its optimum."""
     theta = np.hstack([previous.q, previous.qdot])
     free = previous.inputs.free_plan
     if free is None or same_free_problem:
