@@ -138,6 +138,8 @@ def test_the_solution_is_the_plan_model_of_plan(prior, jaco):
     (lambda p, r, m, s: model(p, r, None, "request", None), ClampTypeError, "request"),
     (lambda p, r, m, s: model(p, r, None, m.request, None, model_prior=object()), ShapeError,
      "model_prior"),
+    (lambda p, r, m, s: model(p, r, None, m.request, None, free_start=np.zeros((3, 2 * r.n))),
+     ShapeError, "free_start"),
     (lambda p, r, m, s: solve("model"), ClampTypeError, "model"),
     (lambda p, r, m, s: solve(m, warm_start=0.1), ClampTypeError, "warm_start"),
     (lambda p, r, m, s: posterior(m, "solution"), ClampTypeError, "solution"),

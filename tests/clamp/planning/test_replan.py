@@ -63,6 +63,31 @@ def test_replan_after_a_10cm_goal_move_is_as_good_as_a_fresh_plan(prior, jaco):
     assert self_collision_report(jaco, result.q).min_distance > 0.0
 
 
+def test_the_free_plan_is_reused_only_for_the_same_free_problem(prior, jaco):
+    """A moved box with another solver setting (PlannerConfig.fast()) keeps the previous free
+    plan (the same free problem); a moved goal solves a new one from the previous one moved,
+    and where the previous plan was its free plan the replan is the new free plan (the tied
+    solve starts at it: no step)."""
+    goal = prior.mean[-1, :3]
+    previous = plan(prior, jaco, Scene([BOX]), START, goal, covariance=False)
+    assert np.abs(previous.q - previous.inputs.free_plan[:, :jaco.n]).max() < 1e-6
+    moved = Scene([BOX.translated([0.0, 0.05, 0.0])])
+    boxed = replan(previous, scene=moved, config=PlannerConfig.fast(), covariance=False)
+    assert boxed.success, boxed.reasons
+    assert boxed.inputs.free_plan is previous.inputs.free_plan
+    other = replan(previous, scene=moved, config=PlannerConfig().with_(posture_sigma=0.5),
+                   covariance=False)                   # another free problem: solved again
+    assert other.inputs.free_plan is not previous.inputs.free_plan
+    moved_goal = goal + [0.0, 0.05, 0.0]
+    result = replan(previous, goal=moved_goal, covariance=False)
+    fresh = plan(prior, jaco, Scene([BOX]), START, moved_goal, covariance=False)
+    assert result.success and result.iterations == 0, (result.reasons, result.iterations)
+    np.testing.assert_allclose(np.hstack([result.q, result.qdot]), result.inputs.free_plan,
+                               rtol=0, atol=1e-6)
+    assert np.abs(result.inputs.free_plan - fresh.inputs.free_plan)[:, :jaco.n].max() < 0.1
+    assert np.abs(result.ee_path - fresh.ee_path).max() < 0.002
+
+
 def test_warm_start_rule_stops_at_an_optimum_and_near_one(prior, jaco):
     """From the cold solver's optimum the warm-start rule takes no step (the linear model
     predicts less than its tolerance); from a perturbed optimum it ends within a few times the
