@@ -139,10 +139,16 @@ class WorkspaceCorrection:
             residual = target - x
             if k == self.iterations or np.max(np.abs(residual)) <= self.tolerance:
                 break
-            gram = jac @ np.swapaxes(jac, 1, 2) + self.damping
-            step = np.linalg.solve(gram, residual[..., None])[..., 0]
-            out = out + np.einsum("tji,tj->ti", jac, step)
+            out = self.update(out, jac, residual)
         return out
+
+    def update(self, theta: np.ndarray, jacobian: np.ndarray, residual: np.ndarray) -> np.ndarray:
+        """One per-state update of theta (K, 2n) with workspace Jacobian (K, 6, 2n) towards
+        workspace states ``residual`` (K, 6) [m, m/s] away: theta + J^T (J J^T + damping I)^-1
+        residual."""
+        gram = jacobian @ np.swapaxes(jacobian, 1, 2) + self.damping
+        step = np.linalg.solve(gram, residual[..., None])[..., 0]
+        return theta + np.einsum("tji,tj->ti", jacobian, step)
 
 
 def levenberg_marquardt(problem: PlanningProblem, theta0: np.ndarray, *,

@@ -119,14 +119,15 @@ class Posterior:
 def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig | None,
           extra_factors: Sequence[ExtraFactor] = (), sdf: Any = None,
           initial: np.ndarray | None = None, *, model_prior: Any = None,
-          free: np.ndarray | None = None) -> Model:
+          free: np.ndarray | None = None, free_start: np.ndarray | None = None) -> Model:
     """The :class:`Model` of ``request`` (from :func:`clamp.planning.request.make_request` with the same
     prior, robot and config): the learned ``prior`` conditioned on the request's targets
     (``model_prior`` when the caller already has it, e.g. :func:`clamp.replan` with unchanged
     targets), the planner's families and ``extra_factors`` (see :data:`ExtraFactor`), the
     initialisation (``initial``: joint positions (T, n) or states (T, 2n) instead of the
     configured one) and, with obstacles, the tie to the free plan's posture (``free``: that
-    free plan (T, 2n) when known, see :func:`build_model`).
+    free plan (T, 2n) when known; ``free_start``: a guess (T, 2n) of it to solve it from; see
+    :func:`build_model`).
     Other arguments as for :func:`clamp.build`. Raises ClampError subclasses on bad input."""
     check_prior(prior, workspace=True)
     check_robot(robot)
@@ -143,19 +144,26 @@ def model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerC
                          f"{np.shape(getattr(model_prior, 'Phi', None))}")
     T = prior.Phi.shape[0] + 1
     free = None if free is None else as_array(free, "free", (T, 2 * robot.n))
+    if free_start is not None:
+        free_start = as_array(free_start, "free_start", (T, 2 * robot.n))
     return build_model(prior, robot, scene, request, config, tuple(as_extras(extra_factors)), sdf,
-                       initial, model_prior=model_prior, free=free)
+                       initial, model_prior=model_prior, free=free, free_start=free_start)
 
 
 def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: PlannerConfig,
                 extra_factors: tuple[ExtraFactor, ...] = (), sdf: Any = None,
                 initial: np.ndarray | None = None, *, model_prior: Any = None,
-                free: np.ndarray | None = None) -> Model:
+                free: np.ndarray | None = None, free_start: np.ndarray | None = None) -> Model:
     """:func:`model` on checked inputs: ``request`` made by :func:`make_request` for this prior,
     robot and config (the validation at the boundary), ``scene`` a scenes.Scene or None,
     ``extra_factors`` checked by :func:`as_extras`. What :func:`clamp.plan` runs. With the tie
     to the free plan, :func:`clamp.replan` may give it: ``free`` (T, 2n), the free plan of
-    this very request (the previous one's, when only the scene changed)."""
+    this very request (the previous one's, when only the scene changed); or ``free_start``
+    (T, 2n), a guess of it (the previous free plan moved to the new targets): the free plan is
+    then solved from the guess (as configured), and the tied problem starts from
+    ``initial`` moved by that solve's correction of the guess (free plan - ``free_start``):
+    the previous plan follows its free plan (it is the new free plan where the previous plan
+    was its free plan)."""
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
     extra_families, foreign = split_extras(extra_factors, T, robot)
     if model_prior is None:                       # the prior conditioned on the targets
@@ -167,7 +175,11 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
             else given_initialisation(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)
     if config.model.posture_sigma > 0 and problem.has(ObstacleFamily.name):
-        free = free_plan(problem, config) if free is None else free
+        if free is None:
+            free = free_plan(problem, config, free_start)
+            if free_start is not None and initial is not None:
+                problem = problem.with_families(problem.families,
+                                                problem.initial + (free - free_start))
         problem = tied_to_free_plan(problem, config, initial is not None, free)
     else:
         free = None

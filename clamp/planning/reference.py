@@ -23,7 +23,7 @@ import numpy as np
 from clamp.factors import Family, WorkspaceGPFamily, WorkspaceStartFamily
 from clamp.graph.problem import PlanningProblem
 from clamp.optim.solver import levenberg_marquardt
-from clamp.prior.conditioning import conditioned
+from clamp.prior.conditioning import conditioned, retargeted, same_pattern
 
 
 def target_observations(prior: Any, robot: Any, request: Any) -> list[tuple[int, np.ndarray]]:
@@ -39,15 +39,23 @@ def target_observations(prior: Any, robot: Any, request: Any) -> list[tuple[int,
     return observations + [(i, position(t)) for i, t in request.vias]
 
 
-def planning_prior(prior: Any, robot: Any, request: Any, config: Any) -> Any:
+def planning_prior(prior: Any, robot: Any, request: Any, config: Any,
+                   previous: Any = None) -> Any:
     """The prior a plan for ``request`` uses: ``prior`` conditioned on the start position and
     on the goal and via positions (joint targets through forward kinematics) when the request
-    has any and ``config.model.condition_on_targets``; otherwise ``prior`` itself."""
+    has any and ``config.model.condition_on_targets``; otherwise ``prior`` itself.
+    ``previous``: the planning prior of ``prior`` for another request (a replan's previous
+    plan's) or None; when it is conditioned at the same states with the same sigma, only
+    its offsets are moved (:func:`clamp.prior.conditioning.retargeted`, the same prior to
+    rounding, ~0.8 instead of ~2.5 ms)."""
     model = config.model
     if not model.condition_on_targets or (request.goal is None and not request.vias):
         return prior
-    return conditioned(prior, target_observations(prior, robot, request),
-                           model.conditioning_sigma)
+    observations = target_observations(prior, robot, request)
+    if (previous is not None and previous is not prior
+            and same_pattern(previous, observations, model.conditioning_sigma)):
+        return retargeted(previous, observations)
+    return conditioned(prior, observations, model.conditioning_sigma)
 
 
 def conditioned_reference(prior: Any, robot: Any, request: Any, config: Any,

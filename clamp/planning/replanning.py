@@ -8,8 +8,13 @@ change of the planning prior: the new conditioned prior mean minus the previous 
 when only the scene changed) is added to the previous plan's workspace states, and a few
 per-state Gauss-Newton updates (:class:`clamp.optim.solver.WorkspaceCorrection`) carry the joints
 onto them. The previous plan's own deviations from its prior (around obstacles) are kept.
-With obstacles, the free plan the new plan is tied to is the previous one's when only the
-scene changed (the same free problem, ``PlanInputs.free_plan``), else solved again.
+With obstacles, the free plan the new plan is tied to is the previous one's when the free
+problem is the same (the same targets and model configuration: only the scene or the
+solver's settings changed, e.g. ``PlannerConfig.fast()``; ``PlanInputs.free_plan``); else it
+is solved as configured from the previous free plan moved the same way
+(:func:`clamp.planning.assembly.free_plan`), and the moved previous plan follows that solve's
+correction (:func:`replan_start`): where the previous plan was its free plan, the tied solve
+starts at the new free plan.
 The fast solver then runs with its warm-start rule (:class:`clamp.optim.solver.WarmStart`: small
 first damping, one small step or a small predicted decrease stops).
 """
@@ -41,29 +46,37 @@ _KEEP = object()
 CORRECTION_STEPS = 1
 
 
-def shifted_plan(previous: PlanResult, robot: Any, shift: np.ndarray) -> np.ndarray:
-    """The joint states (T, 2n) of ``previous`` (planned for ``robot``) moved so that their
-    workspace states [p, v] gain ``shift`` (T, 6) [m, m/s]: the initial trajectory of a replan
-    (``shift``: the new conditioned prior mean minus the previous one)."""
-    theta = np.hstack([previous.q, previous.qdot])
+def shifted_states(robot: Any, theta: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """Joint states theta (K, 2n) of ``robot`` moved so that their workspace states [p, v]
+    gain ``shift`` (K, 6) [m, m/s] (``theta`` itself when the shift is zero). Every state is
+    moved on its own: K may stack several trajectories."""
     if not np.any(shift):
         return theta
-    x = np.hstack([previous.ee_path, previous.ee_velocity])    # the plan's workspace states
+    x, jacobian = StateWindow(robot, theta).workspace()        # the states' [p, v] (K, 6)
     correction = WorkspaceCorrection(lambda t: StateWindow(robot, t), x + shift,
-                                     np.zeros(x.shape + (theta.shape[1],)), CORRECTION_STEPS)
-    return correction.apply(theta, np.zeros_like(theta))
+                                     np.zeros(x.shape + (theta.shape[1],)), CORRECTION_STEPS - 1)
+    out = correction.update(theta, jacobian, shift)            # the first update: x known
+    return correction.apply(out, np.zeros_like(out)) if CORRECTION_STEPS > 1 else out
 
 
-def replanned_free_plan(inputs: PlanInputs, same: bool) -> dict[str, np.ndarray]:
-    """The free plan of a replan as keywords of :func:`clamp.planning.pipeline.model`: the
-    previous one (``inputs.free_plan``) when ``same`` (the same targets, configuration and
-    extra factors: the same free problem, only the scene changed), ``{"free": it}``; else none
-    (solved again from the replan's initial trajectory, as before: warm-starting it from the
-    previous free plan moved to the new targets was measured slower, Sawyer goal moved 5 cm
-    39 -> 52 ms, the tied solve 1 -> 4 iterations)."""
-    if same and inputs.free_plan is not None:
-        return {"free": inputs.free_plan}
-    return {}
+def replan_start(previous: PlanResult, robot: Any, shift: np.ndarray,
+                 same_free_problem: bool) -> dict[str, np.ndarray]:
+    """Where a replan starts, as keywords of :func:`clamp.planning.pipeline.model`: ``initial``,
+    the previous plan (planned for ``robot``) with its workspace states moved by ``shift``
+    (T, 6) [m, m/s] (the new conditioned prior mean minus the previous one); with a previous
+    free plan (``previous.inputs.free_plan``), ``free``: it, when ``same_free_problem`` (the
+    same targets and ``config.model``: the same free problem, solved as the previous
+    configuration asked; the solver's settings only say how closely); else ``free_start``:
+    it moved the same way, the guess the new free plan is solved from; the moved previous
+    plan then follows that solve's correction (:func:`clamp.planning.pipeline.build_model`):
+    where the previous plan was its free plan, the tied solve starts at its optimum."""
+    theta = np.hstack([previous.q, previous.qdot])
+    free = previous.inputs.free_plan
+    if free is None or same_free_problem:
+        start = {"initial": shifted_states(robot, theta, shift)}
+        return start if free is None else {**start, "free": free}
+    moved = shifted_states(robot, np.vstack([theta, free]), np.vstack([shift, shift]))
+    return {"initial": moved[:len(theta)], "free_start": moved[len(theta):]}
 
 
 def _same_targets(request: Request, inputs: PlanInputs) -> bool:
@@ -111,13 +124,13 @@ def replan(previous: PlanResult, *, goal: Any = _KEEP, scene: Any = _KEEP,
         if same and config.model == inputs.config.model:
             model_prior = inputs.model_prior          # same targets: the same conditioned prior
         else:
-            model_prior = planning_prior(prior, robot, request, config)
+            model_prior = planning_prior(prior, robot, request, config, inputs.model_prior)
         shift = np.asarray(model_prior.mean) - np.asarray(inputs.model_prior.mean)
-        free = replanned_free_plan(inputs, same and config == inputs.config)
         replanned = build_model(prior, robot, scene, request, config, inputs.extra_factors,
                                 inputs.sdf if scene is inputs.scene else None,
-                                shifted_plan(previous, robot, shift), model_prior=model_prior,
-                                **free)
+                                model_prior=model_prior,
+                                **replan_start(previous, robot, shift,
+                                               same and config.model == inputs.config.model))
         result = plan_model(replanned, covariance, WarmStart(), started)
         result.time_scale = previous.time_scale   # the inputs are the scaled prior and config
         return result

@@ -19,6 +19,7 @@ with D = 6, state ``[px, py, pz, vx, vy, vz]`` (metres, metres per second).
 """
 from __future__ import annotations
 
+import copy
 import json
 import os
 import zipfile
@@ -156,6 +157,23 @@ class LinearGaussianPrior:
         self._logdet_Q = 2.0 * np.log(np.diagonal(chol_Q, axis1=1, axis2=2)).sum(axis=1)
         self._logdet_0 = 2.0 * float(np.log(np.diag(chol_0)).sum())
         self.mean, self.cov = (_frozen(a) for a in self._marginals())
+
+    def with_offsets(self, u: Any, mean0: Any, info: dict[str, Any] | None = None
+                     ) -> "LinearGaussianPrior":
+        """This chain with the offsets ``u`` (T-1, D) and initial mean ``mean0`` (D,) instead
+        (``info`` instead too, when given): Phi, Q, cov0, their whitening and the marginal
+        covariances, none of which depends on them, are shared; the marginal means are carried
+        forward, mean_{i+1} = Phi_i mean_i + u_i (to rounding, the scan's). Same class."""
+        u = as_array(u, "u", (self.T - 1, self.D))
+        mean0 = as_array(mean0, "mean0", (self.D,))
+        mean = np.empty((self.T, self.D))
+        mean[0] = mean0
+        for i in range(self.T - 1):
+            mean[i + 1] = self.Phi[i] @ mean[i] + u[i]
+        new = copy.copy(self)
+        new.u, new.mean0, new.mean = _frozen(u), _frozen(mean0), _frozen(mean)
+        new.info = dict(self.info if info is None else info)
+        return new
 
     def _default_state_names(self) -> tuple[str, ...]:
         n = self.num_axes

@@ -14,7 +14,7 @@ from clamp import (PlannerConfig, evaluate, make_request, model, plan, plan_mode
 from clamp.planning.reference import planning_prior
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.planning.pipeline import Posterior
-from clamp.planning.replanning import replanned_free_plan, shifted_plan
+from clamp.planning.replanning import replan_start
 from clamp.optim.solver import WarmStart
 from scenes import Box, Scene
 
@@ -84,7 +84,7 @@ def test_the_model_graph_can_be_inspected_before_solving(prior, sawyer):
 
 @pytest.mark.parametrize("arm", ["jaco", "sawyer"])
 def test_replan_equals_its_stages_run_by_hand(prior, arm, request):
-    """tests/clamp/planning/test_replan.py's cases (moved goal with two configurations, moved box) replanned
+    """tests/clamp/planning/test_replan.py's cases (moved goal, moved box, each with two configurations) replanned
     by replan() and by the public stages (the previous free plan given as replan gives it):
     the same plan to 1e-12, the same verdict."""
     robot = request.getfixturevalue(arm)
@@ -94,20 +94,22 @@ def test_replan_equals_its_stages_run_by_hand(prior, arm, request):
     inputs = previous.inputs
     for new_goal, scene, config in ((moved_goal, inputs.scene, None),
                                     (moved_goal, inputs.scene, PlannerConfig.fast()),
-                                    (goal, moved, None)):
-        result = (replan(previous, scene=scene, covariance=False) if scene is moved else
+                                    (goal, moved, None), (goal, moved, PlannerConfig.fast())):
+        result = (replan(previous, scene=scene, config=config, covariance=False)
+                  if scene is moved else
                   replan(previous, goal=new_goal, config=config, covariance=False))
         config = config or inputs.config
         asked = make_request(prior, robot, inputs.start, new_goal, inputs.via_points, config,
                              q_start=previous.q[0])
         model_prior = (inputs.model_prior if new_goal is goal
-                       else planning_prior(prior, robot, asked, config))
+                       else planning_prior(prior, robot, asked, config, inputs.model_prior))
         shift = model_prior.mean - inputs.model_prior.mean
-        # the previous free plan when only the scene moved (as replan gives it)
-        free = replanned_free_plan(inputs, new_goal is goal and config == inputs.config)
-        planned = model(prior, robot, scene, asked, config,
-                        initial=shifted_plan(previous, robot, shift), model_prior=model_prior,
-                        **free)
+        # the previous plan moved, and the previous free plan when only the scene moved, else
+        # its moved guess (as replan gives them)
+        start = replan_start(previous, robot, shift,
+                             new_goal is goal and config.model == inputs.config.model)
+        assert ("free" in start) == (new_goal is goal) != ("free_start" in start)
+        planned = model(prior, robot, scene, asked, config, model_prior=model_prior, **start)
         solution = solve(planned, warm_start=WarmStart())
         staged = evaluate(planned, solution, posterior(planned, solution, False), {},
                           time.perf_counter())
@@ -136,6 +138,8 @@ def test_the_solution_is_the_plan_model_of_plan(prior, jaco):
     (lambda p, r, m, s: model(p, r, None, "request", None), ClampTypeError, "request"),
     (lambda p, r, m, s: model(p, r, None, m.request, None, model_prior=object()), ShapeError,
      "model_prior"),
+    (lambda p, r, m, s: model(p, r, None, m.request, None, free_start=np.zeros((3, 2 * r.n))),
+     ShapeError, "free_start"),
     (lambda p, r, m, s: solve("model"), ClampTypeError, "model"),
     (lambda p, r, m, s: solve(m, warm_start=0.1), ClampTypeError, "warm_start"),
     (lambda p, r, m, s: posterior(m, "solution"), ClampTypeError, "solution"),

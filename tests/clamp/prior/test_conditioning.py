@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from clamp import PlannerConfig, learn_prior, plan
-from clamp.prior.conditioning import condition_prior
+from clamp.errors import InvalidParameterError
+from clamp.prior.conditioning import condition_prior, conditioned, retargeted
 from scenes import make_demonstrations
 
 START = np.array([0.2054, -0.4722, 0.2625])      # the README's start
@@ -43,6 +44,28 @@ def test_conditioned_chain_equals_dense_gaussian_conditioning():
         conditioned = condition_prior(small, observations, sigma)
         assert np.abs(conditioned.mean.reshape(-1) - mean).max() < 1e-9
         assert np.abs(conditioned.cov - cov).max() < 1e-9 * np.abs(cov).max() + 1e-14
+
+
+def test_retargeted_equals_conditioning_again(prior):
+    """The same observed states and sigma, other positions (a goal and a via point moved): the
+    previous conditioned prior moved by retargeted is the prior conditioned again, to
+    rounding; Phi, Q and the covariances are shared (they do not depend on the positions)."""
+    T, sigma = prior.T, 1e-5
+    before = [(0, prior.mean[0, :3]), (60, prior.mean[60, :3]), (T - 1, prior.mean[-1, :3])]
+    after = [(0, prior.mean[0, :3]), (60, prior.mean[60, :3] + [0.01, 0.0, 0.02]),
+             (T - 1, prior.mean[-1, :3] + [0.03, -0.05, 0.0])]
+    again = conditioned(prior, after, sigma)
+    moved = retargeted(conditioned(prior, before, sigma), after)
+    for name in ("u", "mean0", "mean"):
+        np.testing.assert_allclose(getattr(moved, name), getattr(again, name), rtol=0, atol=1e-12)
+    for name in ("Phi", "Q", "cov0", "cov"):
+        np.testing.assert_array_equal(getattr(moved, name), getattr(again, name))
+    assert moved.info["conditioned_on"] == again.info["conditioned_on"]
+    assert np.linalg.norm(moved.mean[-1, :3] - after[-1][1]) < 1e-3
+    with pytest.raises(InvalidParameterError, match="conditioned_prior"):
+        retargeted(again, after[::2])                   # other states: condition again
+    with pytest.raises(InvalidParameterError, match="conditioned_prior"):
+        retargeted(prior, after)                        # not conditioned at all
 
 
 @pytest.mark.parametrize("arm", ["jaco", "sawyer"])
