@@ -80,6 +80,28 @@ def finite_difference(values: Any, time: Any) -> np.ndarray:
     return np.gradient(values, time, axis=0, edge_order=1)
 
 
+def interpolated_speed(positions: Any, velocities: Any, time: Any) -> np.ndarray:
+    """Largest |velocity| (T-1, n) over each segment of the cubic Hermite interpolant of
+    ``positions`` (T, n) with ``velocities`` (T, n) at ``time`` (T,) [s] (between support
+    states the constant-velocity GP's interpolation, and what a trajectory controller given
+    positions and velocities executes). The velocity along a segment is quadratic in time: its
+    peak is at an end or at the vertex; it is at least the finite difference (the mean value
+    theorem) and the ends' speeds."""
+    q, qdot = np.asarray(positions, dtype=float), np.asarray(velocities, dtype=float)
+    time = np.asarray(time, dtype=float)
+    if q.ndim != 2 or qdot.shape != q.shape or time.shape != q.shape[:1] or len(time) < 2:
+        raise TrajectoryError(f"positions, velocities, time: expected (T, n), (T, n) and (T,) "
+                              f"with T >= 2, got {q.shape}, {qdot.shape} and {time.shape}")
+    mean = np.diff(q, axis=0) / np.diff(time)[:, None]
+    v0, v1 = qdot[:-1], qdot[1:]
+    a = 3.0 * (v0 + v1) - 6.0 * mean           # v(s) = a s^2 + b s + v0, s in [0, 1]
+    b = 6.0 * mean - 4.0 * v0 - 2.0 * v1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = np.clip(np.where(a != 0.0, -b / (2.0 * a), 0.0), 0.0, 1.0)
+    inside = np.abs((a * vertex + b) * vertex + v0)
+    return np.maximum(np.maximum(np.abs(v0), np.abs(v1)), inside)
+
+
 def _as_matrix(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
     return _checks.as_shaped(value, name, shape, TrajectoryError).copy()
 

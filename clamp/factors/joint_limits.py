@@ -7,7 +7,11 @@ are returned (the others are exactly zero; hinge and shift are the base class's)
 
 Its check (:meth:`JointLimitFamily.check`, which the verdict makes on every plan) is the
 robot's own limits with the checks' tolerances, in words with the numbers
-(:func:`limit_violations`: which joint, at which state, by how much, how many states are out).
+(:func:`limit_violations`: which joint, at which state, by how much, how many states are out);
+velocities between the states too: the peak of each segment's cubic Hermite interpolation of
+positions and velocities (:func:`robots.trajectory.interpolated_speed`, what a trajectory
+controller executes; a plan whose joints jump between states faster than their velocities say
+is beyond the limit there, whatever its states' velocities).
 """
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ import numpy as np
 
 from clamp.errors import InvalidParameterError
 from clamp.validation import as_array, as_scalar
+from robots.trajectory import interpolated_speed
 
 from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
@@ -33,11 +38,13 @@ def _worst(excess: np.ndarray) -> tuple[int, int, float] | None:
 
 def limit_violations(robot: Any, q: np.ndarray, qdot: np.ndarray | None,
                      position_tolerance: float = 0.0, velocity_tolerance: float = 0.0,
-                     what: str = "plan") -> list[str]:
+                     what: str = "plan", time: np.ndarray | None = None) -> list[str]:
     """Reasons (empty when none) for positions q (T, n) [rad] outside
     [robot.lower_limits, robot.upper_limits] by more than ``position_tolerance`` and
     velocities qdot (T, n) [rad/s] beyond robot.velocity_limits by more than
-    ``velocity_tolerance``; each names the worst joint, its state, the excess and the limit."""
+    ``velocity_tolerance``; each names the worst joint, its state, the excess and the limit.
+    With ``time`` (T,) [s], the velocities checked are those between the states
+    (:func:`speeds`)."""
     q = np.atleast_2d(q)
     names = robot.joint_names
     lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
@@ -56,16 +63,27 @@ def limit_violations(robot: Any, q: np.ndarray, qdot: np.ndarray | None,
                        f"{limit:.4g} rad{where}")
     if qdot is not None:
         vmax = np.asarray(robot.velocity_limits)
-        over = np.abs(np.atleast_2d(qdot)) - vmax
+        over = speeds(q, qdot, time) - vmax
         fast = over > velocity_tolerance
         worst = _worst(np.where(fast, over, 0.0))
         if worst is not None:
             state, joint, amount = worst
+            where, unit = ((f"at state {state}", "states") if time is None else
+                           (f"between states {state} and {state + 1}", "segments"))
             reasons.append(f"{what}: joint {names[joint]} moves {amount:.4g} rad/s faster than "
-                           f"its limit {vmax[joint]:.4g} rad/s at state {state} "
-                           f"({int(np.count_nonzero(fast.any(axis=1)))} of {len(fast)} states "
+                           f"its limit {vmax[joint]:.4g} rad/s {where} "
+                           f"({int(np.count_nonzero(fast.any(axis=1)))} of {len(fast)} {unit} "
                            "beyond the velocity limits)")
     return reasons
+
+
+def speeds(q: np.ndarray, qdot: np.ndarray, time: np.ndarray | None = None) -> np.ndarray:
+    """|qdot| (T, n) [rad/s] at the states, or with ``time`` (T,) [s] and T >= 2 the peak speed
+    of each segment between them (T-1, n; :func:`robots.trajectory.interpolated_speed`)."""
+    qdot = np.atleast_2d(qdot)
+    if time is None or len(qdot) < 2:
+        return np.abs(qdot)
+    return interpolated_speed(q, qdot, time)
 
 
 class JointLimitFamily(Family):
@@ -108,10 +126,11 @@ class JointLimitFamily(Family):
         robot, checks = context.robot, context.config.checks
         q, qdot = theta[:, :robot.n], theta[:, robot.n:]
         reasons = limit_violations(robot, q, qdot, checks.limit_tolerance,
-                                   checks.velocity_tolerance)
+                                   checks.velocity_tolerance, time=context.time)
         excess = max(float(np.max(np.asarray(robot.lower_limits) - q)),
                      float(np.max(q - np.asarray(robot.upper_limits))),
-                     float(np.max(np.abs(qdot) - np.asarray(robot.velocity_limits))), 0.0)
+                     float(np.max(speeds(q, qdot, context.time)
+                                  - np.asarray(robot.velocity_limits))), 0.0)
         return ConstraintCheck(cls.name, bool(reasons), excess if reasons else 0.0,
                                tuple(reasons), reasons, listed=False)
 

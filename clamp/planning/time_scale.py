@@ -32,6 +32,7 @@ import numpy as np
 
 from clamp.config import as_max_duration, as_time_scale
 from clamp.errors import InvalidParameterError
+from clamp.factors.joint_limits import speeds
 from clamp.prior.linear_gaussian import WorkspacePrior
 
 log = logging.getLogger(__name__)
@@ -76,32 +77,30 @@ def peak_ratios(robot: Any, q: np.ndarray, qdot: np.ndarray, time: np.ndarray,
                 acceleration_limit: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per joint (n,), the largest velocity [rad/s] and acceleration [rad/s^2] of a plan q, qdot
     (T, n) [rad, rad/s] at ``time`` (T,) [s] over its limits (velocity: ``robot.velocity_limits``;
-    acceleration: ``acceleration_limit``, zeros without one). Velocities are the larger of the
-    states' and the finite differences of q, accelerations the finite differences of qdot."""
+    acceleration: ``acceleration_limit``, zeros without one). Velocities are the peaks between
+    the states (the verdict's, :func:`clamp.factors.joint_limits.speeds`: at least the states'
+    and the finite differences of q), accelerations the finite differences of qdot."""
     q, qdot, time = np.asarray(q, float), np.asarray(qdot, float), np.asarray(time, float)
     step = np.diff(time)[:, None]
     vmax = np.asarray(robot.velocity_limits, dtype=float)
-    velocity = np.maximum(np.abs(qdot).max(axis=0), (np.abs(np.diff(q, axis=0)) / step).max(axis=0))
+    velocity = speeds(q, qdot, time).max(axis=0)
     if acceleration_limit is None:
         return velocity / vmax, np.zeros_like(velocity)
     return velocity / vmax, (np.abs(np.diff(qdot, axis=0)) / step).max(axis=0) / acceleration_limit
 
 
 def _too_fast(result: Any, robot: Any, checks: Any) -> tuple[bool, bool, float]:
-    """Whether a plan moves beyond the arm's limits (a velocity, of its states or of its finite
-    differences, beyond its limit by more than the verdict's ``checks.velocity_tolerance``, an
+    """Whether a plan moves beyond the arm's limits (a velocity between its states, as the
+    verdict sees it, beyond its limit by more than ``checks.velocity_tolerance``, an
     acceleration beyond ``checks.acceleration_limit``); whether it is to be planned slower
-    (its states beyond a limit, as the verdict sees them, or it failed and its initial
-    trajectory, the skill followed at the demonstrations' speed, exceeds a limit: the limit
-    hinges may be what bent it); and the scale (>= 1) the larger of the plan's and the initial
-    trajectory's peaks need."""
+    (it is beyond a limit, or it failed and its initial trajectory, the skill followed at the
+    demonstrations' speed, exceeds a limit: the limit hinges may be what bent it); and the
+    scale (>= 1) the larger of the plan's and the initial trajectory's peaks need."""
     vmax = np.asarray(robot.velocity_limits, dtype=float)
     tolerance = checks.velocity_tolerance / vmax
-    states = np.abs(np.asarray(result.qdot, dtype=float)).max(axis=0) / vmax
     velocity, acceleration = peak_ratios(robot, result.q, result.qdot, result.time,
                                          checks.acceleration_limit)
-    slower = bool(np.any(states > 1.0 + tolerance) or np.any(acceleration > 1.0))
-    fast = slower or bool(np.any(velocity > 1.0 + tolerance))
+    fast = slower = bool(np.any(velocity > 1.0 + tolerance) or np.any(acceleration > 1.0))
     needed = max(float(velocity.max()), float(np.sqrt(acceleration.max())))
     if result.initial_q is not None:
         initial = np.asarray(result.initial_q, dtype=float)

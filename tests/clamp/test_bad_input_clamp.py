@@ -615,6 +615,23 @@ def test_plan_limit_reason_names_the_worst_joint(fx) -> None:
     assert robot.joint_names[2] in reasons[0] and "0.25 rad/s" in reasons[0] and "state 3" in reasons[0]
 
 
+def test_plan_limit_reason_sees_velocities_between_states(fx) -> None:
+    """Velocities within the limit at every state, but a joint that moves 0.5 rad in 0.1 s
+    between two of them: beyond its limit there (the verdict's check, with the time)."""
+    from clamp.planning.limit_report import limit_violations
+    robot = fx.robot
+    q = np.tile(robot.neutral_configuration(), (5, 1))
+    q[3:, 1] += 0.5
+    qdot = np.zeros_like(q)
+    time = 0.1 * np.arange(5)
+    assert limit_violations(robot, q, qdot, 0.0, 1e-3) == []            # the states alone
+    reasons = limit_violations(robot, q, qdot, 0.0, 1e-3, time=time)
+    assert len(reasons) == 1 and robot.joint_names[1] in reasons[0]
+    assert "between states 2 and 3" in reasons[0]
+    peak = 1.5 * 0.5 / 0.1                        # a cubic from rest to rest: 1.5 x the mean
+    assert f"{peak - robot.velocity_limits[1]:.4g} rad/s" in reasons[0]
+
+
 @pytest.mark.parametrize("form", ["obstacle", "list", "path", "scene"])
 def test_scene_forms_all_avoid_the_obstacle(fx, form, tmp_path) -> None:
     """A Box, [Box], a scene file path and a Scene give the same plan, which keeps clear of the

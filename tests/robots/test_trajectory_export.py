@@ -98,6 +98,26 @@ def test_finite_difference_is_bounded_by_the_difference_quotients():
     assert np.all(np.abs(finite_difference(v, t)).max(axis=0) <= quotients * (1 + 1e-12))
 
 
+def test_interpolated_speed_is_the_peak_of_the_hermite_segments():
+    """Against SciPy's cubic Hermite spline sampled densely (an independent interpolant): the
+    peak speed of each segment, never below the ends' speeds or the finite differences."""
+    from scipy.interpolate import CubicHermiteSpline
+    from robots.trajectory import interpolated_speed
+    rng = np.random.default_rng(11)
+    time = np.cumsum(rng.uniform(0.05, 0.3, size=9))
+    q = np.cumsum(rng.normal(scale=0.2, size=(9, 4)), axis=0)
+    qdot = rng.normal(scale=1.0, size=(9, 4))
+    peaks = interpolated_speed(q, qdot, time)
+    spline = CubicHermiteSpline(time, q, qdot).derivative()
+    for i in range(len(time) - 1):
+        samples = np.abs(spline(np.linspace(time[i], time[i + 1], 2001)))
+        np.testing.assert_allclose(peaks[i], samples.max(axis=0), rtol=1e-5)
+    mean = np.abs(np.diff(q, axis=0)) / np.diff(time)[:, None]
+    assert np.all(peaks >= mean - 1e-12) and np.all(peaks >= np.abs(qdot[1:]) - 1e-12)
+    with pytest.raises(TrajectoryError, match="positions, velocities, time"):
+        interpolated_speed(q, qdot[:-1], time)
+
+
 def test_invalid_input_names_the_argument(jaco):
     t, q, qdot = cosine_plan(JACO_A, JACO_B)
     with raises_naming(TrajectoryError, "q"):
