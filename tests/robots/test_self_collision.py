@@ -282,6 +282,7 @@ def test_family_jacobians_inside_steps_and_on_the_base(name, seed, reproducer, r
     analytic = np.zeros((5, family.dim, 4 * n))
     analytic[lin.rows] = lin.jacobian
     base_error, step = dense(family, robot, theta), 1e-6
+    checked, compared = [], []
     for state in range(6):
         for j in range(n):
             plus, minus = theta.copy(), theta.copy()
@@ -290,9 +291,16 @@ def test_family_jacobians_inside_steps_and_on_the_base(name, seed, reproducer, r
             e_plus, e_minus = dense(family, robot, plus), dense(family, robot, minus)
             numeric = (e_plus - e_minus) / (2 * step)
             smooth = ((e_plus == 0) == (e_minus == 0)) & ((e_plus == 0) == (base_error == 0))
+            # and no kink: the worst configuration of a step can switch sub-samples within
+            # +-step, where the one-sided slopes differ (a smooth error's differ by ~f'' step)
+            smooth &= np.abs(e_plus + e_minus - 2 * base_error) <= 1e-4 * step
             for f in {state - 1, state} & set(range(5)):
                 col = (state - f) * 2 * n + j
                 np.testing.assert_allclose(analytic[f, smooth[f], col], numeric[f, smooth[f]], rtol=1e-5, atol=1e-5)
+                checked.append(int(np.count_nonzero(smooth[f] & (numeric[f] != 0))))
+                compared.append(int(np.count_nonzero(numeric[f] != 0)))
+    # the kinks are rare: almost every entry that moves is compared
+    assert sum(checked) >= 0.95 * sum(compared) > 0
 
 
 @pytest.mark.parametrize("name", ["sawyer", "jaco"])
