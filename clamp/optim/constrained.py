@@ -298,10 +298,13 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
                 return None       # a refused skill needs another start, not stiffer hinges
             if r >= budget and not (joins and r == budget):
                 # a hair short: keep updating the active constraints (polish rounds)
-                # (not bounded by the search budget: a hair short is finished, not searched)
+                # (not bounded by the search budget: a hair short is finished, not searched);
+                # a lazy constraint the polishing pushed the plan across joins as a polish
+                # round (fixing a velocity, then a contact, the path left the skill's tube)
                 if not (budget > 0 and polished < config.constraints.polish_rounds
                         and verdict.accepted
-                        and _near(verdict, current, config.constraints.polish_reach)):
+                        and ((joins and polished > 0)
+                             or _near(verdict, current, config.constraints.polish_reach))):
                     return None
                 polished += 1
             joined.update(name for name in verdict.violated

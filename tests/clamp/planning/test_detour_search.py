@@ -156,6 +156,23 @@ def test_a_hair_short_plan_is_polished_to_pass_with_its_margins():
     assert result.skill["max_tube_ratio"] <= TUBE_RATIO
 
 
+def test_a_lazy_constraint_joins_while_polishing():
+    """Angle / 0 of the handwriting family: the polish rounds fixed a joint velocity, then a
+    contact, and pushed the plan out of the skill's tube (1.08 x), a check whose constraint had
+    not joined the problem yet, so the polish stopped a hair short; now the tube joins as a
+    polish round and the plan passes, measured here on its own as above."""
+    prior, scene, start = lasa_problem("Angle", 0)
+    robot = load_robot("jaco")
+    result = plan(prior, robot, scene, start, covariance=False)
+    assert result.success, result.reasons
+    report = CollisionChecker(robot, coal_obstacles(scene.obstacles)).check(result.q)
+    assert not report.collision and report.min_distance > 0.0
+    assert np.all(robot.within_limits(result.q, tolerance=0.0))
+    speed = np.abs(np.diff(result.q, axis=0)) / np.diff(result.time)[:, None]
+    assert np.all(speed <= np.asarray(robot.velocity_limits) * (1.0 + 1e-9))
+    assert result.skill["max_tube_ratio"] <= TUBE_RATIO
+
+
 def test_other_ik_branches_of_the_start(blocked):
     """The search's other starts of an end-effector start: other inverse-kinematics solutions,
     each reaching the start position, BRANCH_APART from the planner's start configuration and
