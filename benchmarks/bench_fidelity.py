@@ -31,14 +31,23 @@ Prints per arm:
 ``--family hard`` / ``--family handwriting`` (issue 27; problems from ``hard_problems``,
 whose docstring describes them) plan and judge the same way, the checks adding the joint
 velocity limits (finite differences of the plan over its time step) and figures of how far a
-failure is from passing; the oracle (:func:`family_oracle`) tries at least ``ORACLE_RESTARTS``
-restarts: detours over / left / right / under each obstacle near the path (10 and 20 cm),
-other IK branches of the start, lines, perturbed paths, each planned again with the skill
-slowed down when it exceeds a velocity limit. Problems whose start configuration touches a
-box are reported apart. Per arm: completable, completed / completable, false successes,
-failures a hair short (``HAIR``: every failed check within 1.5 mm depth, 3 % of a limit or 10 %
-of the tube / completion radius), planning time ratio to the free plan, against
-``FAMILY_TARGETS``.
+failure is from passing; the oracle (:func:`family_oracle`) plans the first
+``ORACLE_RESTARTS`` restarts of :func:`family_oracle_candidates` that can be made, ordered by
+promise: the default plan with the long budget (``ORACLE_CONFIG``) and the goal; detours over /
+left / right / under each of the (up to ``OBSTACLES_DETOURED``) obstacles nearest the path at
+10 cm; other IK branches of the start; a straight joint-space line; a wider safety distance;
+then the 20 cm detours, more IK branches and lines, perturbed paths; each planned again with
+the skill slowed down when it exceeds a velocity limit. Every restart but the default is one
+start of its own (``RESTART_CONFIG``: the planner's detour search, IK branches and straight
+line are off inside it, being the oracle's restarts already): 0.6-1.3 s a restart on failing
+Sawyer problems (load 2), where a restart with the planner's search inside took 1.7-2.4 s and
+a problem 45-87 s (now 14-30 s). It stops at the first plan that passes the checks (the
+witness: completable only then). Problems whose start configuration touches a box are
+reported apart. Per arm: completable, completed / completable, false successes, failures a
+hair short (``HAIR``: every failed check within 1.5 mm depth, 3 % of a limit or 10 % of the
+tube / completion radius), the failures on problems the oracle completes (id, the verdict's
+first reason, the checks failed, the oracle's witness: the planner's work list), planning
+time ratio to the free plan, against ``FAMILY_TARGETS``.
 
 Free and obstacle plans (their measures and checks) are cached in
 ``benchmarks/.cache/fidelity_free.json`` / ``fidelity_obstacle.json`` keyed by the problem and
@@ -55,6 +64,11 @@ so an interrupted run keeps the problems it finished.
 Full run (200 problems per arm): about 25 min of CPU for the plans and checks with cold
 caches, plus the oracle on the problems the default plan does not complete (up to ~1 min
 each); ``--workers 2`` halves the wall time. ``--quick``: 20 problems per arm.
+The families, cold caches, ``--workers 1``, load 2-3 (2 cores shared; clamp c3e6427):
+``--family hard --arms jaco`` 200 problems 167 s wall (oracle on 5, 16 s);
+``--family handwriting`` 91 problems 73 s (oracle on 7, 9 s); ``--family hard --arms
+sawyer`` 200 problems 2429 s (oracle on 124 problems: 2145 s, median 17 s, at most 36 s;
+0.91 s a restart on the 116 it does not complete, 20 restarts each).
 """
 from __future__ import annotations
 
@@ -469,8 +483,9 @@ def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
         for _ in range(3):
             plans += 1
             try:
-                own = {} if label == "default" else {k: v for k, v in RESTART_CONFIG.items()
-                                                     if initial is not None or k != "initialisation"}
+                own = {} if label == "default" else {
+                    k: v for k, v in RESTART_CONFIG.items()
+                    if initial is not None or k != "initialisation"}
                 config = PlannerConfig().with_(**ORACLE_CONFIG, **changes, **own)
                 result = _plan(data, True, start=q_start, goal=data["goal"], initial=initial,
                                config=config, covariance=False, time_scale=scale)
