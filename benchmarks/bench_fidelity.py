@@ -31,19 +31,30 @@ Prints per arm:
 ``--family hard`` / ``--family handwriting`` (issue 27; problems from ``hard_problems``,
 whose docstring describes them) plan and judge the same way, the checks adding the joint
 velocity limits (finite differences of the plan over its time step) and figures of how far a
-failure is from passing; the oracle (:func:`family_oracle`) tries at least ``ORACLE_RESTARTS``
-restarts: detours over / left / right / under each obstacle near the path (10 and 20 cm),
-other IK branches of the start, lines, perturbed paths, each planned again with the skill
-slowed down when it exceeds a velocity limit. Problems whose start configuration touches a
-box are reported apart. Per arm: completable, completed / completable, false successes,
-failures a hair short (``HAIR``: every failed check within 1.5 mm depth, 3 % of a limit or 10 %
-of the tube / completion radius), planning time ratio to the free plan, against
-``FAMILY_TARGETS``.
+failure is from passing; the oracle (:func:`family_oracle`) plans the first
+``ORACLE_RESTARTS`` restarts of :func:`family_oracle_candidates` that can be made, ordered by
+promise: the default plan with the long budget (``ORACLE_CONFIG``) and the goal; detours over /
+left / right / under each of the (up to ``OBSTACLES_DETOURED``) obstacles nearest the path at
+10 cm; other IK branches of the start; a straight joint-space line; a wider safety distance;
+then the 20 cm detours, more IK branches and lines, perturbed paths; each planned again with
+the skill slowed down when it exceeds a velocity limit. Every restart but the default is one
+start of its own (``RESTART_CONFIG``: the planner's detour search, IK branches and straight
+line are off inside it, being the oracle's restarts already): 0.6-1.3 s a restart on failing
+Sawyer problems (load 2), where a restart with the planner's search inside took 1.7-2.4 s and
+a problem 45-87 s (now 14-30 s). It stops at the first plan that passes the checks (the
+witness: completable only then). Problems whose start configuration touches a box are
+reported apart. Per arm: completable, completed / completable, false successes, failures a
+hair short (``HAIR``: every failed check within 1.5 mm depth, 3 % of a limit or 10 % of the
+tube / completion radius), the failures on problems the oracle completes (id, the verdict's
+first reason, the checks failed, the oracle's witness: the planner's work list), planning
+time ratio to the free plan, against ``FAMILY_TARGETS``.
 
-Free plans (their measures and checks) are cached in ``benchmarks/.cache/fidelity_free.json``
-keyed by the problem and a fingerprint of the ``clamp`` sources on the path, so a changed
-planner plans them again (a cached free plan keeps the planning time measured when it was
-planned; ``--no-cache`` times both plans of a problem in the same run).
+Free and obstacle plans (their measures and checks) are cached in
+``benchmarks/.cache/fidelity_free.json`` / ``fidelity_obstacle.json`` keyed by the problem and
+a fingerprint of the ``clamp`` sources on the path, so a changed planner plans them again (a
+cached plan keeps the planning time measured when it was planned; ``--no-cache`` times both
+plans of a problem in the same run). The caches are saved every ``CACHE_SAVE_S`` during a run,
+so an interrupted run keeps the problems it finished.
 
     python benchmarks/bench_fidelity.py [--problems 200] [--arms jaco sawyer] [--skills ...]
                                         [--quick] [--workers N] [--seed 0] [--no-cache]
@@ -53,6 +64,11 @@ planned; ``--no-cache`` times both plans of a problem in the same run).
 Full run (200 problems per arm): about 25 min of CPU for the plans and checks with cold
 caches, plus the oracle on the problems the default plan does not complete (up to ~1 min
 each); ``--workers 2`` halves the wall time. ``--quick``: 20 problems per arm.
+The families, cold caches, ``--workers 1``, load 2-3 (2 cores shared; clamp c3e6427):
+``--family hard --arms jaco`` 200 problems 167 s wall (oracle on 5, 16 s);
+``--family handwriting`` 91 problems 73 s (oracle on 7, 9 s); ``--family hard --arms
+sawyer`` 200 problems 2429 s (oracle on 124 problems: 2145 s, median 17 s, at most 36 s;
+0.91 s a restart on the 116 it does not complete, 20 restarts each).
 """
 from __future__ import annotations
 
@@ -78,10 +94,16 @@ from harness import print_environment
 log = logging.getLogger("benchmarks.fidelity")
 
 CACHE = Path(__file__).resolve().parent / ".cache"
+CACHE_SAVE_S = 60.0               # [s] the caches are saved this often during a run
 ORACLE_RESTARTS = 20
 ORACLE_CONFIG = {"max_iterations": 2000, "constraint_rounds": 6}   # the long budget
 ACCELERATION_LIMIT = 1.5          # [rad/s^2] TOPP-RA
-FAMILY_ORACLE_VERSION = 1         # bump when the families' oracle changes
+FAMILY_ORACLE_VERSION = 2         # bump when the families' oracle changes
+#: the families' oracle restarts but the default: one start each, their own (no detour search,
+#: IK branches or straight line of the planner inside a restart: those are the oracle's restarts;
+#: "initialisation" only keeps the planner from adding its straight line to a given initial)
+RESTART_CONFIG = {"detours": 0, "ik_branches": 0, "initialisation": "straight_line"}
+OBSTACLES_DETOURED = 3            # the families' oracle detours around this many obstacles
 MEASURES_VERSION = 3              # bump when a measure or check changes (invalidates caches)
 VELOCITY_TOLERANCE = 1e-3        # [rad/s] the verdict's (clamp.config CheckConfig)
 #: issue 27: a failure is "a hair short" when every failed check is within this of passing
@@ -363,11 +385,14 @@ def _slowed(prior: Any, config: Any, scale: float) -> tuple[Any, Any]:
 
 
 def family_oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str, Any]]:
-    """The oracle's restarts for issue 27's families, at least ORACLE_RESTARTS: the default
-    (long budget), detours over / left / right / under each obstacle near the path (10 and 20
-    cm), other IK branches of the start (along the mean path, and over the first obstacle),
-    straight joint-space lines, a wider safety distance, perturbed mean paths. Each is
-    retried slowed down when its plan only / also exceeds a velocity limit (:func:`oracle`)."""
+    """The oracle's restarts for issue 27's families, ordered by promise, more than
+    ORACLE_RESTARTS (:func:`family_oracle` plans the first ORACLE_RESTARTS that can be
+    made): the default (long budget, the planner's own search); detours over / left / right /
+    under each obstacle near the path (OBSTACLES_DETOURED of them) at 10 cm; other IK branches
+    of the start (along the mean path, and over the first obstacle); a straight joint-space
+    line; a wider safety distance; then the 20 cm detours, further IK branches and lines, and
+    perturbed mean paths. Each is retried slowed down when its plan exceeds a velocity limit
+    (:func:`family_oracle`)."""
     from clamp.planning.initialisation import prior_mean_initialisation, shifted_mean_path
     from scenes import Scene
     prior, _ = _skill_of(data["prior"])
@@ -389,19 +414,26 @@ def family_oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str,
         return lambda: np.asarray(robot.ik(start, seed=robot.random_configuration(
             np.random.default_rng(ik_seed)), rng=ik_seed).q)
 
-    blocking = [o for o in scene.obstacles if float(o.distance(path).min()) < 0.05] \
-        or list(scene.obstacles)
-    out: list[tuple[str, Any]] = [("default", base["default"])]
-    for j, obstacle in enumerate(blocking):
-        out += [(f"{label}@{j}", along(p)) for label, p in _detour_paths(path, Scene([obstacle]))]
+    # the obstacles nearest the path first (those that block it)
+    near = sorted(scene.obstacles, key=lambda o: float(o.distance(path).min()))
+    blocking = [o for o in near if float(o.distance(path).min()) < 0.05] or near
+    blocking = blocking[:OBSTACLES_DETOURED]
+    detours = [[(f"{label}@{j}", along(p)) for label, p in _detour_paths(path, Scene([obstacle]))]
+               for j, obstacle in enumerate(blocking)]
     over = _detour_paths(path, Scene(blocking[:1]))
-    for k in range(3):
-        out.append((f"ik-branch-{k}", along(path, branch(100 + k))))
-        if over:
-            out.append((f"ik-branch-{k}-over", along(over[0][1], branch(100 + k))))
-    out += [(label, make) for label, make in base.items() if label.startswith(("line", "epsilon"))]
-    perturbed = [(label, make) for label, make in base.items() if label.startswith("perturbed")]
-    return out + perturbed[:max(0, ORACLE_RESTARTS - len(out))]
+    branches = {k: (f"ik-branch-{k}", along(path, branch(100 + k))) for k in range(3)}
+    branches_over = {k: (f"ik-branch-{k}-over", along(over[0][1], branch(100 + k)))
+                     for k in range(3)} if over else {}
+    first = [("default", base["default"])]
+    first += [d for ds in detours for d in ds if d[0].split("@")[0].endswith("-0.1")]
+    first += [branches[0], *([branches_over[0]] if over else []), branches[1]]
+    first += [("line-0", base["line-0"]), ("epsilon-0.08", base["epsilon-0.08"])]
+    later = [d for ds in detours for d in ds if d[0].split("@")[0].endswith("-0.2")]
+    later += [*([branches_over[1]] if over else []), branches[2],
+              *([branches_over[2]] if over else [])]
+    later += [(label, make) for label, make in base.items() if label in ("line-1", "line-2")]
+    later += [(label, make) for label, make in base.items() if label.startswith("perturbed")]
+    return first + later
 
 
 def oracle(data: dict[str, Any], seed: int = 0) -> dict:
@@ -427,23 +459,34 @@ def oracle(data: dict[str, Any], seed: int = 0) -> dict:
 
 
 def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
-    """The oracle of issue 27's families: :func:`family_oracle_candidates` in turn, each with
-    the long budget; a plan that fails a velocity limit is planned again with the skill slowed
-    down to the speed the arm has (scale (1 + excess) x 1.1, up to twice)."""
+    """The oracle of issue 27's families: the first ORACLE_RESTARTS restarts of
+    :func:`family_oracle_candidates` that can be made (an IK that fails passes its turn to the
+    next), each with the long budget; a plan that fails a velocity limit is planned again with
+    the skill slowed down to the speed the arm has (scale (1 + excess) x 1.1, up to twice).
+    The default restart keeps the planner's own search of starts; every other restart is one
+    start, its own (``RESTART_CONFIG``: the planner's detours, IK branches and straight line
+    are restarts of the oracle already), so a restart costs one constrained solve (tied, then
+    untied). Stops at the first plan that passes the checks (:func:`judge`), the witness."""
     from clamp import PlannerConfig
     t0 = time.perf_counter()
-    tried = 0
+    plans = restarts = 0
     for label, make in family_oracle_candidates(data, seed):
+        if restarts >= ORACLE_RESTARTS:
+            break
         try:
             q_start, initial, changes = make()
         except ValueError as exc:
             log.info("oracle %s: %s", label, exc)
             continue
+        restarts += 1
         scale = 1.0
         for _ in range(3):
-            tried += 1
+            plans += 1
             try:
-                config = PlannerConfig().with_(**ORACLE_CONFIG, **changes)
+                own = {} if label == "default" else {
+                    k: v for k, v in RESTART_CONFIG.items()
+                    if initial is not None or k != "initialisation"}
+                config = PlannerConfig().with_(**ORACLE_CONFIG, **changes, **own)
                 result = _plan(data, True, start=q_start, goal=data["goal"], initial=initial,
                                config=config, covariance=False, time_scale=scale)
             except ValueError as exc:
@@ -452,22 +495,25 @@ def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
             judged = judge(data, result.q, True, float(np.median(np.diff(result.time))))
             if not judged["failed"]:
                 return {"completable": True, "witness": f"{label} x{scale:.2f}",
-                        "attempts": tried, "seconds": time.perf_counter() - t0}
+                        "attempts": restarts, "plans": plans,
+                        "seconds": time.perf_counter() - t0}
             if "velocity" not in judged["failed"]:
                 break
             scale *= (1.0 + judged["velocity_excess"]) * 1.1
-    return {"completable": False, "witness": None, "attempts": tried,
+    return {"completable": False, "witness": None, "attempts": restarts, "plans": plans,
             "seconds": time.perf_counter() - t0}
 
 
 # ------------------------------------------------------------------ one problem
-def run_problem(data: dict[str, Any], free: dict | None, known: dict | None) -> dict:
-    """Obstacle plan, free plan (``free`` if cached) and completability (``known`` oracle
-    outcome if cached; the oracle runs only when the default plan fails the checks)."""
+def run_problem(data: dict[str, Any], free: dict | None, known: dict | None,
+                obstacle: dict | None = None) -> dict:
+    """Obstacle plan (``obstacle`` if cached), free plan (``free`` if cached) and
+    completability (``known`` oracle outcome if cached; the oracle runs only when the default
+    plan fails the checks)."""
     logging.getLogger("clamp").setLevel(logging.ERROR)
     from skillplan.threads import single_blas_thread
     with single_blas_thread():
-        obstacle = plan_and_judge(data, True)
+        obstacle = obstacle if obstacle is not None else plan_and_judge(data, True)
         free = free if free is not None else plan_and_judge(data, False)
         if data.get("meta", {}).get("start_blocked"):
             found = {"completable": False, "witness": "start blocked", "attempts": 0, "seconds": 0.0}
@@ -591,8 +637,22 @@ def summarize_family(records: list[dict]) -> dict:
             "near": [f"{r['id']} ({'oracle completes' if (r['oracle'] or {}).get('completable') else 'oracle did not'}): {why}"
                      for r, why in near],
             "near_completable": sum(bool((r["oracle"] or {}).get("completable")) for r, _ in near),
+            # the failures on problems the oracle completes: the planner's work list
+            "missed": [f"{r['id']}: {_first_reason(r['obstacle'])}; oracle witness "
+                       f"{r['oracle']['witness']}" for r in completable if not ok(r)],
             "plan_time": _quantiles(ratios),
             "scaled": sum(k > 1.0 for k in scales), "largest_scale": max(scales, default=1.0)}
+
+
+def _first_reason(o: dict) -> str:
+    """The first reason a plan record failed: the verdict's first reason when it said failure,
+    else (a false success) its first failed check."""
+    if not o["success"] and o["reasons"]:
+        text = o["reasons"][0]
+    else:
+        text = "; ".join(f"{k}: {v}" for k, v in list(o["failed"].items())[:1])
+    checks_failed = ", ".join(o["failed"]) or "none"
+    return f"{text[:110]} [checks failed: {checks_failed}]"
 
 
 def report_family(family: str, arm: str, s: dict) -> None:
@@ -615,6 +675,9 @@ def report_family(family: str, arm: str, s: dict) -> None:
           f"limit, <{100 * HAIR['radius_share']:.0f} % of tube / radius)  {len(s['near'])}, "
           f"oracle-completable {s['near_completable']}")
     for line in s["near"]:
+        print(f"  {line}")
+    print(f"failures the oracle completes            {len(s['missed'])}")
+    for line in s["missed"]:
         print(f"  {line}")
     print(f"planning time ratio to the free plan     median {s['plan_time'][0]:.2f}x, p95 "
           f"{s['plan_time'][2]:.2f}x")
@@ -700,12 +763,22 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
     datas = family_problems(args, arm)
     free_cache = load_cache("fidelity_free.json", args.cache)
     oracle_cache = load_cache("fidelity_oracle.json", args.cache)
+    obstacle_cache = load_cache("fidelity_obstacle.json", args.cache)
     fingerprint = clamp_fingerprint()
     free_keys = [problem_key(d, "free", fingerprint) for d in datas]
+    obstacle_keys = [problem_key(d, "obstacle", fingerprint) for d in datas]
     oracle_keys = [problem_key(d, "oracle", ORACLE_RESTARTS, ORACLE_CONFIG,
                                *(["family-oracle", FAMILY_ORACLE_VERSION] if "family" in d else []))
                    for d in datas]
-    jobs = [(d, free_cache.get(fk), oracle_cache.get(ok)) for d, fk, ok in zip(datas, free_keys, oracle_keys)]
+    jobs = [(d, free_cache.get(fk), oracle_cache.get(ok), obstacle_cache.get(bk))
+            for d, fk, ok, bk in zip(datas, free_keys, oracle_keys, obstacle_keys)]
+    keys = {d["id"]: (fk, ok, bk) for d, fk, ok, bk in zip(datas, free_keys, oracle_keys,
+                                                          obstacle_keys)}
+
+    def save() -> None:
+        save_cache("fidelity_free.json", free_cache, args.cache)
+        save_cache("fidelity_oracle.json", oracle_cache, args.cache)
+        save_cache("fidelity_obstacle.json", obstacle_cache, args.cache)
     t0 = time.perf_counter()
     if executor is None:
         outcomes = map(lambda job: run_problem(*job), jobs)
@@ -714,15 +787,18 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
         outcomes = (f.result() for f in as_completed(futures))
     by_id = {}
     from skillplan.progress import progress
+    saved = time.perf_counter()
     for record in progress(outcomes, description=arm, total=len(jobs), unit="problem"):
         by_id[record["id"]] = record
-    records = [by_id[d["id"]] for d in datas]
-    for record, fk, ok in zip(records, free_keys, oracle_keys):
-        free_cache[fk] = record["free"]
+        fk, ok, bk = keys[record["id"]]
+        free_cache[fk], obstacle_cache[bk] = record["free"], record["obstacle"]
         if record["oracle"] is not None:
             oracle_cache[ok] = record["oracle"]
-    save_cache("fidelity_free.json", free_cache, args.cache)
-    save_cache("fidelity_oracle.json", oracle_cache, args.cache)
+        if time.perf_counter() - saved > CACHE_SAVE_S:    # an interrupted run keeps its problems
+            save()
+            saved = time.perf_counter()
+    records = [by_id[d["id"]] for d in datas]
+    save()
     if args.records is not None:
         from skillplan.command_line import atomic_write_text
         path = args.records.with_name(f"{args.records.stem}_{arm}{args.records.suffix}")
