@@ -64,6 +64,16 @@ mean there); synthetic skills 0.1-1.1 mm lower (syn:reach_from_above 9.30 -> 8.2
 syn:needle_threading 25.63 -> 24.49); box_closing 12.26 / 9.62, needle 12.90 / 9.74,
 pick_place 31.14 / 32.05 (still won); synthetic0 unchanged (5.81 start lost to TLGC 4.37;
 goal 5.67 won by < 0.01); 0 unsuccessful plans; wall 481 s on 2 workers at load 5-7.
+Then (2026-11-27, second session) the start factor's velocity conditioned on the start (the
+graph's optimum is the conditioned prior) and the initial velocity's response to the start
+shrunk with the path's, towards none: pick_place 31.14 / 32.05 -> 35.87 / 33.54 (still won:
+ProMP 36.30, DMP 33.75; the conditioning alone gave 39.47 at the start, lost: a +0.45 m/s
+initial velocity for a 1 cm offset, learned from 3 demonstrations, the arm could not follow);
+box_closing 12.26 / 9.62, needle 12.10 / 9.77, synthetic skills all won (within 0.1 mm of
+before); LASA 4.67 / 4.67 -> 4.66 / 4.66, best on 9 / 10 -> 9 / 9 of 13 (lost: CShape, JShape_2,
+NShape by 0.01 mm, Sshape; the prior's own mean is best on 11: the arm's joint GP keeps its
+path 0.05-0.2 mm of DTW off the mean); synthetic0 start still TLGC's (4.37 vs 5.68); 0
+unsuccessful plans; wall 578 s on 1 worker at load 3-5.
 """
 from __future__ import annotations
 
