@@ -89,7 +89,7 @@ import numpy as np
 
 import fidelity_checks as checks
 from robots.self_collision import self_collision_report
-from harness import print_environment
+from harness import exit_with_parent, print_environment
 
 log = logging.getLogger("benchmarks.fidelity")
 
@@ -831,7 +831,8 @@ def benchmark(args: argparse.Namespace) -> int:
               + (f"; shapes {', '.join(args.shapes)}" if args.shapes else ""))
     if args.family == "handwriting":
         args.arms = ["jaco"]
-    executor = (ProcessPoolExecutor(args.workers, mp_context=get_context("spawn"))
+    executor = (ProcessPoolExecutor(args.workers, mp_context=get_context("spawn"),
+                                    initializer=exit_with_parent)
                 if args.workers else None)
     try:
         for arm in args.arms:

@@ -90,7 +90,7 @@ import numpy as np
 import clamp
 import robots
 import scenes
-from harness import print_environment, shared_demonstrations
+from harness import exit_with_parent, print_environment, shared_demonstrations
 
 METHODS = ("CLAMP arm", "CLAMP mean", "TLGC", "ProMP", "DMP")
 RIVALS = ("CLAMP arm", "TLGC", "ProMP", "DMP")          # who wins: CLAMP as users run it
@@ -393,7 +393,7 @@ def main() -> None:
     sets = load_sets(args.sets, args.quick)
     tasks = [(data, k) for data in sets for k in range(data.demos.M)[:2 if args.quick else None]]
     if args.workers > 1:
-        with ProcessPoolExecutor(args.workers) as pool:
+        with ProcessPoolExecutor(args.workers, initializer=exit_with_parent) as pool:
             results = list(pool.map(run_fold, tasks, chunksize=1))
     else:
         results = [run_fold(task) for task in tasks]

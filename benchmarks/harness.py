@@ -48,6 +48,21 @@ def median_ms(function: Callable[[], object], repeats: int, warmup: int = 1) -> 
     return 1e3 * median_seconds(function, repeats, warmup)
 
 
+def exit_with_parent(poll_s: float = 2.0) -> None:
+    """Worker-process initializer: the worker exits when the process that started it has gone
+    (a killed benchmark would otherwise leave its pool's workers computing, orphaned), checked
+    every ``poll_s`` seconds by a daemon thread."""
+    import threading
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(poll_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
+
+
 def print_environment() -> None:
     """One line naming the machine and library versions, so figures can be compared later."""
     from importlib.metadata import version
