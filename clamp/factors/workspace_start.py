@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from clamp.prior.chain import start_response
 from clamp.validation import as_array, as_count
 
 from .family import Family, Linearization, covariance_root
@@ -23,10 +24,9 @@ def shifted_start_mean(mean0: np.ndarray, cov0: np.ndarray, start_position: np.n
     ``start_position`` (3,) [m]: the mean (6,) [m, m/s] with that position and the velocity
     mean0[3:] + cov0[3:, :3] cov0[:3, :3]^-1 (start_position - mean0[:3])."""
     mean0 = np.asarray(mean0, dtype=float)
-    cov0 = np.asarray(cov0, dtype=float)
-    offset = np.asarray(start_position, dtype=float) - mean0[:3]
-    gain = np.linalg.lstsq(cov0[:3, :3], cov0[:3, 3:], rcond=1e-12)[0].T    # (3, 3)
-    return np.concatenate([mean0[:3] + offset, mean0[3:] + gain @ offset])
+    start_position = np.asarray(start_position, dtype=float)
+    velocity = start_response(np.asarray(cov0, dtype=float))[3:] @ (start_position - mean0[:3])
+    return np.concatenate([start_position, mean0[3:] + velocity])
 
 
 class WorkspaceStartFamily(Family):

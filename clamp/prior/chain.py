@@ -41,6 +41,14 @@ Observations = Sequence[tuple[int, np.ndarray]]
 
 
 # ------------------------------------------------------------------------------ steps
+def start_response(cov0: np.ndarray) -> np.ndarray:
+    """The initial state's response (D, A) to its position, per unit of each of the A = D / 2
+    position coordinates: N(mean0, cov0) conditioned on its position p moves by
+    R (p - mean0_p), R = cov0[:, :A] cov0[:A, :A]^-1 (the position rows the identity)."""
+    A = len(cov0) // 2
+    return cov0[:, :A] @ np.linalg.inv(cov0[:A, :A])
+
+
 def spread(A: np.ndarray, P: np.ndarray, B: np.ndarray) -> np.ndarray:
     """A P A^T + B (batched over leading axes): a covariance P carried through the step
     (A, ., B)."""

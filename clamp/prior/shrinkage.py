@@ -65,7 +65,7 @@ from typing import Any
 import numpy as np
 
 from clamp.errors import InvalidParameterError
-from clamp.prior.chain import prefix_compose
+from clamp.prior.chain import prefix_compose, start_response
 
 __all__ = ["AUTO", "DAMPING", "SHAPES", "as_shrinkage", "offset_responses", "fading_responses",
            "fading_shapes", "shrink_start_offsets"]
@@ -99,9 +99,7 @@ def offset_responses(Phi: np.ndarray, u: np.ndarray, mean0: np.ndarray,
                      cov0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Chain mean (T, D) and response R (T, D, A) of the state to a unit start-position offset
     per axis (the start conditioned on its position, A = D / 2 position coordinates)."""
-    D = len(mean0)
-    A = D // 2
-    start = cov0[:, :A] @ np.linalg.inv(cov0[:A, :A])                    # (D, A)
+    start = start_response(cov0)                                          # (D, A)
     composed, shift, _ = prefix_compose(Phi, u, np.zeros_like(Phi))
     mean = np.concatenate([mean0[None], composed @ mean0 + shift])
     return mean, np.concatenate([start[None], composed @ start])
@@ -272,7 +270,7 @@ def _with_start_velocity(cov0: np.ndarray, gain: np.ndarray) -> np.ndarray:
     smallest eigenvalue is lifted to cov0's (the learner's jitter floor) where it fell below."""
     A = gain.shape[0]
     pp, vp, vv = cov0[:A, :A], cov0[A:, :A], cov0[A:, A:]
-    given = vv - vp @ np.linalg.lstsq(pp, vp.T, rcond=1e-12)[0]            # Schur complement
+    given = vv - start_response(cov0)[A:] @ vp.T                          # Schur complement
     out = np.array(cov0, dtype=float, copy=True)
     out[A:, :A] = gain @ pp
     out[:A, A:] = out[A:, :A].T
