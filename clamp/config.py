@@ -172,6 +172,14 @@ class ConstraintConfig:
     #: as built, judged) and its first restart's first solve's, after which no further start is
     #: tried past the first restart (None: unbounded; see docs/decisions.md#detour-search)
     search_budget: float | None = 16.0
+    #: when no start passes, the ``resumed`` closest starts (by their last optimum) continue
+    #: their updates for ``resume_rounds`` more rounds each, after the search and outside its
+    #: budget; then, while none passes, once more from there with the obstacles' safety
+    #: distance ``wide_margin`` times the model's epsilon (<= 1: not; see
+    #: docs/decisions.md#resumed-starts)
+    resumed: int = 2
+    resume_rounds: int = 4
+    wide_margin: float = 4.0
 
 
 @dataclass(frozen=True)
@@ -312,6 +320,9 @@ class PlannerConfig:
         as_count(a.ik_branches, "config.constraints.ik_branches", minimum=0)
         if a.search_budget is not None:
             as_scalar(a.search_budget, "config.constraints.search_budget", minimum=0.0)
+        as_count(a.resumed, "config.constraints.resumed", minimum=0)
+        as_count(a.resume_rounds, "config.constraints.resume_rounds", minimum=1)
+        as_scalar(a.wide_margin, "config.constraints.wide_margin", minimum=0.0)
         return self
 
 

@@ -210,6 +210,14 @@ class Family:
         docs/decisions.md#relaxed-margins-and-active-multipliers)."""
         return None
 
+    def widened(self, amount: float) -> "Family | None":
+        """A copy whose hinges hold a wider safety margin, by about ``amount`` (the check's
+        violation, in its units), or None when it has none: the constrained solve widens a
+        constraint its check finds violated where none of its hinges is (the check measures
+        what the hinges do not see, e.g. the collision geometry between support states; see
+        docs/decisions.md#widened-margins)."""
+        return None
+
     def __init__(self, first: np.ndarray, dim: int, sigma: float | np.ndarray | None = None,
                  sqrt_information: np.ndarray | None = None):
         self.first = as_indices(first, f"{self.name} indices")

@@ -93,6 +93,15 @@ class ObstacleFamily(Family):
         new.epsilon = epsilon
         return new
 
+    def widened(self, amount: float) -> "ObstacleFamily":
+        """A copy whose safety distance epsilon grows by ``amount`` [m] (the penetration the
+        check measured on the collision geometry), at least by ``near``: the spheres at the
+        support states clear, the geometry still touches (between two states, or where the
+        spheres do not cover it)."""
+        new = copy.copy(self)
+        new.epsilon = self.epsilon + max(float(amount), self.near)
+        return new
+
     def penetration(self, window: StateWindow) -> float:
         """Deepest penetration [m] of a sphere into an obstacle over the family's states
         (r_s - d(c_s); negative: every sphere is clear by that much, or by at least the

@@ -30,7 +30,15 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
 4. re-solve from the optimum with the solver's warm-start rule; at most ``rounds`` updates per
    candidate (one more when a lazy constraint joins on the last), and up to ``polish_rounds``
    more while every failed check is within ``polish_reach`` times its family's ``near`` (a
-   hair short; see docs/decisions.md#polish-rounds).
+   hair short; see docs/decisions.md#polish-rounds). A violated family whose hinges see less
+   than half of what its check measures (the obstacle check measures the collision geometry
+   between the support states too, the hinges only the spheres at them) is widened by the rest
+   (:meth:`~clamp.factors.Family.widened`: the obstacle hinges' epsilon grows; see
+   docs/decisions.md#widened-margins);
+5. when no start passes after the search below, the ``resumed`` closest starts (their last
+   optimum, the skill accepted) continue for ``resume_rounds`` more rounds each, outside the
+   search budget, and while none passes, once more from there with the obstacles' safety
+   distance ``wide_margin`` times the model's epsilon (see docs/decisions.md#resumed-starts).
 
 Candidates: the problem as built, then the restarts the caller generates from what the loop
 found so far (the untied problem, the skill's end as a goal, the detour search, a straight
@@ -47,7 +55,8 @@ the one the chosen optimum solves, shifts and weights included: its GTSAM graph 
 the one the solver finished on.
 
 The schedule's constants (progress, stiffen, wanted, soft_start_tolerance, polish_rounds,
-polish_reach, margin_floor, update_active, detours, ik_branches, search_budget) are the
+polish_reach, margin_floor, update_active, detours, ik_branches, search_budget, resumed,
+resume_rounds, wide_margin) are the
 ``constraints`` group of the configuration (:class:`clamp.config.ConstraintConfig`).
 """
 from __future__ import annotations
@@ -170,10 +179,14 @@ def _violation(family: Family, window) -> tuple[np.ndarray, float]:
 
 def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[str],
               previous: dict[str, float], lazy: Lazy,
-              schedule: ConstraintConfig = ConstraintConfig()) -> PlanningProblem:
+              schedule: ConstraintConfig = ConstraintConfig(),
+              amounts: Mapping[str, float] | None = None) -> PlanningProblem:
     """The next round's problem (see the module docstring, step 3), starting at theta (T, 2n);
     previous: each constraint family's violation of the round before (updated in place);
-    schedule: ``progress`` and ``stiffen`` (the configuration's ``constraints`` group)."""
+    schedule: ``progress`` and ``stiffen`` (the configuration's ``constraints`` group);
+    amounts: the checks' violations by family name: a violated family whose hinges see less
+    than half of its check's violation is widened by the rest
+    (:meth:`~clamp.factors.Family.widened`)."""
     violated = set(violated)
     families = list(problem.families)
     present = {f.name for f in families}
@@ -198,6 +211,10 @@ def augmented(problem: PlanningProblem, theta: np.ndarray, violated: Iterable[st
             previous[family.name] = 0.0          # its first update stiffens it
             continue
         shift, violation = _violation(family, window)
+        unseen = (amounts or {}).get(family.name, 0.0) - violation
+        if unseen > violation:
+            # the check sees what the hinges do not (e.g. between support states)
+            family = family.widened(unseen) or family
         if violation > schedule.progress * previous.get(family.name, 0.0):
             family = family.reweighted(schedule.stiffen)
             shift /= schedule.stiffen ** 2
@@ -265,6 +282,7 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
         """The outer loop on one candidate; the round it became feasible, or None."""
         nonlocal initial_error
         begun = work()
+        roots.setdefault(candidate.name, candidate.problem)
         current = candidate.problem
         carried = [lazy[name]() for name in sorted(joined) if not current.has(name)]
         if carried:        # a constraint that joined on an earlier start holds from the start
@@ -310,7 +328,7 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
             joined.update(name for name in verdict.violated
                           if name in lazy and not current.has(name))
             current = augmented(current, out.theta, verdict.violated, previous, lazy,
-                                config.constraints)
+                                config.constraints, _amounts(verdict))
             warm, r = WarmStart(), r + 1
 
     def work() -> int:
@@ -318,6 +336,9 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
         not timed, so that the budget gives the same plan on any machine at any load."""
         return totals["trials"] + len(attempts)
 
+    schedule = config.constraints
+    #: the problem each start began with (its configured weights, no shifts), by name
+    roots: dict[str, PlanningProblem] = {}
     #: the work of the problem as built's solve (judged) and of the first restart's first solve
     #: (from scratch): the budget's unit is the larger
     unit: list[int] = []
@@ -339,6 +360,27 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
                 break
             ok = run(candidate, None, rounds if first_ok is None else first_ok)
             first_ok = ok if first_ok is None else first_ok
+    def resume(suffix: str, make: Callable[[str, PlanningProblem, np.ndarray, Feasibility],
+                                           PlanningProblem | None],
+               warm: WarmStart | None, budget: int) -> None:
+        """The closest starts continued (module docstring, step 5) from their last optimum
+        as ``make`` sets them up, until one passes."""
+        for name, (out, current, verdict, _) in _resumable(found, attempts, schedule.resumed):
+            continued = make(name, current, out.theta, verdict)
+            if continued is not None and run(Candidate(f"{name}+{suffix}", continued),
+                                             warm, budget) is not None:
+                return
+
+    if not progress.feasible and rounds > 0 and not _faulted(found[-1][2]):
+        # the rounds go on: the multipliers and penalties as they were
+        resume("resumed", lambda _, current, theta, verdict: augmented(
+            current, theta, verdict.violated, {}, lazy, schedule, _amounts(verdict)),
+            WarmStart(), schedule.resume_rounds - 1)
+        if not progress.feasible and schedule.wide_margin > 1.0:
+            # a new problem from there: the start's own weights, a wider safety distance
+            resume("wide", lambda name, _, theta, __: _wide(
+                roots[name.split("+")[0]], theta, schedule.wide_margin * config.model.epsilon),
+                None, schedule.resume_rounds)
     out, solved, verdict = _choose(found)
     timings["constraint_loop"] = time.perf_counter() - started
     chosen = replace(out, iterations=totals["iterations"], trials=totals["trials"],
@@ -350,6 +392,38 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
         log.info("no plan meets every constraint after %d attempts; kept the closest (%s)",
                  len(found), ", ".join(verdict.violated) or "refused by the skill checks")
     return ConstrainedSolve(chosen, solved, verdict, attempts)
+
+
+def _wide(problem: PlanningProblem, theta: np.ndarray, epsilon: float
+          ) -> PlanningProblem | None:
+    """``problem`` (a start as it began) at theta with its obstacle family's safety distance
+    widened to ``epsilon`` [m] (kept where it is wider already); None without obstacles."""
+    if not problem.has(ObstacleFamily.name):
+        return None
+    obstacles = problem.family(ObstacleFamily.name)
+    wider = obstacles.widened(epsilon - obstacles.epsilon) if epsilon > obstacles.epsilon \
+        else obstacles
+    return problem.with_families([wider if f.name == ObstacleFamily.name else f
+                                  for f in problem.families], theta)
+
+
+def _amounts(verdict: Feasibility) -> dict[str, float]:
+    """The violated checks' amounts by family name."""
+    return {check.name: check.amount for check in verdict.checks if check.violated}
+
+
+def _resumable(found: list, attempts: list[Attempt], count: int) -> list[tuple[str, tuple]]:
+    """The last optimum of each start (a continued start counts as its own: "untied" and
+    "untied+resumed" are one) when the constraints alone refuse it (the skill accepted, a
+    constraint violated), closest first (:func:`_closeness`), at most ``count``; with the
+    name of the attempt it continues."""
+    last: dict[str, int] = {}
+    for k, attempt in enumerate(attempts):
+        last[attempt.candidate.split("+")[0]] = k
+    ends = [(attempts[k].candidate, found[k]) for k in last.values()
+            if found[k][2].violated and found[k][2].accepted]
+    ends.sort(key=lambda item: _closeness(item[1][2]))
+    return ends[:count]
 
 
 def _near(verdict: Feasibility, problem: PlanningProblem, reach: float = 1.0) -> bool:

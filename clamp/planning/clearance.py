@@ -61,7 +61,12 @@ def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | No
     except CollisionCheckError as error:          # a collision mesh coal cannot use
         log.warning("collision check failed: %s", error)
         return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q), str(error))
-    return found.check(q, time, margin=0.0, max_motion=MAX_MOTION, resolution=RESOLUTION)
+    try:
+        return found.check(q, time, margin=0.0, max_motion=MAX_MOTION, resolution=RESOLUTION)
+    except CollisionCheckError as error:          # a trajectory too long to subdivide
+        log.warning("collision check failed: %s", error)
+        return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q),
+                                      f"the plan could not be checked for collisions: {error}")
 
 
 def state_clearance(robot: Any, scene: Any, q: np.ndarray, cap: float

@@ -174,6 +174,19 @@ def test_long_trajectory_is_collision_free_or_says_why(jaco):
     assert not (result.stop_reason == "converged" and clearance < 0.0)
 
 
+def test_a_motion_too_long_to_check_is_a_failed_check_not_an_error(jaco, prior):
+    """A trajectory whose links travel kilometres (a diverged solve spinning a continuous joint
+    hundreds of turns: hard/jaco/0006 of the fidelity benchmark raised out of plan()) needs
+    more subdivisions than the checker makes: the clearance check reports it as failed, with
+    the checker's reason, a collision (never clear), instead of raising."""
+    scene = box_in_the_path(prior, jaco)
+    q = np.zeros((5, jaco.n))
+    q[:, 0] = np.linspace(0.0, 3000.0, len(q))          # rad: ~480 turns of the base
+    report = check_clearance(jaco, scene, q)
+    assert report.collision and report.fault and "could not be checked" in report.fault
+    assert "configurations" in report.fault and np.isnan(report.min_distance)
+
+
 # ------------------------------------------------------------------------ third-party arms
 def test_third_party_arm_avoids_a_box_in_the_skill_path(prior):
     share = example_robot_data_share()

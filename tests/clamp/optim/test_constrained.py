@@ -17,9 +17,9 @@ import pytest
 
 from bad_input import raises_naming
 from clamp.config import ConstraintConfig, PlannerConfig
-from clamp.optim.constrained import augmented
+from clamp.optim.constrained import Feasibility, augmented, solve_constrained
 from clamp.errors import InvalidParameterError
-from clamp.factors import PostureFamily, SelfCollisionFamily
+from clamp.factors import ConstraintCheck, PostureFamily, SelfCollisionFamily
 from clamp.graph.problem import PlanningProblem
 from tests.clamp.factors.test_families import (assert_jacobians_match_finite_differences, dense_residual,
                                  make_families, random_theta, whitened_rows)
@@ -169,12 +169,87 @@ def test_families_that_hold_give_way_to_one_that_fails(setup):
         .epsilon == before.epsilon
 
 
+def test_a_violation_the_hinges_do_not_see_widens_the_family(setup):
+    """The obstacle check measures the collision geometry between the support states too; the
+    hinges only the spheres at them. When the check's violation is more than twice what the
+    hinges see, the obstacle family's safety distance grows by the difference (at least by its
+    ``near``); when the hinges see it, only the multipliers move."""
+    robot, theta, families, _ = setup
+    problem = PlanningProblem(robot, len(theta), families, [], theta)
+    obstacle = problem.family("obstacle")
+    seen = float(np.max(dense_residual(obstacle, robot, theta)))
+    assert seen > 0.0
+    plain = ConstraintConfig(update_active=False)
+    unseen = augmented(problem, theta, ["obstacle"], {}, {}, plain,
+                       {"obstacle": 3.0 * seen + 0.01})
+    assert unseen.family("obstacle").epsilon == pytest.approx(
+        obstacle.epsilon + 2.0 * seen + 0.01)
+    tiny = augmented(problem, theta, ["obstacle"], {}, {}, plain, {"obstacle": 2.0 * seen + 1e-6})
+    assert tiny.family("obstacle").epsilon == pytest.approx(
+        obstacle.epsilon + max(seen + 1e-6, obstacle.near))
+    for amounts in ({"obstacle": 1.5 * seen}, {}, None):
+        kept = augmented(problem, theta, ["obstacle"], {}, {}, plain, amounts)
+        assert kept.family("obstacle").epsilon == obstacle.epsilon
+    # a family without a margin to widen keeps its hinges
+    limits = augmented(problem, theta, ["joint_limits"], {}, {}, plain, {"joint_limits": 1.0})
+    assert type(limits.family("joint_limits")) is type(problem.family("joint_limits"))
+
+
+def scripted_judge(passes_at: int):
+    """A judge that finds the obstacle violated (by 5 cm: not a hair short, no polish rounds)
+    until its ``passes_at``-th call."""
+    calls = []
+
+    def judge(theta: np.ndarray) -> Feasibility:
+        calls.append(theta)
+        if len(calls) >= passes_at:
+            return Feasibility((), True, (ConstraintCheck("obstacle", False),), 0.01)
+        return Feasibility(("obstacle",), True, (ConstraintCheck("obstacle", True, 0.05),),
+                           -0.05)
+    return judge, calls
+
+
+def test_the_closest_starts_continue_only_when_none_passes(jaco):
+    """After the search (here: the problem as built alone, one update), the closest start
+    continues for ``resume_rounds`` more rounds ("+resumed"), then once more with the
+    obstacles' safety distance ``wide_margin`` times the model's ("+wide"); a search that
+    passes is left as it is; ``resumed`` 0 turns both off."""
+    rng = np.random.default_rng(3)
+    theta = random_theta(jaco, rng)
+    problem = PlanningProblem(jaco, len(theta), make_families(jaco, theta, rng), [], theta)
+    config = PlannerConfig().with_(constraint_rounds=1, max_iterations=5)
+    rounds = config.constraints.resume_rounds
+
+    def names(solved):
+        return [a.candidate for a in solved.attempts]
+
+    passed, calls = scripted_judge(2)                  # the search's own second round passes
+    solved = solve_constrained(problem, config, passed)
+    assert solved.feasibility.ok and names(solved) == ["configured"] * 2
+    resumed, calls = scripted_judge(4)                 # the second round of the resumed start
+    solved = solve_constrained(problem, config, resumed)
+    assert solved.feasibility.ok
+    assert names(solved) == ["configured"] * 2 + ["configured+resumed"] * 2
+    assert len(calls) == 4
+    wide, calls = scripted_judge(2 + rounds + 1)       # the first solve of the widened start
+    # (20 x 2 cm: wider than the rounds before widened the hinges seeing less than the check)
+    solved = solve_constrained(problem, config.with_(wide_margin=20.0), wide)
+    assert solved.feasibility.ok
+    assert names(solved) == (["configured"] * 2 + ["configured+resumed"] * rounds
+                             + ["configured+resumed+wide"])
+    assert solved.problem.family("obstacle").epsilon == pytest.approx(20.0 * config.model.epsilon)
+    never, calls = scripted_judge(10 ** 6)
+    solved = solve_constrained(problem, config.with_(resumed=0), never)
+    assert not solved.feasibility.ok and names(solved) == ["configured"] * 2
+
+
 def test_constraint_config_defaults_and_checks():
     """The schedule's defaults are the constants the solve used before the group existed."""
     defaults = PlannerConfig().constraints
     assert (defaults.progress, defaults.stiffen, defaults.wanted,
             defaults.soft_start_tolerance) == (0.25, 4.0, 1, 3e-2)
     for bad in ({"progress": 0.0}, {"stiffen": 0.5}, {"wanted": 0},
-                {"soft_start_tolerance": -1.0}):
+                {"soft_start_tolerance": -1.0}, {"resumed": -1}, {"resume_rounds": 0},
+                {"wide_margin": -1.0}):
         with raises_naming(InvalidParameterError, f"config.constraints.{next(iter(bad))}"):
             PlannerConfig().with_(**bad)
