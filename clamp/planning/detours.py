@@ -10,9 +10,9 @@ two heights (the least that takes the path past the obstacle's face by the clear
 that plus :data:`SECOND_HEIGHT`), faded in and out over the states near the obstacle; ranked
 in the workspace before any solve (:func:`rank_detours`: the hand point's own clearance,
 the skill's tube, the arm's reach), best first. :func:`detour_trajectory` turns one path into a
-joint trajectory (inverse kinematics seeded at the start). :func:`detour_paths` is the older
-pair (pushed away from an obstacle's bounding sphere, lifted over it), which the search
-replaced: it left the skill's tube by construction.
+joint trajectory (inverse kinematics seeded at the start). (The older pair, pushed away from an
+obstacle's bounding sphere and lifted over it, left the skill's tube by construction; see
+docs/decisions.md#detour-search.)
 """
 from __future__ import annotations
 
@@ -30,36 +30,6 @@ BLOCKING = 0.02
 #: [m] the states within this of an obstacle, beyond the clearance, are the ones a detour moves
 #: fully (the hand's own size)
 NEAR = 0.05
-
-
-def detour_paths(path: np.ndarray, centre: np.ndarray, radius: float, clearance: float,
-                 index: float) -> list[tuple[str, np.ndarray]]:
-    """End-effector paths (T, 3) [m] that leave ``path`` (T, 3) around an obstacle (bounding
-    sphere ``centre`` (3,), ``radius`` [m]) met near state ``index``: "detour_away" pushes the
-    path away from the centre across its direction of travel, "detour_over" lifts it (+z), each
-    by radius + clearance at the contact, faded in and out (raised cosine) over the states within
-    radius + 2 clearance of the centre (at least a tenth of the path each side)."""
-    T = len(path)
-    i = int(np.clip(round(index), 0, T - 1))
-    near = np.flatnonzero(np.linalg.norm(path - centre, axis=1) < radius + 2.0 * clearance)
-    half = max(T // 10, int(np.max(np.abs(near - i))) if near.size else 0, 1)
-    s = np.clip((np.arange(T) - i) / half, -1.0, 1.0)
-    window = 0.5 * (1.0 + np.cos(np.pi * s))
-    window[0] = 0.0                                   # the start stays where it was asked
-    tangent = path[min(i + 1, T - 1)] - path[max(i - 1, 0)]
-    tangent /= max(np.linalg.norm(tangent), 1e-12)
-    away = path[i] - centre
-    away -= tangent * (away @ tangent)
-    if np.linalg.norm(away) < 1e-9:
-        away = np.cross(tangent, [0.0, 0.0, 1.0])
-        if np.linalg.norm(away) < 1e-9:
-            away = np.array([1.0, 0.0, 0.0])
-    away /= np.linalg.norm(away)
-    amplitude = radius + clearance
-    out = []
-    for name, direction in (("detour_away", away), ("detour_over", np.array([0.0, 0.0, 1.0]))):
-        out.append((name, path + amplitude * window[:, None] * direction))
-    return out
 
 
 def blocking_obstacles(obstacles, path: np.ndarray, tube: np.ndarray,

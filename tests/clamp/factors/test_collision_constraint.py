@@ -11,7 +11,6 @@ import pytest
 
 from clamp import PlannerConfig, build, learn_prior, plan
 from clamp.planning.clearance import check_clearance, checker
-from clamp.planning.detours import detour_paths
 from clamp.planning.verdict import sphere_clearance
 from robots import Robot
 from robots.collision_check import CollisionChecker
@@ -143,18 +142,6 @@ def test_first_feasible_solve_is_kept_alone(jaco, prior):
     result = plan(prior, jaco, Scene([README_BOX]), start=START, covariance=False)
     assert [a["candidate"] for a in result.attempts] == ["configured"]
     assert result.stop_reason == "converged"
-
-
-def test_detours_leave_the_obstacle_and_keep_the_ends():
-    T = 101
-    path = np.stack([np.linspace(0.0, 1.0, T), np.zeros(T), np.zeros(T)], axis=1)
-    centre = np.array([0.5, 0.02, 0.0])
-    for name, detour in detour_paths(path, centre, 0.1, 0.05, 50):
-        np.testing.assert_allclose(detour[[0, -1]], path[[0, -1]])
-        assert np.linalg.norm(detour[50] - centre) >= 0.15 - 0.02 - 1e-9, name
-        assert np.all(np.abs(np.diff(detour, axis=0)) < 0.05)              # smooth, no jump
-    away = dict(detour_paths(path, centre, 0.1, 0.05, 50))["detour_away"]
-    assert away[50, 1] < -0.1                                              # away from the centre
 
 
 # ----------------------------------------------------------------------- long trajectories
