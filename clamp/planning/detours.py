@@ -9,7 +9,7 @@ path (:func:`blocking_obstacles`), the path moved over, left, right and under it
 two heights (the least that takes the path past the obstacle's face by the clearance, and
 that plus :data:`SECOND_HEIGHT`), faded in and out over the states near the obstacle; ranked
 in the workspace before any solve (:func:`rank_detours`: the hand point's own clearance,
-the skill's tube, the arm's reach), best first. :func:`detour_trajectory` turns one path into a
+the skill's tube, the arm's reach), best first, every way around once before any twice. :func:`detour_trajectory` turns one path into a
 joint trajectory (inverse kinematics seeded at the start). (The older pair, pushed away from an
 obstacle's bounding sphere and lifted over it, left the skill's tube by construction; see
 docs/decisions.md#detour-search.)
@@ -115,8 +115,9 @@ def detour_search(path: np.ndarray, obstacles, reference: np.ndarray, tube: np.n
     """Every detour of ``path`` (T, 3) [m] around every obstacle blocking the skill
     (:func:`blocking_obstacles` of the skill's ``reference`` path (T, 3) with its ``tube`` radii
     (T,) [m]), :func:`detours_around` each (the hand point kept ``clearance`` [m] past the
-    face), ranked by :func:`rank_detours`: (name "<direction>-<cm>@<obstacle index>", path,
-    score), best first; empty when nothing blocks the skill. ``focus``: the state where the
+    face), ranked by :func:`rank_detours`, every way around an obstacle once before any twice:
+    (name "<direction>-<cm>@<obstacle index>", path, score), best first; empty when nothing
+    blocks the skill. ``focus``: the state where the
     closest optimum failed; the detours around the blocking obstacle nearest to the reference
     there come first (ranked among themselves), then the others."""
     blocking = blocking_obstacles(obstacles, reference, tube, clearance)
@@ -127,8 +128,22 @@ def detour_search(path: np.ndarray, obstacles, reference: np.ndarray, tube: np.n
                            obstacles, reference, tube, clearance, base, reach)
               for k, obstacle in blocking]
     first = groups[:1] if focus is not None else []
-    rest = sorted((c for group in groups[len(first):] for c in group), key=lambda c: c[2])
-    return [c for group in first for c in group] + rest
+    rest = [c for group in groups[len(first):] for c in group]
+    return _each_way_first([c for group in first for c in group]) + _each_way_first(rest)
+
+
+def _each_way_first(ranked: list[tuple[str, np.ndarray, float]]
+                    ) -> list[tuple[str, np.ndarray, float]]:
+    """``ranked`` (name "<direction>-<cm>@<obstacle>", path, score) ordered by score, but every
+    way around an obstacle (direction and obstacle) once before any twice: the second height
+    of a way mostly ends where its first did."""
+    ways: dict[str, int] = {}
+    keyed = []
+    for name, path, score in sorted(ranked, key=lambda c: c[2]):
+        way = name.split("-")[0] + name.split("@")[-1]
+        keyed.append((ways.get(way, 0), score, len(keyed), (name, path, score)))
+        ways[way] = ways.get(way, 0) + 1
+    return [c for *_, c in sorted(keyed, key=lambda k: k[:3])]
 
 
 def detour_trajectory(robot, path: np.ndarray, q_start: np.ndarray, dt: float,

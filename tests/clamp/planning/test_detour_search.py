@@ -54,10 +54,17 @@ def test_detours_go_around_the_obstacle_on_the_path():
     assert heights["over-9"] == pytest.approx(0.05 + 0.04)           # half the box + clearance
     assert heights["left-7"] == pytest.approx(0.03 + 0.04)
     assert heights["over-14"] == pytest.approx(0.09 + SECOND_HEIGHT)
-    # ranked: a wide tube lets the least detour come first (the narrowest side: left / right)
+    # ranked: a wide tube lets the least detour come first (the narrowest side: left / right);
+    # every way around once (by score) before any second height (by score)
     ranked = detour_search(path, [box], path, np.full(T, 0.2), 0.04, np.zeros(3), 2.0)
     assert len(ranked) == 8 and ranked[0][0].split("-")[0] in ("left", "right")
-    assert [c[2] for c in ranked] == sorted(c[2] for c in ranked)
+    ways = [c[0].split("-")[0] for c in ranked]
+    assert sorted(ways[:4]) == sorted(DIRECTIONS) and sorted(ways[4:]) == sorted(DIRECTIONS)
+    for half in (ranked[:4], ranked[4:]):
+        assert [c[2] for c in half] == sorted(c[2] for c in half)
+    for way in DIRECTIONS:                     # a way's first height scores best of its two
+        first, second = (c[2] for c in ranked if c[0].startswith(way))
+        assert first <= second
 
 
 @pytest.fixture(scope="module")
