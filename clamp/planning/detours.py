@@ -9,8 +9,9 @@ path (:func:`blocking_obstacles`), the path moved over, left, right and under it
 two heights (the least that takes the path past the obstacle's face by the clearance, and
 that plus :data:`SECOND_HEIGHT`), faded in and out over the states near the obstacle; ranked
 in the workspace before any solve (:func:`rank_detours`: the hand point's own clearance,
-the skill's tube, the arm's reach), best first, every way around once before any twice. :func:`detour_trajectory` turns one path into a
-joint trajectory (inverse kinematics seeded at the start). (The older pair, pushed away from an
+the skill's tube, the arm's reach), best first, every way around once before any twice.
+:func:`detour_trajectory` turns one path into a joint trajectory (inverse kinematics seeded at
+the start). (The older pair, pushed away from an
 obstacle's bounding sphere and lifted over it, left the skill's tube by construction; see
 docs/decisions.md#detour-search.)
 """
