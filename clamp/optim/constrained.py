@@ -360,6 +360,7 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
                 break
             ok = run(candidate, None, rounds if first_ok is None else first_ok)
             first_ok = ok if first_ok is None else first_ok
+
     def resume(suffix: str, make: Callable[[str, PlanningProblem, np.ndarray, Feasibility],
                                            PlanningProblem | None],
                warm: WarmStart | None, budget: int) -> None:
