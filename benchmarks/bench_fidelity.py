@@ -479,13 +479,12 @@ def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
             log.info("oracle %s: %s", label, exc)
             continue
         restarts += 1
+        own = {} if label == "default" else {k: v for k, v in RESTART_CONFIG.items()
+                                             if initial is not None or k != "initialisation"}
         scale = 1.0
         for _ in range(3):
             plans += 1
             try:
-                own = {} if label == "default" else {
-                    k: v for k, v in RESTART_CONFIG.items()
-                    if initial is not None or k != "initialisation"}
                 config = PlannerConfig().with_(**ORACLE_CONFIG, **changes, **own)
                 result = _plan(data, True, start=q_start, goal=data["goal"], initial=initial,
                                config=config, covariance=False, time_scale=scale)

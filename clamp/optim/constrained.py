@@ -361,13 +361,15 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
             ok = run(candidate, None, rounds if first_ok is None else first_ok)
             first_ok = ok if first_ok is None else first_ok
 
-    def resume(suffix: str, make: Callable[[str, PlanningProblem, np.ndarray, Feasibility],
-                                           PlanningProblem | None],
+    def resume(suffix: str, make: Callable[[PlanningProblem, PlanningProblem, np.ndarray,
+                                            Feasibility], PlanningProblem | None],
                warm: WarmStart | None, budget: int) -> None:
         """The closest starts continued (module docstring, step 5) from their last optimum
-        as ``make`` sets them up, until one passes."""
-        for name, (out, current, verdict, _) in _resumable(found, attempts, schedule.resumed):
-            continued = make(name, current, out.theta, verdict)
+        as ``make(the start as it began, its last problem, theta, verdict)`` sets them up,
+        until one passes."""
+        for root, name, (out, current, verdict, _) in _resumable(found, attempts,
+                                                                 schedule.resumed):
+            continued = make(roots[root], current, out.theta, verdict)
             if continued is not None and run(Candidate(f"{name}+{suffix}", continued),
                                              warm, budget) is not None:
                 return
@@ -379,8 +381,8 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
             WarmStart(), schedule.resume_rounds - 1)
         if not progress.feasible and schedule.wide_margin > 1.0:
             # a new problem from there: the start's own weights, a wider safety distance
-            resume("wide", lambda name, _, theta, __: _wide(
-                roots[name.split("+")[0]], theta, schedule.wide_margin * config.model.epsilon),
+            resume("wide", lambda began, _, theta, __: _wide(
+                began, theta, schedule.wide_margin * config.model.epsilon),
                 None, schedule.resume_rounds)
     out, solved, verdict = _choose(found)
     timings["constraint_loop"] = time.perf_counter() - started
@@ -413,17 +415,18 @@ def _amounts(verdict: Feasibility) -> dict[str, float]:
     return {check.name: check.amount for check in verdict.checks if check.violated}
 
 
-def _resumable(found: list, attempts: list[Attempt], count: int) -> list[tuple[str, tuple]]:
+def _resumable(found: list, attempts: list[Attempt], count: int
+               ) -> list[tuple[str, str, tuple]]:
     """The last optimum of each start (a continued start counts as its own: "untied" and
     "untied+resumed" are one) when the constraints alone refuse it (the skill accepted, a
-    constraint violated), closest first (:func:`_closeness`), at most ``count``; with the
-    name of the attempt it continues."""
+    constraint violated), closest first (:func:`_closeness`), at most ``count``: (the start's
+    own name, the name of the attempt it continues, what ``found`` holds of it)."""
     last: dict[str, int] = {}
     for k, attempt in enumerate(attempts):
         last[attempt.candidate.split("+")[0]] = k
-    ends = [(attempts[k].candidate, found[k]) for k in last.values()
+    ends = [(root, attempts[k].candidate, found[k]) for root, k in last.items()
             if found[k][2].violated and found[k][2].accepted]
-    ends.sort(key=lambda item: _closeness(item[1][2]))
+    ends.sort(key=lambda item: _closeness(item[2][2]))
     return ends[:count]
 
 

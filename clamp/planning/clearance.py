@@ -56,17 +56,18 @@ def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | No
     scene; time (T,) [s] only dates the nearest contact. None when the scene has no obstacles."""
     if not has_obstacles(scene):
         return None
+    def failed(fault: str) -> CollisionReport:
+        log.warning("collision check failed: %s", fault)
+        return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q), fault)
+
     try:
         found = checker(robot, scene)
     except CollisionCheckError as error:          # a collision mesh coal cannot use
-        log.warning("collision check failed: %s", error)
-        return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q), str(error))
+        return failed(str(error))
     try:
         return found.check(q, time, margin=0.0, max_motion=MAX_MOTION, resolution=RESOLUTION)
     except CollisionCheckError as error:          # a trajectory too long to subdivide
-        log.warning("collision check failed: %s", error)
-        return CollisionReport.failed("urdf", 0.0, MAX_MOTION, len(q),
-                                      f"the plan could not be checked for collisions: {error}")
+        return failed(f"the plan could not be checked for collisions: {error}")
 
 
 def state_clearance(robot: Any, scene: Any, q: np.ndarray, cap: float

@@ -11,9 +11,8 @@ that plus :data:`SECOND_HEIGHT`), faded in and out over the states near the obst
 in the workspace before any solve (:func:`rank_detours`: the hand point's own clearance,
 the skill's tube, the arm's reach), best first, every way around once before any twice.
 :func:`detour_trajectory` turns one path into a joint trajectory (inverse kinematics seeded at
-the start). (The older pair, pushed away from an
-obstacle's bounding sphere and lifted over it, left the skill's tube by construction; see
-docs/decisions.md#detour-search.)
+the start). (The older pair, pushed away from an obstacle's bounding sphere and lifted over
+it, left the skill's tube by construction; see docs/decisions.md#detour-search.)
 """
 from __future__ import annotations
 
@@ -140,11 +139,12 @@ def _each_way_first(ranked: list[tuple[str, np.ndarray, float]]
     of a way mostly ends where its first did."""
     ways: dict[str, int] = {}
     keyed = []
-    for name, path, score in sorted(ranked, key=lambda c: c[2]):
-        way = name.split("-")[0] + name.split("@")[-1]
-        keyed.append((ways.get(way, 0), score, len(keyed), (name, path, score)))
+    for candidate in sorted(ranked, key=lambda c: c[2]):
+        way = candidate[0].split("-")[0] + candidate[0].split("@")[-1]
+        keyed.append((ways.get(way, 0), candidate))          # the way's how-many-th height
         ways[way] = ways.get(way, 0) + 1
-    return [c for *_, c in sorted(keyed, key=lambda k: k[:3])]
+    # a stable sort on that count keeps the score order within each
+    return [c for _, c in sorted(keyed, key=lambda k: k[0])]
 
 
 def detour_trajectory(robot, path: np.ndarray, q_start: np.ndarray, dt: float,
