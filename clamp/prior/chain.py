@@ -93,6 +93,16 @@ def suffix_compose(Phi: np.ndarray, u: np.ndarray, Q: np.ndarray) -> Step:
     return A, b, B
 
 
+def suffix_products(Phi: np.ndarray) -> np.ndarray:
+    """The transitions of :func:`suffix_compose` alone: A_i = Phi_{S-1} ... Phi_i (S, D, D)."""
+    A = Phi.copy()
+    shift = 1
+    while shift < len(A):
+        A[:-shift] = A[shift:] @ A[:-shift]
+        shift *= 2
+    return A
+
+
 def total_compose(Phi: np.ndarray, u: np.ndarray, Q: np.ndarray) -> Step:
     """The steps s = 0 .. S-1 (S >= 1) composed into one (A (D, D), b (D,), B (D, D)):
     x_S = A x_0 + b + N(0, B). Pairwise tree reduction: O(S) products in ceil(log2 S)
@@ -241,7 +251,7 @@ def backward_messages(Phi: np.ndarray, u: np.ndarray, Q: np.ndarray, L_obs: np.n
     states a < j the message of x_i (a <= i < j) is the message of x_j carried back through
     the composed step x_j = A x_i + b + N(0, B) (:func:`suffix_compose`, log depth):
     L_i = A' (I + L_j B)^-1 L_j A, e_i = A' (I + L_j B)^-1 (e_j - L_j b); only the loop over
-    the observed states is sequential.
+    the observed states is sequential (a zero message is not carried).
     """
     T, D = L_obs.shape[:2]
     L_msg, e_msg = L_obs.copy(), e_obs.copy()
@@ -249,6 +259,9 @@ def backward_messages(Phi: np.ndarray, u: np.ndarray, Q: np.ndarray, L_obs: np.n
     j = T - 1
     while j > 0:
         a = int(observed[observed < j].max(initial=0))
+        if not (np.any(L_msg[j]) or np.any(e_msg[j])):   # nothing observed at or after j
+            j = a
+            continue
         A, b, B = suffix_compose(Phi[a:j], u[a:j], Q[a:j])
         L_j, e_j = L_msg[j], e_msg[j]
         rhs = np.broadcast_to(np.hstack([L_j, e_j[:, None]]), (j - a, D, D + 1))

@@ -21,6 +21,10 @@ The planner plans with the conditioned prior when a goal or via points are asked
 learned workspace GP family itself pulls the plan through them (a soft 1 mm factor alone loses
 against the learned prior's micrometre-stiff end: misses of 12-44 mm for a 5 cm goal move),
 while the target factors stay in the graph as well.
+
+One exception to exactness: where the chain would carry a goal offset to a state farther than
+the goal itself moved (a few demonstrations fitted exactly), that state's response is capped
+to the goal's (:mod:`clamp.prior.goal_response`; recorded in ``info["goal_response"]``).
 """
 from __future__ import annotations
 
@@ -30,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
-from clamp.prior import chain
+from clamp.prior import chain, goal_response
 from clamp.prior.linear_gaussian import WorkspacePrior, check_prior
 from clamp.validation import as_array, as_count, as_scalar
 from skillplan.validation import MAX_COORDINATE, as_sequence
@@ -68,7 +72,33 @@ def condition_prior(prior: Any, observations: Sequence[tuple[int, Any]],
 def conditioned(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndarray]],
                 sigma: float) -> WorkspacePrior:
     """:func:`condition_prior` on checked inputs (a learned prior, (index, position (A,))
-    pairs with indices in range, sigma > 0): what the planner calls on its request's targets."""
+    pairs with indices in range, sigma > 0): what the planner calls on its request's targets.
+    A goal's response is capped where it would amplify (module doc)."""
+    info = {**getattr(prior, "info", {}), "conditioned_on": [
+        [int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations],
+        "conditioning_sigma": sigma}
+    exact = WorkspacePrior(prior.time, *_conditioned_chain(prior, observations, sigma),
+                           info=info)
+    T = exact.T
+    if not any(index == T - 1 for index, _ in observations):
+        return exact
+    others = [(index, p) for index, p in observations if index != T - 1]
+    Phi, u, Q, mean0, cov0 = _conditioned_chain(prior, others, sigma)
+    rest_mean, rest_cov = chain.marginals(Phi, u, Q, mean0, cov0)
+    scale = goal_response.goal_scale(Phi, rest_cov, sigma)
+    exact.info["goal_response"] = goal_response.record(scale)
+    if np.all(scale >= 1.0):
+        return exact
+    mean = goal_response.capped_mean(rest_mean, np.asarray(exact.mean), scale,
+                                     np.asarray(exact.time))
+    return exact.with_offsets(mean[1:] - np.einsum("tij,tj->ti", exact.Phi, mean[:-1]),
+                              mean[0])
+
+
+def _conditioned_chain(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndarray]],
+                       sigma: float) -> tuple[np.ndarray, ...]:
+    """(Phi, u, Q, mean0, cov0) of the chain conditioned exactly on the observations (module
+    doc), Q and cov0 floored."""
     Phi, u, Q = (np.asarray(a, dtype=float) for a in (prior.Phi, prior.u, prior.Q))
     T, D = len(Phi) + 1, Phi.shape[1]
     A = D // 2
@@ -80,23 +110,26 @@ def conditioned(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndar
     L_msg, e_msg = chain.backward_messages(Phi, u, Q, L_obs, e_obs)
     P0, m0 = np.asarray(prior.cov0, dtype=float), np.asarray(prior.mean0, dtype=float)
     Phi_c, u_c, Q_c, mean0, cov0 = chain.conditioned_chain(Phi, u, Q, m0, P0, L_msg, e_msg)
-    info = {**getattr(prior, "info", {}), "conditioned_on": [
-        [int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations],
-        "conditioning_sigma": sigma}
-    return WorkspacePrior(prior.time, Phi_c, u_c, _floor(Q_c, sigma), mean0,
-                          _floor(cov0[None], sigma)[0], info=info)
+    return Phi_c, u_c, _floor(Q_c, sigma), mean0, _floor(cov0[None], sigma)[0]
 
 
 def same_pattern(conditioned_prior: Any, observations: Sequence[tuple[int, Any]],
                  sigma: float) -> bool:
     """Whether ``conditioned_prior`` (its ``info``) was conditioned at the state indices of
-    ``observations``, in the same order, with the same ``sigma`` (then :func:`retargeted`
+    ``observations``, in the same order, with the same ``sigma``, and, where its goal's
+    response was capped, at the same positions but the goal's (then :func:`retargeted`
     applies)."""
     info = getattr(conditioned_prior, "info", {})
     before = info.get("conditioned_on")
-    return (before is not None and info.get("conditioning_sigma") == sigma
-            and len(before) == len(observations)
-            and all(int(i) == int(j) for (i, _), (j, _) in zip(before, observations)))
+    if (before is None or info.get("conditioning_sigma") != sigma
+            or len(before) != len(observations)
+            or any(int(i) != int(j) for (i, _), (j, _) in zip(before, observations))):
+        return False
+    if "scale" not in info.get("goal_response", {}):
+        return True
+    last = len(conditioned_prior.time) - 1
+    return all(np.array_equal(np.asarray(p, dtype=float), np.asarray(q, dtype=float))
+               for (i, p), (_, q) in zip(before, observations) if int(i) != last)
 
 
 def retargeted(conditioned_prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndarray]]
@@ -110,14 +143,17 @@ def retargeted(conditioned_prior: WorkspacePrior, observations: Sequence[tuple[i
     in them, and its change de carried back through one step is Phi'^T de (the module
     docstring's (I + L Q)^-1 is (I - K L)^T), so only the offsets and means move:
     u' += Q' de_{i+1}, mean0' += cov0' de_0 (Q' and cov0' floored as :func:`conditioned`
-    leaves them: a change below 1e-3 sigma^2 de, nanometres). One backward pass, ~10x
-    cheaper than conditioning again. InvalidParameterError when the pattern differs."""
+    leaves them: a change below 1e-3 sigma^2 de, nanometres). Where the goal's response was
+    capped (:mod:`clamp.prior.goal_response`) only the goal may move, and the mean's change is
+    capped by the same scale. One backward pass, ~5x cheaper than conditioning again.
+    InvalidParameterError when :func:`same_pattern` does not hold."""
     info = getattr(conditioned_prior, "info", {})
     before, sigma = info.get("conditioned_on"), info.get("conditioning_sigma")
     if sigma is None or not same_pattern(conditioned_prior, observations, sigma):
         raise InvalidParameterError(
             "conditioned_prior: expected a prior conditioned on positions at the states "
-            f"{[int(j) for j, _ in observations]}, got one conditioned on "
+            f"{[int(j) for j, _ in observations]} (where its goal response was capped, at the "
+            f"same positions but the goal's), got one conditioned on "
             f"{None if before is None else [int(i) for i, _ in before]}")
     Phi, Q = np.asarray(conditioned_prior.Phi), np.asarray(conditioned_prior.Q)
     T, D = len(Phi) + 1, Phi.shape[1]
@@ -129,10 +165,23 @@ def retargeted(conditioned_prior: WorkspacePrior, observations: Sequence[tuple[i
     de[-1] = de_obs[-1]
     for i in range(T - 2, -1, -1):
         de[i] = Phi[i].T @ de[i + 1] + de_obs[i]
-    u = np.asarray(conditioned_prior.u) + np.einsum("tij,tj->ti", Q, de[1:])
-    mean0 = np.asarray(conditioned_prior.mean0) + np.asarray(conditioned_prior.cov0) @ de[0]
-    return conditioned_prior.with_offsets(u, mean0, {**info, "conditioned_on": [
-        [int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations]})
+    du = np.einsum("tij,tj->ti", Q, de[1:])
+    dmean0 = np.asarray(conditioned_prior.cov0) @ de[0]
+    record = {**info, "conditioned_on": [
+        [int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations]}
+    scale = info.get("goal_response", {}).get("scale")
+    if scale is None:
+        return conditioned_prior.with_offsets(np.asarray(conditioned_prior.u) + du,
+                                              np.asarray(conditioned_prior.mean0) + dmean0,
+                                              record)
+    change = np.empty((T, D))
+    change[0] = dmean0
+    for i in range(T - 1):
+        change[i + 1] = Phi[i] @ change[i] + du[i]
+    mean = np.asarray(conditioned_prior.mean) + goal_response.capped_mean(
+        np.zeros((T, D)), change, np.asarray(scale), np.asarray(conditioned_prior.time))
+    return conditioned_prior.with_offsets(mean[1:] - np.einsum("tij,tj->ti", Phi, mean[:-1]),
+                                          mean[0], record)
 
 
 def _floor(cov: np.ndarray, sigma: float) -> np.ndarray:

@@ -2,6 +2,7 @@
 depth; default plans pass; the planner repairs a plan that collides with itself; a start in
 self-collision fails before planning. Judged independently by the fidelity benchmark's coal
 check over every link pair at and between states."""
+import re
 import sys
 from pathlib import Path
 
@@ -13,24 +14,35 @@ import fidelity_checks as fc  # noqa: E402
 
 from clamp import PlannerConfig, plan  # noqa: E402
 
-REPRODUCERS = {"sawyer": ([-0.093, 0.107, 0.165], ("right_l0", "right_l4_2")),
-               "jaco": ([-0.025, -0.05, 0.113], ("j2s6s200_link_2", "j2s6s200_link_6"))}
+#: goals far off the skill's end: planned without repair rounds, the arm passes through itself
+REPRODUCERS = {"sawyer": [-0.093, 0.107, 0.165], "jaco": [-0.025, -0.05, 0.113]}
 NO_REPAIR = PlannerConfig().with_(constraint_rounds=0)
+REASON = re.compile(r"self-collision: (\S+) and (\S+) overlap by ([0-9.]+) mm at state ([0-9.]+)")
 
 
 @pytest.mark.parametrize("arm", ["sawyer", "jaco"])
 def test_a_plan_through_itself_fails_naming_both_links(arm, prior, request):
+    """The verdict names two links, the depth and the state; at that state the independent
+    coal check finds those two links' geometries in contact."""
     robot = request.getfixturevalue(arm)
-    goal, links = REPRODUCERS[arm]
     # at the demonstrations' speed (time_scale 1): the reproducer as it was found
-    result = plan(prior, robot, None, prior.mean[0, :3], goal=goal, config=NO_REPAIR,
-                  covariance=False, time_scale=1.0)
+    result = plan(prior, robot, None, prior.mean[0, :3], goal=REPRODUCERS[arm],
+                  config=NO_REPAIR, covariance=False, time_scale=1.0)
     assert "self" in fc.GeometryCheck(robot).first_contacts(result.q)     # independently
     assert not result.success
     reason = next(r for r in result.reasons if r.startswith("self-collision"))
-    assert all(link in reason for link in links), reason
+    first, second, depth, state = REASON.match(reason).groups()
     assert result.self_clearance < -0.01                                    # over 1 cm deep
     assert f"{-1000 * result.self_clearance:.1f} mm" in reason
+    check = fc.GeometryCheck(robot)
+    low, fraction = int(np.floor(float(state))), float(state) % 1.0
+    high = min(low + 1, len(result.q) - 1)
+    q = (1 - fraction) * result.q[low] + fraction * result.q[high]
+    names = [tuple(check.geometry.geometryObjects[g].name for g in (pair.first, pair.second))
+             for pair, hit, kind in zip(check.geometry.collisionPairs, check.colliding_pairs(q),
+                                        check.kinds) if hit and kind == "self"]
+    assert any({a.rsplit("_", 1)[0], b.rsplit("_", 1)[0]} == {first, second}
+               for a, b in names), (reason, names)
 
 
 @pytest.mark.parametrize("arm", ["sawyer", "jaco"])
@@ -43,8 +55,8 @@ def test_default_plans_keep_clear_of_themselves(arm, prior, request):
 
 
 def test_the_planner_repairs_a_plan_through_itself(prior, sawyer):
-    goal, _ = REPRODUCERS["sawyer"]
-    result = plan(prior, sawyer, None, prior.mean[0, :3], goal=goal, covariance=False)
+    result = plan(prior, sawyer, None, prior.mean[0, :3], goal=REPRODUCERS["sawyer"],
+                  covariance=False)
     # the self-collision check failed an optimum: its hinges joined the constrained solve
     assert any("self_collision" in a["violated"] for a in result.attempts)
     assert result.problem.has("self_collision")
@@ -54,9 +66,8 @@ def test_the_planner_repairs_a_plan_through_itself(prior, sawyer):
 
 
 def test_a_start_in_self_collision_fails_before_planning(prior, sawyer):
-    goal, _ = REPRODUCERS["sawyer"]
-    through = plan(prior, sawyer, None, prior.mean[0, :3], goal=goal, config=NO_REPAIR,
-                   covariance=False)
+    through = plan(prior, sawyer, None, prior.mean[0, :3], goal=REPRODUCERS["sawyer"],
+                   config=NO_REPAIR, covariance=False)
     k = int(round(through.self_contact["index"]))
     q = np.clip(through.q[k], sawyer.lower_limits, sawyer.upper_limits)
     result = plan(prior, sawyer, None, q, covariance=False)

@@ -14,7 +14,8 @@ START = np.array([0.2054, -0.4722, 0.2625])      # the README's start
 
 
 def dense_conditioning(prior, observations, sigma):
-    """Mean (T*D,) and marginal covariances of the prior conditioned by dense Gaussian algebra."""
+    """Mean (T*D,) and covariance (T*D, T*D) of the prior conditioned by dense Gaussian
+    algebra."""
     T, D = prior.T, prior.D
     Sigma = np.zeros((T * D, T * D))
     for i in range(T):
@@ -31,37 +32,103 @@ def dense_conditioning(prior, observations, sigma):
         y[3 * k:3 * k + 3] = p
     gain = Sigma @ H.T @ np.linalg.inv(H @ Sigma @ H.T + sigma**2 * np.eye(len(y)))
     mean = prior.mean.reshape(-1) + gain @ (y - H @ prior.mean.reshape(-1))
-    cov = Sigma - gain @ H @ Sigma
-    return mean, np.stack([cov[i * D:(i + 1) * D, i * D:(i + 1) * D] for i in range(T)])
+    return mean, Sigma - gain @ H @ Sigma
+
+
+def blocks(cov, T, D):
+    return np.stack([cov[i * D:(i + 1) * D, i * D:(i + 1) * D] for i in range(T)])
+
+
+def dense_capped_mean(prior, observations, sigma):
+    """The conditioned mean (T, D) with the goal's response capped (clamp.prior.goal_response),
+    by dense algebra: the mean given the other observations plus s_t times the response to the
+    goal, s_t = min(1, 1 / ||G_t||_2) from the dense gain G_t of state t's position on the
+    goal's; the velocities follow the scaled positions (s v + ds/dt p)."""
+    T, D = prior.T, prior.D
+    others = [o for o in observations if o[0] != T - 1]
+    rest, rest_cov = dense_conditioning(prior, others, sigma)
+    full, _ = dense_conditioning(prior, observations, sigma)
+    end = slice((T - 1) * D, (T - 1) * D + 3)
+    G = rest_cov[:, end] @ np.linalg.inv(rest_cov[end, end] + sigma**2 * np.eye(3))
+    scale = np.array([min(1.0, 1.0 / np.linalg.norm(G[t * D:t * D + 3], 2)) for t in range(T)])
+    response = (full - rest).reshape(T, D)
+    capped = response * scale[:, None]
+    capped[:, 3:] += np.gradient(scale, prior.time)[:, None] * response[:, :3]
+    return rest.reshape(T, D) + capped, scale
 
 
 def test_conditioned_chain_equals_dense_gaussian_conditioning():
+    """Covariances exactly the dense conditioning's; the mean too, but where the goal's
+    response amplifies (a state moving farther than the goal moved): there it is capped."""
     small = learn_prior(make_demonstrations("box_closing", num_demos=6, num_points=15, seed=2))
     observations = [(0, small.mean[0, :3] + 0.01), (14, small.mean[-1, :3] + [0, 0.05, 0]),
                     (7, small.mean[7, :3] + [0.03, 0, 0])]
     for sigma in (1e-5, 1e-3):
-        mean, cov = dense_conditioning(small, observations, sigma)
+        _, cov = dense_conditioning(small, observations, sigma)
+        mean, scale = dense_capped_mean(small, observations, sigma)
         conditioned = condition_prior(small, observations, sigma)
-        assert np.abs(conditioned.mean.reshape(-1) - mean).max() < 1e-9
+        assert np.abs(conditioned.mean - mean).max() < 1e-9
+        cov = blocks(cov, small.T, small.D)
         assert np.abs(conditioned.cov - cov).max() < 1e-9 * np.abs(cov).max() + 1e-14
+        assert conditioned.info["goal_response"]["capped_states"] == np.sum(scale < 1)
+    without_goal = condition_prior(small, observations[::2], 1e-5)   # start and via: exact
+    mean, _ = dense_conditioning(small, observations[::2], 1e-5)
+    assert np.abs(without_goal.mean.reshape(-1) - mean).max() < 1e-9
 
 
-def test_retargeted_equals_conditioning_again(prior):
-    """The same observed states and sigma, other positions (a goal and a via point moved): the
-    previous conditioned prior moved by retargeted is the prior conditioned again, to
-    rounding; Phi, Q and the covariances are shared (they do not depend on the positions)."""
+def test_a_goal_never_moves_a_state_farther_than_itself():
+    """Three demonstrations fit each step's regression exactly: conditioned exactly on a goal
+    1 cm off in the direction the chain amplifies most, it swings states mid-motion by several
+    cm. Capped, no state's position moves farther from where the start alone puts it than the
+    goal moved; start and goal are met."""
+    prior = learn_prior(make_demonstrations("box_closing", num_demos=3, seed=0))
+    T, D, sigma = prior.T, prior.D, 1e-5
+    start = [(0, prior.mean[0, :3])]
+    alone, alone_cov = dense_conditioning(prior, start, sigma)
+    alone = alone.reshape(T, D)
+    end = slice((T - 1) * D, (T - 1) * D + 3)
+    G = (alone_cov[:, end] @ np.linalg.inv(alone_cov[end, end])).reshape(T, D, 3)[:, :3]
+    worst = np.linalg.svd(G[np.argmax(np.linalg.norm(G, 2, axis=(1, 2)))])[2][0]
+    for direction in (worst, *np.eye(3)):
+        goal = alone[-1, :3] + 0.01 * direction
+        moved = condition_prior(prior, start + [(T - 1, goal)], sigma)
+        shift = np.linalg.norm(moved.mean[:, :3] - alone[:, :3], axis=1)
+        assert shift.max() <= 0.01 * (1 + 1e-6)
+        assert np.linalg.norm(moved.mean[-1, :3] - goal) < sigma      # met as exactly as before
+        assert np.linalg.norm(moved.mean[0, :3] - start[0][1]) < sigma
+    worst_swing = np.linalg.norm(dense_conditioning(prior, start + [(
+        T - 1, alone[-1, :3] + 0.01 * worst)], sigma)[0].reshape(T, D)[:, :3] - alone[:, :3],
+        axis=1).max()
+    assert worst_swing > 0.03                  # the exact chain amplifies the goal over 3x
+
+
+@pytest.mark.parametrize("skill, capped", [("box_closing", True), ("reach_from_above", False)])
+def test_retargeted_equals_conditioning_again(skill, capped):
+    """The same observed states and sigma, other positions (a goal, then a via point moved):
+    the previous conditioned prior moved by retargeted is the prior conditioned again, to
+    rounding; Phi, Q and the covariances are shared (they do not depend on the positions).
+    Where the goal's response is capped, only the goal may move."""
+    prior = learn_prior(make_demonstrations(skill, num_demos=6, seed=0))
     T, sigma = prior.T, 1e-5
     before = [(0, prior.mean[0, :3]), (60, prior.mean[60, :3]), (T - 1, prior.mean[-1, :3])]
-    after = [(0, prior.mean[0, :3]), (60, prior.mean[60, :3] + [0.01, 0.0, 0.02]),
-             (T - 1, prior.mean[-1, :3] + [0.03, -0.05, 0.0])]
-    again = conditioned(prior, after, sigma)
-    moved = retargeted(conditioned(prior, before, sigma), after)
-    for name in ("u", "mean0", "mean"):
-        np.testing.assert_allclose(getattr(moved, name), getattr(again, name), rtol=0, atol=1e-12)
-    for name in ("Phi", "Q", "cov0", "cov"):
-        np.testing.assert_array_equal(getattr(moved, name), getattr(again, name))
-    assert moved.info["conditioned_on"] == again.info["conditioned_on"]
-    assert np.linalg.norm(moved.mean[-1, :3] - after[-1][1]) < 1e-3
+    goal_moved = before[:2] + [(T - 1, prior.mean[-1, :3] + [0.03, -0.05, 0.0])]
+    via_moved = [before[0], (60, prior.mean[60, :3] + [0.01, 0.0, 0.02]), goal_moved[-1]]
+    previous = conditioned(prior, before, sigma)
+    assert (previous.info["goal_response"]["capped_states"] > 0) == capped
+    for after in (goal_moved, via_moved):
+        again = conditioned(prior, after, sigma)
+        if capped and after is via_moved:
+            with pytest.raises(InvalidParameterError, match="conditioned_prior"):
+                retargeted(previous, after)
+            continue
+        moved = retargeted(previous, after)
+        for name in ("u", "mean0", "mean"):
+            np.testing.assert_allclose(getattr(moved, name), getattr(again, name), rtol=0,
+                                       atol=1e-12)
+        for name in ("Phi", "Q", "cov0", "cov"):
+            np.testing.assert_array_equal(getattr(moved, name), getattr(again, name))
+        assert moved.info["conditioned_on"] == again.info["conditioned_on"]
+        assert np.linalg.norm(moved.mean[-1, :3] - after[-1][1]) < 1e-3
     with pytest.raises(InvalidParameterError, match="conditioned_prior"):
         retargeted(again, after[::2])                   # other states: condition again
     with pytest.raises(InvalidParameterError, match="conditioned_prior"):
