@@ -22,6 +22,10 @@ OPTIMIZERS = ("fast", "gtsam", "gtsam_dogleg", "gtsam_gauss_newton")
 #: the initialisations a config may name (:mod:`clamp.planning.initialisation`)
 INITIALISATIONS = ("prior_mean", "straight_line")
 
+#: the most ``ModelConfig.Qc_duration`` raises Qc: beyond it the joint GP no longer ties the
+#: velocity states to the positions (docs/decisions.md#qc_duration)
+QC_FACTOR_LIMIT = 10.0
+
 
 @dataclass(frozen=True)
 class ModelConfig:
@@ -33,8 +37,14 @@ class ModelConfig:
     epsilon: float = 0.02
     #: [m] obstacle hinge noise (smaller = stronger avoidance; see docs/decisions.md#sigma_obs)
     sigma_obs: float = 0.002
-    #: joint GP power spectral density [rad^2 / s^3]
+    #: joint GP power spectral density [rad^2 / s^3] for a skill demonstrated over
+    #: ``Qc_duration`` seconds
     Qc: float = 1.0
+    #: [s] the demonstrated duration Qc is stated for: a skill demonstrated over D seconds is
+    #: planned with Qc (Qc_duration / D)^3, at most QC_FACTOR_LIMIT Qc, so the joint GP weighs
+    #: about as much against the learned prior whatever the speed the skill was shown at (see
+    #: docs/decisions.md#qc_duration); None: Qc as it is
+    Qc_duration: float | None = 40.0
     #: [rad] start configuration fix (or [m] for an end-effector start without the IK fix)
     start_sigma: float = 1e-6
     #: [m or rad] goal factor
@@ -87,6 +97,14 @@ class ModelConfig:
     time_scale: float | None = None
     #: [s] the plan lasts at most this long (bounds the automatic time scale; None: unbounded)
     max_duration: float | None = None
+
+    def joint_gp_density(self, demonstrated: float) -> float:
+        """The joint GP's Qc [rad^2 / s^3] for a skill demonstrated over ``demonstrated`` [s]:
+        Qc min(QC_FACTOR_LIMIT, (Qc_duration / demonstrated)^3), or Qc when Qc_duration is
+        None."""
+        if self.Qc_duration is None:
+            return self.Qc
+        return self.Qc * min(QC_FACTOR_LIMIT, (self.Qc_duration / demonstrated) ** 3)
 
 
 @dataclass(frozen=True)
@@ -275,6 +293,8 @@ class PlannerConfig:
         for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
                      "conditioning_sigma", "self_collision_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", strictly_positive=True)
+        if m.Qc_duration is not None:
+            as_scalar(m.Qc_duration, "config.model.Qc_duration", strictly_positive=True)
         as_scalar(m.sdf_cell_size, "config.model.sdf_cell_size", strictly_positive=True,
                   maximum=DEFAULT_CELL_SIZE)
         for group, name in (("model", "workspace_start"), ("model", "fix_start_configuration"),

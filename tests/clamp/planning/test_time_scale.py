@@ -140,3 +140,29 @@ def test_a_replan_keeps_the_time_scale(jaco, fast):
     again = replan(result)
     assert again.time_scale == result.time_scale
     np.testing.assert_allclose(again.time, result.time)
+
+
+@pytest.mark.parametrize("step", [0.32, 0.16, 0.04])
+def test_the_joint_gp_is_stated_for_a_40_s_skill(jaco, step):
+    """A skill demonstrated over D seconds is planned with Qc (40 s / D)^3 (at most 10 Qc; see
+    docs/decisions.md#qc_duration): the joint GP's information in the built problem is that of
+    the constant-velocity GP at that density, computed here from its definition; a plan at
+    time scale k keeps it, divided by k^3 (the same problem in slower time)."""
+    from clamp import build
+    from clamp.factors.family import square_root_information
+    demos = make_demonstrations(SKILL, num_demos=6, num_points=120, dt=step, seed=0)
+    prior = learn_prior(demos)
+    duration = float(prior.time[-1] - prior.time[0])
+    expected = min(10.0, (40.0 / duration) ** 3)
+    start = np.asarray(prior.mean)[0, :3]
+
+    def information(problem, dt, Qc):
+        block = np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+        exact = square_root_information(np.kron(block, Qc * np.eye(jaco.n)))
+        given = problem.family("joint_gp").whitening[0]
+        return np.abs(given.T @ given - exact.T @ exact).max() / np.abs(exact.T @ exact).max()
+    assert information(build(prior, jaco, None, start), prior.dt, expected) < 1e-9
+    raw = build(prior, jaco, None, start, config=PlannerConfig(Qc_duration=None))
+    assert information(raw, prior.dt, 1.0) < 1e-9
+    slower = plan(prior, jaco, None, start, time_scale=2.0, covariance=False)
+    assert information(slower.problem, 2.0 * prior.dt, expected / 8.0) < 1e-9
