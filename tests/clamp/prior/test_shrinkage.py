@@ -109,11 +109,21 @@ def test_the_initial_velocity_moves_with_the_start_as_the_fading_target():
 
 
 def test_two_demonstrations_take_the_fading_response():
+    """With two demonstrations (nothing to leave out) a moved start fades as (1 - tau) times
+    the norm of their spread relative to the start's, on every axis, followed closely over the
+    whole motion (computed here from the demonstrations themselves)."""
     demos = make_demonstrations("box_closing", num_demos=2, num_points=40, seed=1)
     with pytest.warns(Warning):
         prior = learn_prior(demos)
     assert prior.info["start_shrinkage"]["weight"] == 1.0
     assert "at least 3" in prior.info["start_shrinkage"]["reason"]
+    tau = (demos.time - demos.time[0]) / (demos.time[-1] - demos.time[0])
+    spread = np.linalg.norm(demos.positions.std(axis=0), axis=1)
+    gain = (1.0 - tau) * np.minimum(1.0, spread / spread[0])
+    for offset in (np.array([0.02, -0.01, 0.0]), np.array([0.0, 0.01, 0.015])):
+        moved = condition_prior(prior, [(0, prior.mean[0, :3] + offset)]).mean[:, :3]
+        expected = prior.mean[:, :3] + gain[:, None] * offset
+        np.testing.assert_allclose(moved, expected, atol=0.02 * np.linalg.norm(offset))
 
 
 @pytest.mark.parametrize("bad", [-0.1, 1.5, "yes", True, None])
