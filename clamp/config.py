@@ -38,13 +38,13 @@ class ModelConfig:
     #: [m] obstacle hinge noise (smaller = stronger avoidance; see docs/decisions.md#sigma_obs)
     sigma_obs: float = 0.002
     #: joint GP power spectral density [rad^2 / s^3] for a skill demonstrated over
-    #: ``Qc_duration`` seconds
+    #: ``Qc_duration`` seconds or longer
     Qc: float = 1.0
-    #: [s] the demonstrated duration Qc is stated for: a skill demonstrated over D seconds is
-    #: planned with Qc (Qc_duration / D)^3, at most QC_FACTOR_LIMIT Qc, so the joint GP weighs
-    #: about as much against the learned prior whatever the speed the skill was shown at (see
-    #: docs/decisions.md#qc_duration); None: Qc as it is
-    Qc_duration: float | None = 40.0
+    #: [s] the demonstrated duration Qc is stated for: a skill demonstrated over D seconds,
+    #: faster than this, is planned with Qc (Qc_duration / D)^3, at most QC_FACTOR_LIMIT Qc, so
+    #: that the joint GP does not weigh more against the learned prior because the skill was
+    #: shown fast (see docs/decisions.md#qc_duration); None: Qc as it is
+    Qc_duration: float | None = 20.0
     #: [rad] start configuration fix (or [m] for an end-effector start without the IK fix)
     start_sigma: float = 1e-6
     #: [m or rad] goal factor
@@ -100,11 +100,12 @@ class ModelConfig:
 
     def joint_gp_density(self, demonstrated: float) -> float:
         """The joint GP's Qc [rad^2 / s^3] for a skill demonstrated over ``demonstrated`` [s]:
-        Qc min(QC_FACTOR_LIMIT, (Qc_duration / demonstrated)^3), or Qc when Qc_duration is
-        None."""
+        Qc clip((Qc_duration / demonstrated)^3, 1, QC_FACTOR_LIMIT), or Qc when Qc_duration
+        is None."""
         if self.Qc_duration is None:
             return self.Qc
-        return self.Qc * min(QC_FACTOR_LIMIT, (self.Qc_duration / demonstrated) ** 3)
+        factor = (self.Qc_duration / demonstrated) ** 3
+        return self.Qc * min(QC_FACTOR_LIMIT, max(1.0, factor))
 
 
 @dataclass(frozen=True)

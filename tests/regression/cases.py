@@ -17,8 +17,7 @@ SAWYER_SHIFT = np.array([0.3, 0.0, 0.2])
 #: check), which nothing checked before; it also moves a joint faster than its velocity limit
 #: between states (joint 3 at 2.2x between states 69 and 70, 2 of 249 segments; the verdict checks between states since issue 27 and would plan
 #: it slower: the fixtures were made at the demonstrations' speed, so the cases fix time_scale
-#: at 1; and with Qc as given, Qc_duration None: box_closing's 39.1 s would take Qc 1.07).
-#: jaco_boundary's (kept inside the TLGC cylinder, then a jump to its goal 5 cm outside over the last states) was False from issue 19 to issue 27: it
+#: at 1). jaco_boundary's (kept inside the TLGC cylinder, then a jump to its goal 5 cm outside over the last states) was False from issue 19 to issue 27: it
 #: failed the skill check, 7.7 spreads from the prior conditioned on its goal at state 37; since
 #: issue 27 a plan is judged against where the skill goes under the caller's families (the
 #: cylinder's boundary here, clamp.planning.reference.skill_reference), and it passes again
@@ -26,7 +25,7 @@ def _config():
     from clamp import PlannerConfig
     return PlannerConfig().with_(sigma_obs=0.05, condition_on_targets=False, goal_tolerance=0.02,
                                  constraint_rounds=0, soft_start=1.0, posture_sigma=0.0,
-                                 epsilon=0.05, time_scale=1.0, Qc_duration=None)
+                                 epsilon=0.05, time_scale=1.0)
 
 
 CASES = ("jaco_empty", "jaco_box", "jaco_goal", "sawyer_empty", "sawyer_box", "sawyer_goal",

@@ -98,7 +98,7 @@ def test_box_closing_with_tool_vertical_over_the_last_40_percent(arm, request, t
     assert (tmp_path / "angle.png").stat().st_size > 5000 and fig.axes
 
 
-#: the joint GP at Qc 1 for these 9.4 s skills (not 10, Qc_duration's): stiff enough that the
+#: the joint GP at Qc 1 for these 9.4 s skills (not 9.6, Qc_duration's): stiff enough that the
 #: weak hinge below cannot hold the tool within 1 mrad of vertical
 STIFF = PlannerConfig(Qc_duration=None)
 
