@@ -22,8 +22,8 @@ OPTIMIZERS = ("fast", "gtsam", "gtsam_dogleg", "gtsam_gauss_newton")
 #: the initialisations a config may name (:mod:`clamp.planning.initialisation`)
 INITIALISATIONS = ("prior_mean", "straight_line")
 
-#: the most ``ModelConfig.Qc_duration`` raises Qc: beyond it the joint GP no longer ties the
-#: velocity states to the positions (docs/decisions.md#qc_duration)
+#: the most ``ModelConfig.Qc_duration`` multiplies Qc by: beyond it the joint GP no longer ties
+#: the velocity states to the positions (docs/decisions.md#qc_duration)
 QC_FACTOR_LIMIT = 10.0
 
 
@@ -37,13 +37,16 @@ class ModelConfig:
     epsilon: float = 0.02
     #: [m] obstacle hinge noise (smaller = stronger avoidance; see docs/decisions.md#sigma_obs)
     sigma_obs: float = 0.002
-    #: joint GP power spectral density [rad^2 / s^3] for a skill demonstrated over
-    #: ``Qc_duration`` seconds or longer
+    #: joint GP power spectral density [rad^2 / s^3] (for a skill demonstrated over
+    #: ``Qc_duration`` seconds or longer)
     Qc: float = 1.0
-    #: [s] the demonstrated duration Qc is stated for: a skill demonstrated over D seconds,
-    #: faster than this, is planned with Qc (Qc_duration / D)^3, at most QC_FACTOR_LIMIT Qc, so
-    #: that the joint GP does not weigh more against the learned prior because the skill was
-    #: shown fast (see docs/decisions.md#qc_duration); None: Qc as it is
+    #: [s] the demonstrated duration Qc, posture_Qc and posture_velocity_sigma are stated for: a
+    #: skill demonstrated over D seconds, faster than this, is planned as one of Qc_duration
+    #: seconds in faster time (Qc and posture_Qc times (Qc_duration / D)^3, at most
+    #: QC_FACTOR_LIMIT, posture_velocity_sigma times its cube root), so that the joint-space
+    #: factors do not weigh more against the learned prior because the skill was shown fast
+    #: (clamp.planning.time_scale.demonstrated_speed_config, docs/decisions.md#qc_duration);
+    #: None: as they are
     Qc_duration: float | None = 20.0
     #: [rad] start configuration fix (or [m] for an end-effector start without the IK fix)
     start_sigma: float = 1e-6
@@ -97,15 +100,6 @@ class ModelConfig:
     time_scale: float | None = None
     #: [s] the plan lasts at most this long (bounds the automatic time scale; None: unbounded)
     max_duration: float | None = None
-
-    def joint_gp_density(self, demonstrated: float) -> float:
-        """The joint GP's Qc [rad^2 / s^3] for a skill demonstrated over ``demonstrated`` [s]:
-        Qc clip((Qc_duration / demonstrated)^3, 1, QC_FACTOR_LIMIT), or Qc when Qc_duration
-        is None."""
-        if self.Qc_duration is None:
-            return self.Qc
-        factor = (self.Qc_duration / demonstrated) ** 3
-        return self.Qc * min(QC_FACTOR_LIMIT, max(1.0, factor))
 
 
 @dataclass(frozen=True)
@@ -269,6 +263,16 @@ class PlannerConfig:
         """A copy with fields of any group changed by name, e.g. ``with_(sigma_obs=0.005)``."""
         new = object.__new__(PlannerConfig)
         new._assign({group: getattr(self, group) for group in GROUPS}, changes)
+        return new
+
+    def derived(self, **model_changes: Any) -> "PlannerConfig":
+        """A copy with ``model`` fields changed to values the planner derived from this
+        (validated) config, e.g. noises scaled by positive factors: not validated again (the
+        one validation is at the boundary)."""
+        new = object.__new__(PlannerConfig)
+        for group in GROUPS:
+            object.__setattr__(new, group, getattr(self, group))
+        object.__setattr__(new, "model", replace(self.model, **model_changes))
         return new
 
     @classmethod

@@ -96,11 +96,7 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
         families.append(WorkspaceStartFamily(
             shifted_start_mean(prior.mean0, prior.cov0, request.start_position),
             np.asarray(prior.cov0)))
-    # the duration the skill was demonstrated over (a time-scaled prior's over its scale: the
-    # scaled config's Qc is already the scaled plan's, clamp.planning.time_scale)
-    demonstrated = float(prior.time[-1] - prior.time[0]) / float(
-        getattr(prior, "info", {}).get("time_scale", 1.0))
-    families.append(JointGPFamily(T, n, dt, model.joint_gp_density(demonstrated)))
+    families.append(JointGPFamily(T, n, dt, model.Qc))
     start = request.start
     if start.kind == "position" and model.fix_start_configuration:
         # the IK solution becomes the start: a fully determined theta_0 keeps the problem

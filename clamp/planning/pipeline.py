@@ -39,6 +39,7 @@ from clamp.optim.optimizers import Optimized
 from clamp.graph.problem import PlanningProblem
 from clamp.config import as_config
 from clamp.planning.request import Request, as_extras, as_scene, check_robot
+from clamp.planning.time_scale import demonstrated_speed_config
 from clamp.prior.linear_gaussian import check_prior
 from clamp.optim.solver import WarmStart
 from clamp.optim.uncertainty import plan_covariances
@@ -163,8 +164,10 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
     then solved from the guess (as configured), and the tied problem starts from
     ``initial`` moved by that solve's correction of the guess (free plan - ``free_start``):
     the previous plan follows its free plan (it is the new free plan where the previous plan
-    was its free plan)."""
+    was its free plan). The model's config is ``config`` for the speed the skill was
+    demonstrated at (:func:`clamp.planning.time_scale.demonstrated_speed_config`)."""
     T, dt = prior.Phi.shape[0] + 1, float(prior.dt)
+    config = demonstrated_speed_config(config, prior)
     extra_families, foreign = split_extras(extra_factors, T, robot)
     if model_prior is None:                       # the prior conditioned on the targets
         model_prior = planning_prior(prior, robot, request, config)

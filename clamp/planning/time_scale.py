@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from clamp.config import as_max_duration, as_time_scale
+from clamp.config import QC_FACTOR_LIMIT, as_max_duration, as_time_scale
 from clamp.errors import InvalidParameterError
 from clamp.factors.joint_limits import speeds
 from clamp.prior.linear_gaussian import WorkspacePrior
@@ -71,6 +71,27 @@ def time_scaled_config(config: Any, k: float) -> Any:
     return config.with_(Qc=m.Qc / k**3, posture_Qc=m.posture_Qc / k**3,
                         posture_velocity_sigma=m.posture_velocity_sigma / k, time_scale=1.0,
                         max_duration=None)
+
+
+def demonstrated_speed_config(config: Any, prior: Any) -> Any:
+    """``config`` (a PlannerConfig) for a skill ``prior`` demonstrated over D seconds, faster
+    than ``config.model.Qc_duration`` (docs/decisions.md#qc_duration): the same problem as a
+    skill of Qc_duration seconds traversed k = Qc_duration / D times faster (k^3 at most
+    QC_FACTOR_LIMIT), so its joint-space noises are :func:`time_scaled_config`'s for 1 / k:
+    Qc and posture_Qc times k^3, posture_velocity_sigma times k; Qc_duration then None (applied
+    once). ``config`` itself for a skill of Qc_duration or longer, or Qc_duration None. D is the
+    demonstrated duration: a time-scaled prior's (``info["time_scale"]``) over its scale."""
+    m = config.model
+    if m.Qc_duration is None:
+        return config
+    scale = float((getattr(prior, "info", {}) or {}).get("time_scale", 1.0))
+    demonstrated = float(prior.time[-1] - prior.time[0]) / scale
+    cube = min(QC_FACTOR_LIMIT, (m.Qc_duration / demonstrated) ** 3)
+    if cube <= 1.0:
+        return config
+    return config.derived(Qc=m.Qc * cube, posture_Qc=m.posture_Qc * cube,
+                          posture_velocity_sigma=m.posture_velocity_sigma * cube ** (1.0 / 3.0),
+                          Qc_duration=None)
 
 
 def peak_ratios(robot: Any, q: np.ndarray, qdot: np.ndarray, time: np.ndarray,

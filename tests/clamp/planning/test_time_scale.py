@@ -143,27 +143,42 @@ def test_a_replan_keeps_the_time_scale(jaco, fast):
 
 
 @pytest.mark.parametrize("step", [0.32, 0.16, 0.12, 0.04])
-def test_the_joint_gp_is_stated_for_a_20_s_skill(jaco, step):
-    """A skill demonstrated over D < 20 s is planned with Qc (20 s / D)^3 (at most 10 Qc; a
-    slower one with Qc; see docs/decisions.md#qc_duration): the joint GP's information in the
-    built problem is that of the constant-velocity GP at that density, computed here from its
-    definition; a plan at time scale k keeps it, divided by k^3 (the same problem in slower
-    time)."""
+def test_the_joint_space_factors_are_stated_for_a_20_s_skill(jaco, step):
+    """A skill demonstrated over D < 20 s is planned as a 20 s one in faster time (k = 20 s / D,
+    k^3 at most 10; a slower one as it is; docs/decisions.md#qc_duration): the joint GP's and
+    the posture motion tie's densities times k^3, the posture velocity tie's sigma times k. The
+    built problem's information is that of those factors at those values, computed here from
+    their definitions; a plan at time scale 2 keeps them, divided by 2^3 (by 2 for the sigma)."""
     from clamp import build
     from clamp.factors.family import square_root_information
+    from scenes import Box, Scene
     demos = make_demonstrations(SKILL, num_demos=6, num_points=120, dt=step, seed=0)
     prior = learn_prior(demos)
-    duration = float(prior.time[-1] - prior.time[0])
-    expected = min(10.0, max(1.0, (20.0 / duration) ** 3))
+    cube = min(10.0, max(1.0, (20.0 / float(prior.time[-1] - prior.time[0])) ** 3))
     start = np.asarray(prior.mean)[0, :3]
+    defaults = PlannerConfig().model
+    box = Scene([Box(np.asarray(prior.mean)[60, :3] + [0.0, 0.0, -0.12], [0.04, 0.04, 0.04])])
 
-    def information(problem, dt, Qc):
+    def gap(problem, dt, scale):
+        """The largest relative difference from the factors' information (those present)."""
         block = np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
-        exact = square_root_information(np.kron(block, Qc * np.eye(jaco.n)))
-        given = problem.family("joint_gp").whitening[0]
-        return np.abs(given.T @ given - exact.T @ exact).max() / np.abs(exact.T @ exact).max()
-    assert information(build(prior, jaco, None, start), prior.dt, expected) < 1e-9
-    raw = build(prior, jaco, None, start, config=PlannerConfig(Qc_duration=None))
-    assert information(raw, prior.dt, 1.0) < 1e-9
-    slower = plan(prior, jaco, None, start, time_scale=2.0, covariance=False)
-    assert information(slower.problem, 2.0 * prior.dt, expected / 8.0) < 1e-9
+        worst = 0.0
+        for name, density in (("joint_gp", defaults.Qc), ("posture_motion", defaults.posture_Qc)):
+            if problem.has(name):
+                exact = square_root_information(np.kron(block, density * scale * np.eye(jaco.n)))
+                given = problem.family(name).whitening[0]
+                worst = max(worst, np.abs(given.T @ given - exact.T @ exact).max()
+                            / np.abs(exact.T @ exact).max())
+        if problem.has("posture_velocity"):
+            sigma = defaults.posture_velocity_sigma * scale ** (1 / 3)
+            velocity = problem.family("posture_velocity").whitening[0]
+            worst = max(worst, abs(np.abs(velocity).max() * sigma - 1.0))
+        return worst
+
+    problem = build(prior, jaco, box, start)
+    assert problem.has("posture_motion") and problem.has("posture_velocity")    # tied
+    assert gap(problem, prior.dt, cube) < 1e-9
+    raw = build(prior, jaco, box, start, config=PlannerConfig(Qc_duration=None))
+    assert gap(raw, prior.dt, 1.0) < 1e-9
+    slower = plan(prior, jaco, box, start, time_scale=2.0, covariance=False)
+    assert gap(slower.problem, 2.0 * prior.dt, cube / 8.0) < 1e-9
