@@ -40,7 +40,7 @@ import numpy as np
 
 from clamp.prior import chain
 
-__all__ = ["goal_scale", "capped_mean"]
+__all__ = ["goal_scale", "capped_mean", "record"]
 
 
 def goal_scale(rest_Phi: np.ndarray, rest_cov: np.ndarray, sigma: float) -> np.ndarray:
