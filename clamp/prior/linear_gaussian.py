@@ -480,6 +480,12 @@ class LinearGaussianPrior:
                          "the demonstrations' spread is not recorded with this prior)")
         if "conditioned_on" in info:
             lines.append(f"conditioned on {len(info['conditioned_on'])} position(s)")
+        response = info.get("goal_response")
+        if response and response.get("capped_states"):
+            lines.append(f"the goal's response capped at its own offset on "
+                         f"{response['capped_states']} states ({response['first']}-"
+                         f"{response['last']}; the chain amplified it up to "
+                         f"{response['largest_gain']:.3g}x)")
         return "\n".join(lines)
 
 

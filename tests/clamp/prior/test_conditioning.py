@@ -96,6 +96,8 @@ def test_a_goal_never_moves_a_state_farther_than_itself():
         assert shift.max() <= 0.01 * (1 + 1e-6)
         assert np.linalg.norm(moved.mean[-1, :3] - goal) < sigma      # met as exactly as before
         assert np.linalg.norm(moved.mean[0, :3] - start[0][1]) < sigma
+        capped = moved.info["goal_response"]
+        assert f"capped at its own offset on {capped['capped_states']} states" in moved.summary()
     worst_swing = np.linalg.norm(dense_conditioning(prior, start + [(
         T - 1, alone[-1, :3] + 0.01 * worst)], sigma)[0].reshape(T, D)[:, :3] - alone[:, :3],
         axis=1).max()
