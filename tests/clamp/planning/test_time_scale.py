@@ -128,6 +128,8 @@ def test_bad_time_scale_or_duration_raises_naming_the_argument(jaco, slow, optio
     ({"time_scale": 0.9}, "config.model.time_scale"),
     ({"max_duration": -3.0}, "config.model.max_duration"),
     ({"acceleration_limit": 0.0}, "config.checks.acceleration_limit"),
+    ({"Qc_duration": 0.0}, "config.model.Qc_duration"),
+    ({"Qc_duration": "20 s"}, "config.model.Qc_duration"),
 ])
 def test_bad_config_fields_raise_naming_the_field(changes, name):
     with pytest.raises(ClampError, match=name):
