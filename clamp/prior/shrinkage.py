@@ -72,8 +72,8 @@ import numpy as np
 from clamp.errors import InvalidParameterError
 from clamp.prior.chain import prefix_compose, start_response
 
-__all__ = ["AUTO", "DAMPING", "FEW_DAMPING", "SHAPES", "as_shrinkage", "offset_responses", "fading_responses",
-           "fading_shapes", "shrink_start_offsets"]
+__all__ = ["AUTO", "DAMPING", "FEW_DAMPING", "SHAPES", "as_shrinkage", "offset_responses",
+           "fading_responses", "fading_shapes", "shrink_start_offsets"]
 
 log = logging.getLogger(__name__)
 
@@ -273,11 +273,10 @@ def shrink_start_offsets(states: np.ndarray, time: np.ndarray, Phi: np.ndarray, 
     mean, R = offset_responses(Phi, u, mean0, cov0)
     if few:
         target = fading_responses(time, R[0], states[..., :A], per_axis=False)
-        Phi, u = _corrected(Phi, mean, target, FEW_DAMPING)
-        return Phi, u, _with_start_velocity(cov0, target[0, A:]), record
-    shapes = fading_shapes(time, R[0], states[..., :A])
-    target = R + sum(w * (shapes[name] - R) for name, w in zip(SHAPES, weights) if w)
-    Phi, u = _corrected(Phi, mean, target)
+    else:
+        shapes = fading_shapes(time, R[0], states[..., :A])
+        target = R + sum(w * (shapes[name] - R) for name, w in zip(SHAPES, weights) if w)
+    Phi, u = _corrected(Phi, mean, target, FEW_DAMPING if few else DAMPING)
     return Phi, u, _with_start_velocity(cov0, target[0, A:]), record
 
 
