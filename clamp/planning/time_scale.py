@@ -61,37 +61,41 @@ def time_scaled_prior(prior: Any, k: float) -> Any:
                           state_names=tuple(prior.state_names), info=info)
 
 
+def _joint_noises(model: Any, k: float) -> dict[str, float]:
+    """The joint-space noises of the time-dependent factors for the same motion traversed
+    ``k`` times slower (k < 1: faster), as ``model`` fields: Qc and posture_Qc / k^3,
+    posture_velocity_sigma / k."""
+    return {"Qc": model.Qc / k**3, "posture_Qc": model.posture_Qc / k**3,
+            "posture_velocity_sigma": model.posture_velocity_sigma / k}
+
+
 def time_scaled_config(config: Any, k: float) -> Any:
     """``config`` (a PlannerConfig) with the joint-space noise of time-dependent factors scaled
     for a plan ``k`` times slower: Qc, posture_Qc / k^3, posture_velocity_sigma / k; its time
     scale fixed at 1 (the scaled problem is planned as it is, e.g. by :func:`clamp.replan`)."""
-    m = config.model
     if k == 1.0:
         return config
-    return config.with_(Qc=m.Qc / k**3, posture_Qc=m.posture_Qc / k**3,
-                        posture_velocity_sigma=m.posture_velocity_sigma / k, time_scale=1.0,
-                        max_duration=None)
+    return config.with_(**_joint_noises(config.model, k), time_scale=1.0, max_duration=None)
 
 
 def demonstrated_speed_config(config: Any, prior: Any) -> Any:
     """``config`` (a PlannerConfig) for a skill ``prior`` demonstrated over D seconds, faster
     than ``config.model.Qc_duration`` (docs/decisions.md#qc_duration): the same problem as a
-    skill of Qc_duration seconds traversed k = Qc_duration / D times faster (k^3 at most
-    QC_FACTOR_LIMIT), so its joint-space noises are :func:`time_scaled_config`'s for 1 / k:
-    Qc and posture_Qc times k^3, posture_velocity_sigma times k; Qc_duration then None (applied
-    once). ``config`` itself for a skill of Qc_duration or longer, or Qc_duration None. D is the
-    demonstrated duration: a time-scaled prior's (``info["time_scale"]``) over its scale."""
+    skill of Qc_duration seconds traversed Qc_duration / D times faster (its cube at most
+    QC_FACTOR_LIMIT), so its joint-space noises are :func:`time_scaled_config`'s for
+    k = D / Qc_duration < 1: Qc and posture_Qc / k^3, posture_velocity_sigma / k; Qc_duration
+    then None (applied once). ``config`` itself for a skill of Qc_duration or longer, or
+    Qc_duration None. D is the demonstrated duration: a time-scaled prior's
+    (``info["time_scale"]``) over its scale."""
     m = config.model
     if m.Qc_duration is None:
         return config
     scale = float((getattr(prior, "info", {}) or {}).get("time_scale", 1.0))
     demonstrated = float(prior.time[-1] - prior.time[0]) / scale
-    cube = min(QC_FACTOR_LIMIT, (m.Qc_duration / demonstrated) ** 3)
-    if cube <= 1.0:
+    k = max(demonstrated / m.Qc_duration, QC_FACTOR_LIMIT ** (-1.0 / 3.0))
+    if k >= 1.0:
         return config
-    return config.derived(Qc=m.Qc * cube, posture_Qc=m.posture_Qc * cube,
-                          posture_velocity_sigma=m.posture_velocity_sigma * cube ** (1.0 / 3.0),
-                          Qc_duration=None)
+    return config.derived(**_joint_noises(m, k), Qc_duration=None)
 
 
 def peak_ratios(robot: Any, q: np.ndarray, qdot: np.ndarray, time: np.ndarray,
