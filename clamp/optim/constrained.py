@@ -36,7 +36,8 @@ optimizer (the fast Levenberg-Marquardt or GTSAM's):
    (:meth:`~clamp.factors.Family.widened`: the obstacle hinges' epsilon grows; see
    docs/decisions.md#widened-margins);
 5. when no start passes after the search below, the ``resumed`` closest starts (their last
-   optimum, the skill accepted) continue for ``resume_rounds`` more rounds each, outside the
+   optimum, the skill accepted), led by the problem as built when it had one solve only (the
+   planner's tied problem), continue for ``resume_rounds`` more rounds each, outside the
    search budget, and while none passes, once more from there with the obstacles' safety
    distance ``wide_margin`` times the model's epsilon (see docs/decisions.md#resumed-starts).
 
@@ -361,6 +362,10 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
             ok = run(candidate, None, rounds if first_ok is None else first_ok)
             first_ok = ok if first_ok is None else first_ok
 
+    # the problem as built continues first when it had one solve only (the planner's tied
+    # problem: its rounds went to the restarts)
+    tied = "configured" if first_rounds is not None and int(first_rounds) == 0 else None
+
     def resume(suffix: str, make: Callable[[PlanningProblem, PlanningProblem, np.ndarray,
                                             Feasibility], PlanningProblem | None],
                warm: WarmStart | None, budget: int) -> None:
@@ -368,7 +373,7 @@ def solve_constrained(problem: PlanningProblem, config: PlannerConfig, judge: Ju
         as ``make(the start as it began, its last problem, theta, verdict)`` sets them up,
         until one passes."""
         for root, name, (out, current, verdict, _) in _resumable(found, attempts,
-                                                                 schedule.resumed):
+                                                                 schedule.resumed, tied):
             continued = make(roots[root], current, out.theta, verdict)
             if continued is not None and run(Candidate(f"{name}+{suffix}", continued),
                                              warm, budget) is not None:
@@ -415,19 +420,23 @@ def _amounts(verdict: Feasibility) -> dict[str, float]:
     return {check.name: check.amount for check in verdict.checks if check.violated}
 
 
-def _resumable(found: list, attempts: list[Attempt], count: int
+def _resumable(found: list, attempts: list[Attempt], count: int, first: str | None = None
                ) -> list[tuple[str, str, tuple]]:
     """The last optimum of each start (a continued start counts as its own: "untied" and
     "untied+resumed" are one) when the constraints alone refuse it (the skill accepted, a
     constraint violated), closest first (:func:`_closeness`), at most ``count``: (the start's
-    own name, the name of the attempt it continues, what ``found`` holds of it)."""
+    own name, the name of the attempt it continues, what ``found`` holds of it). With
+    ``count`` > 0 the start called ``first`` leads when it is resumable, added to the
+    ``count`` closest when it is not among them."""
     last: dict[str, int] = {}
     for k, attempt in enumerate(attempts):
         last[attempt.candidate.split("+")[0]] = k
     ends = [(root, attempts[k].candidate, found[k]) for root, k in last.items()
             if found[k][2].violated and found[k][2].accepted]
     ends.sort(key=lambda item: _closeness(item[2][2]))
-    return ends[:count]
+    chosen = ends[:count]
+    lead = [item for item in ends if item[0] == first] if count > 0 else []
+    return lead + [item for item in chosen if item[0] != first]
 
 
 def _near(verdict: Feasibility, problem: PlanningProblem, reach: float = 1.0) -> bool:

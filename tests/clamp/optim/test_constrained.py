@@ -17,7 +17,7 @@ import pytest
 
 from bad_input import raises_naming
 from clamp.config import ConstraintConfig, PlannerConfig
-from clamp.optim.constrained import Feasibility, augmented, solve_constrained
+from clamp.optim.constrained import Candidate, Feasibility, augmented, solve_constrained
 from clamp.errors import InvalidParameterError
 from clamp.factors import ConstraintCheck, PostureFamily, SelfCollisionFamily
 from clamp.graph.problem import PlanningProblem
@@ -241,6 +241,48 @@ def test_the_closest_starts_continue_only_when_none_passes(jaco):
     never, calls = scripted_judge(10 ** 6)
     solved = solve_constrained(problem, config.with_(resumed=0), never)
     assert not solved.feasibility.ok and names(solved) == ["configured"] * 2
+
+
+def test_the_tied_problem_leads_the_resumed_starts(jaco):
+    """The problem as built that had one solve only (``first_rounds`` 0: the planner's tied
+    problem, whose rounds went to the restarts) continues first when no start passes, before
+    the ``resumed`` closest starts and whatever its own clearance (hard/sawyer/0170: the tied
+    problem's rounds passed where the closest starts traded the obstacle for the skill's tube);
+    a problem as built that had its rounds is resumed only when it is among the closest."""
+    rng = np.random.default_rng(5)
+    theta = random_theta(jaco, rng)
+    problem = PlanningProblem(jaco, len(theta), make_families(jaco, theta, rng), [], theta)
+    config = PlannerConfig().with_(constraint_rounds=1, max_iterations=5, resumed=1)
+    #: clearance [m] of each judged optimum, by call: the problem as built farthest, then b,
+    #: a; continued (calls 6-9 the problem as built, 10-13 a), a still the closest
+    clearances = {1: -0.05, 2: -0.01, 3: -0.01, 4: -0.02, 5: -0.02,
+                  **{k: -0.012 for k in range(10, 14)}}
+
+    def restarts(_):
+        for name in ("a", "b"):
+            yield Candidate(name, problem.with_families(problem.families, theta))
+
+    def distinct(solved):
+        return list(dict.fromkeys(a.candidate for a in solved.attempts))
+
+    for first_rounds, expected in (
+            (0, ["configured", "a", "b", "configured+resumed", "a+resumed",
+                 "configured+resumed+wide", "a+resumed+wide"]),
+            (None, ["configured", "a", "b", "a+resumed", "a+resumed+wide"])):
+        calls = []
+
+        def judge(theta: np.ndarray) -> Feasibility:
+            calls.append(theta)
+            if first_rounds is None and len(calls) == 2:    # the as-built's own round: farther
+                clearance = -0.06
+            else:
+                k = len(calls) - (1 if first_rounds is None and len(calls) > 2 else 0)
+                clearance = clearances.get(k, -0.015)
+            return Feasibility(("obstacle",), True, (ConstraintCheck("obstacle", True, 0.05),),
+                               clearance)
+        solved = solve_constrained(problem, config, judge, restarts, first_rounds=first_rounds)
+        assert not solved.feasibility.ok
+        assert distinct(solved) == expected, first_rounds
 
 
 def test_constraint_config_defaults_and_checks():
