@@ -74,9 +74,8 @@ def conditioned(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndar
     """:func:`condition_prior` on checked inputs (a learned prior, (index, position (A,))
     pairs with indices in range, sigma > 0): what the planner calls on its request's targets.
     A goal's response is capped where it would amplify (module doc)."""
-    info = {**getattr(prior, "info", {}), "conditioned_on": [
-        [int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations],
-        "conditioning_sigma": sigma}
+    info = {**getattr(prior, "info", {}), "conditioned_on": _observed(observations),
+            "conditioning_sigma": sigma}
     exact = WorkspacePrior(prior.time, *_conditioned_chain(prior, observations, sigma),
                            info=info)
     T = exact.T
@@ -89,10 +88,13 @@ def conditioned(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndar
     exact.info["goal_response"] = goal_response.record(scale)
     if np.all(scale >= 1.0):
         return exact
-    mean = goal_response.capped_mean(rest_mean, np.asarray(exact.mean), scale,
-                                     np.asarray(exact.time))
-    return exact.with_offsets(mean[1:] - np.einsum("tij,tj->ti", exact.Phi, mean[:-1]),
-                              mean[0])
+    return exact.with_means(goal_response.capped_mean(rest_mean, np.asarray(exact.mean), scale,
+                                                      np.asarray(exact.time)))
+
+
+def _observed(observations: Sequence[tuple[int, np.ndarray]]) -> list[list]:
+    """The observations as ``info["conditioned_on"]`` records them: [index, position list]."""
+    return [[int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations]
 
 
 def _conditioned_chain(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndarray]],
@@ -167,21 +169,15 @@ def retargeted(conditioned_prior: WorkspacePrior, observations: Sequence[tuple[i
         de[i] = Phi[i].T @ de[i + 1] + de_obs[i]
     du = np.einsum("tij,tj->ti", Q, de[1:])
     dmean0 = np.asarray(conditioned_prior.cov0) @ de[0]
-    record = {**info, "conditioned_on": [
-        [int(i), np.asarray(p, dtype=float).tolist()] for i, p in observations]}
+    record = {**info, "conditioned_on": _observed(observations)}
     scale = info.get("goal_response", {}).get("scale")
     if scale is None:
         return conditioned_prior.with_offsets(np.asarray(conditioned_prior.u) + du,
                                               np.asarray(conditioned_prior.mean0) + dmean0,
                                               record)
-    change = np.empty((T, D))
-    change[0] = dmean0
-    for i in range(T - 1):
-        change[i + 1] = Phi[i] @ change[i] + du[i]
-    mean = np.asarray(conditioned_prior.mean) + goal_response.capped_mean(
-        np.zeros((T, D)), change, np.asarray(scale), np.asarray(conditioned_prior.time))
-    return conditioned_prior.with_offsets(mean[1:] - np.einsum("tij,tj->ti", Phi, mean[:-1]),
-                                          mean[0], record)
+    change = goal_response.capped_mean(np.zeros((T, D)), chain.forward_means(Phi, du, dmean0),
+                                       np.asarray(scale), np.asarray(conditioned_prior.time))
+    return conditioned_prior.with_means(np.asarray(conditioned_prior.mean) + change, record)
 
 
 def _floor(cov: np.ndarray, sigma: float) -> np.ndarray:

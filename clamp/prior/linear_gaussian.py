@@ -166,10 +166,19 @@ class LinearGaussianPrior:
         forward, mean_{i+1} = Phi_i mean_i + u_i (to rounding, the scan's). Same class."""
         u = as_array(u, "u", (self.T - 1, self.D))
         mean0 = as_array(mean0, "mean0", (self.D,))
-        mean = np.empty((self.T, self.D))
-        mean[0] = mean0
-        for i in range(self.T - 1):
-            mean[i + 1] = self.Phi[i] @ mean[i] + u[i]
+        return self._with(u, mean0, chain.forward_means(self.Phi, u, mean0), info)
+
+    def with_means(self, mean: Any, info: dict[str, Any] | None = None
+                   ) -> "LinearGaussianPrior":
+        """This chain with the marginal means ``mean`` (T, D) instead: the offsets that carry
+        them, u_i = mean_{i+1} - Phi_i mean_i, and mean0 = mean_0 (``info`` instead too, when
+        given); everything else shared as in :meth:`with_offsets`. Same class."""
+        mean = as_array(mean, "mean", (self.T, self.D))
+        u = mean[1:] - np.einsum("tij,tj->ti", self.Phi, mean[:-1])
+        return self._with(u, mean[0], mean, info)
+
+    def _with(self, u: np.ndarray, mean0: np.ndarray, mean: np.ndarray,
+              info: dict[str, Any] | None) -> "LinearGaussianPrior":
         new = copy.copy(self)
         new.u, new.mean0, new.mean = _frozen(u), _frozen(mean0), _frozen(mean)
         new.info = dict(self.info if info is None else info)
