@@ -15,10 +15,11 @@ SAWYER_SHIFT = np.array([0.3, 0.0, 0.2])
 #: its pinned plan collides with itself (links 3 and 6 overlap by 4.2 mm at state 48.9, 16
 #: states; links 4 / 6 first touch at state 43.4 by the fidelity benchmark's independent coal
 #: check), which nothing checked before; it also moves a joint faster than its velocity limit
-#: between states (joint 3 at 2.2x between states 69 and 70, 2 of 249 segments; the verdict checks between states since issue 27 and would plan
-#: it slower: the fixtures were made at the demonstrations' speed, so the cases fix time_scale
-#: at 1). jaco_boundary's (kept inside the TLGC cylinder, then a jump to its goal 5 cm outside over the last states) was False from issue 19 to issue 27: it
-#: failed the skill check, 7.7 spreads from the prior conditioned on its goal at state 37; since
+#: between states (joint 3 at 2.2x between states 69 and 70, 2 of 249 segments; the verdict
+#: checks between states since issue 27 and would plan it slower: the fixtures were made at the
+#: demonstrations' speed, so the cases fix time_scale at 1). jaco_boundary's (kept inside the
+#: TLGC cylinder, then a jump to its goal 5 cm outside over the last states) was False from
+#: issue 19 to issue 27: it failed the skill check, 7.7 spreads from the prior conditioned on its goal at state 37; since
 #: issue 27 a plan is judged against where the skill goes under the caller's families (the
 #: cylinder's boundary here, clamp.planning.reference.skill_reference), and it passes again
 def _config():
