@@ -67,6 +67,47 @@ def _check_joints(joint_positions: Any, joint_names: Any,
     return q, tuple(str(n) for n in names)
 
 
+#: how far from unit length a recorded quaternion may be before it is refused (|q| - 1)
+QUATERNION_TOLERANCE = 1e-2
+
+
+def _check_orientations(orientations: Any, shape: tuple[int, int]) -> np.ndarray | None:
+    """(M,T,4) unit quaternions (x, y, z, w), normalised and sign-continuous along each
+    demonstration (q and -q are one rotation; the one nearer the previous sample is kept)."""
+    if orientations is None:
+        return None
+    o = as_array(orientations, "orientations", _E)
+    if o.ndim != 3 or o.shape[:2] != shape or o.shape[2] != 4:
+        raise _E(f"orientations: expected shape ({shape[0]}, {shape[1]}, 4) like the positions "
+                 f"(M, T) with quaternions (x, y, z, w), got {o.shape}")
+    norm = np.linalg.norm(o, axis=-1)
+    bad = np.abs(norm - 1.0) > QUATERNION_TOLERANCE
+    if bad.any():
+        m, t = (int(i) for i in np.argwhere(bad)[0])
+        raise _E(f"orientations[{m}, {t}]: expected a unit quaternion (x, y, z, w) within "
+                 f"{QUATERNION_TOLERANCE:g} of length 1, got length {norm[m, t]:.4g}")
+    return continuous_quaternions(o / norm[..., None])
+
+
+def slerp_quaternions(time: np.ndarray, quaternions: np.ndarray,
+                      new_time: np.ndarray) -> np.ndarray:
+    """(T',4) quaternions (x, y, z, w) at ``new_time`` (T',) by spherical linear interpolation
+    of (T,4) ``quaternions`` at strictly increasing ``time`` (T,); sign-continuous."""
+    from scipy.spatial.transform import Rotation, Slerp
+    at = np.clip(np.asarray(new_time, float), time[0], time[-1])
+    return continuous_quaternions(Slerp(time, Rotation.from_quat(quaternions))(at).as_quat())
+
+
+def continuous_quaternions(quaternions: np.ndarray) -> np.ndarray:
+    """(..., T, 4) quaternions with each sample's sign chosen nearest the previous one along
+    the second-to-last axis (the same rotations, no jump from q to -q)."""
+    q = np.array(quaternions, dtype=float, copy=True)
+    dots = np.einsum("...i,...i->...", q[..., 1:, :], q[..., :-1, :])
+    flips = np.cumsum(dots < 0, axis=-1) % 2 == 1
+    q[..., 1:, :][flips] *= -1.0
+    return q
+
+
 class Demonstrations:
     """M demonstrations on a common time axis.
 
@@ -74,13 +115,17 @@ class Demonstrations:
     obstacles: per demonstration a list of the obstacles present (or None), name: label;
     joint_positions (M,T,n) rad and joint_names (n,): the joint trajectories the
     demonstrations were recorded as (None for end-effector recordings; see
-    scenes.joint_demonstrations), kept for the planner's initialisation.
+    scenes.joint_demonstrations), kept for the planner's initialisation;
+    orientations (M,T,4): the hand's rotation at every sample as unit quaternions
+    (x, y, z, w), sign-continuous along each demonstration (None for position-only
+    recordings).
     Requires M >= 2 and T >= 2; raises InvalidDemonstrationsError naming what is wrong.
     """
 
     def __init__(self, positions: Any, velocities: Any, time: Any,
                  obstacles: Sequence[Sequence[Obstacle]] | None = None, name: str = "", *,
-                 joint_positions: Any = None, joint_names: Sequence[str] | None = None):
+                 joint_positions: Any = None, joint_names: Sequence[str] | None = None,
+                 orientations: Any = None):
         p = as_array(positions, "positions", _E, MAX_COORDINATE)
         if p.ndim != 3:
             raise _E(f"positions: expected rank 3 (M demonstrations, T steps, 3), got shape {p.shape}")
@@ -100,6 +145,7 @@ class Demonstrations:
         self.name = str(name)
         self.joint_positions, self.joint_names = _check_joints(joint_positions, joint_names,
                                                                p.shape[:2])
+        self.orientations = _check_orientations(orientations, p.shape[:2])
 
     # -- basic properties -------------------------------------------------------------
     @property
@@ -139,12 +185,15 @@ class Demonstrations:
         return f"Demonstrations(name={self.name!r}, M={self.M}, T={self.T}, dt={self.dt:.4g})"
 
     def _replace(self, positions: np.ndarray, velocities: np.ndarray, time: np.ndarray,
-                 obstacles: Any = _SAME, joint_positions: Any = _SAME) -> "Demonstrations":
+                 obstacles: Any = _SAME, joint_positions: Any = _SAME,
+                 orientations: Any = _SAME) -> "Demonstrations":
         joints = self.joint_positions if joint_positions is _SAME else joint_positions
         return Demonstrations(positions, velocities, time,
                               self.obstacles if obstacles is _SAME else obstacles, self.name,
                               joint_positions=joints,
-                              joint_names=None if joints is None else self.joint_names)
+                              joint_names=None if joints is None else self.joint_names,
+                              orientations=(self.orientations if orientations is _SAME
+                                            else orientations))
 
     # -- transformations ---------------------------------------------------------------
     def resample(self, T: int) -> "Demonstrations":
@@ -156,7 +205,9 @@ class Demonstrations:
         vel = CubicSpline(self.time, self.velocities, axis=1)(new_time)
         joints = (None if self.joint_positions is None
                   else CubicSpline(self.time, self.joint_positions, axis=1)(new_time))
-        return self._replace(pos, vel, new_time, joint_positions=joints)
+        turns = (None if self.orientations is None else np.stack(
+            [slerp_quaternions(self.time, q, new_time) for q in self.orientations]))
+        return self._replace(pos, vel, new_time, joint_positions=joints, orientations=turns)
 
     def align_dtw(self, reference: int = 0) -> "Demonstrations":
         """Warp every demonstration onto demonstration ``reference``'s time axis by DTW.
@@ -174,6 +225,7 @@ class Demonstrations:
         pos = self.positions.copy()
         vel = self.velocities.copy()
         joints = None if self.joint_positions is None else self.joint_positions.copy()
+        turns = None if self.orientations is None else self.orientations.copy()
         for m in range(self.M):
             if m == reference % self.M:
                 continue
@@ -182,7 +234,9 @@ class Demonstrations:
             vel[m] = CubicSpline(self.time, pos[m], axis=0)(self.time, 1)
             if joints is not None:
                 joints[m] = CubicSpline(index, self.joint_positions[m], axis=0)(warp)
-        return self._replace(pos, vel, self.time, joint_positions=joints)
+            if turns is not None:
+                turns[m] = slerp_quaternions(index, self.orientations[m], warp)
+        return self._replace(pos, vel, self.time, joint_positions=joints, orientations=turns)
 
     def translated(self, offset: Any) -> "Demonstrations":
         """Every position and recorded obstacle moved by offset (3,) metres; joint trajectories
@@ -268,12 +322,15 @@ class Demonstrations:
 
     # -- storage -----------------------------------------------------------------------
     def save_npz(self, path: str | Path) -> None:
-        """Write positions, velocities, time, name, obstacles (JSON text) and the joint
-        trajectories (joint_positions, joint_names; when recorded) to an .npz file."""
+        """Write positions, velocities, time, name, obstacles (JSON text), the joint
+        trajectories (joint_positions, joint_names; when recorded) and the orientations
+        (M,T,4) quaternions (x, y, z, w; when recorded) to an .npz file."""
         obstacles = "null" if self.obstacles is None else json.dumps(
             [[ob.to_dict() for ob in group] for group in self.obstacles])
         joints = {} if self.joint_positions is None else {
             "joint_positions": self.joint_positions, "joint_names": np.array(self.joint_names)}
+        if self.orientations is not None:
+            joints["orientations"] = self.orientations
         np.savez_compressed(as_path(path, "path", ScenesTypeError), positions=self.positions, velocities=self.velocities, time=self.time,
                             name=np.array(self.name), obstacles=np.array(obstacles), **joints)
 
@@ -315,5 +372,6 @@ class Demonstrations:
             joints = data["joint_positions"] if "joint_positions" in data.files else None
             names = ([str(n) for n in np.atleast_1d(data["joint_names"])]
                      if "joint_names" in data.files else None)
+            turns = data["orientations"] if "orientations" in data.files else None
             return cls(data["positions"], data["velocities"], data["time"], obstacles, name,
-                       joint_positions=joints, joint_names=names)
+                       joint_positions=joints, joint_names=names, orientations=turns)
