@@ -12,14 +12,15 @@ One topic is read from every bag (``topic``), of one of these types:
 * ``sensor_msgs/msg/JointState`` (joint recordings, needs ``robot=``): the joints are matched to
   ``robot.joint_names`` by name, in any order; joints the robot does not have (a gripper's) are
   ignored, messages holding none of the robot's joints (another publisher on the topic) are
-  skipped. The end-effector paths are the robot's forward kinematics, as for joint-space CSV and
-  .npz files (:mod:`scenes.joint_demonstrations`), and the joint trajectories are kept.
-* ``geometry_msgs/msg/PoseStamped``: the end-effector position (``pose.position``) [m], in the
-  frame it was published in (``header.frame_id``; the planner takes it as the robot's base
-  frame).
-* ``tf2_msgs/msg/TFMessage`` (``/tf``): the translation of the transform from ``frames[0]``
-  (parent, ``header.frame_id``) to ``frames[1]`` (``child_frame_id``), e.g. ``("base_link",
-  "tool0")``. Only a pair published as one transform is read: no chain of transforms is composed
+  skipped. The end-effector paths and the hand's rotation are the robot's forward kinematics,
+  as for joint-space CSV and .npz files (:mod:`scenes.joint_demonstrations`), and the joint
+  trajectories are kept.
+* ``geometry_msgs/msg/PoseStamped``: the end-effector position (``pose.position``) [m] and the
+  hand's rotation (``pose.orientation``, a quaternion), in the frame it was published in
+  (``header.frame_id``; the planner takes it as the robot's base frame).
+* ``tf2_msgs/msg/TFMessage`` (``/tf``): the translation and rotation of the transform from
+  ``frames[0]`` (parent, ``header.frame_id``) to ``frames[1]`` (``child_frame_id``), e.g.
+  ``("base_link", "tool0")``. Only a pair published as one transform is read: no chain of transforms is composed
   (publish or record the direct pair, e.g. with a ``tf2`` listener republishing it).
 
 Time is the messages' header stamps [s] (not the recording time): they must increase; a
@@ -41,8 +42,10 @@ Splitting (``split``):
   deliberate motions of the recorded box_closing set (a 3 s pause below 5 mm/s in every
   demonstration) in one piece.
 
-The demonstrations are then smoothed, differentiated and resampled onto one time axis as
-every other format (:meth:`Demonstrations.from_trajectories` when their stamps differ). How
+The quaternions are checked and repaired as :mod:`scenes.quaternions` says (not unit: an error
+naming the bag and the message; sign flips made continuous; a turn faster than 2 pi rad/s: a
+warning naming the sample). The demonstrations are then smoothed, differentiated and resampled
+onto one time axis as every other format (:meth:`Demonstrations.from_trajectories` when their stamps differ). How
 the bags were cut is logged (INFO) and attached to the result as ``demos.bag_split``
 (:class:`BagSplit`: per demonstration its bag, start in the bag and duration); a resampled or
 translated copy does not carry it.
@@ -66,6 +69,7 @@ from .demonstrations import Demonstrations
 from .errors import (ScenesTypeError, DemonstrationFileError, InvalidArgumentError,
                      InvalidDemonstrationsError)
 from .joint_demonstrations import check_robot, from_joint_trajectories
+from .quaternions import unit_quaternions
 from .smoothing import as_smoothing, smooth_trajectory
 from skillplan.validation import MAX_COORDINATE, as_array, as_path, as_positive, as_sequence
 
@@ -111,12 +115,20 @@ class BagSplit:
 @dataclass
 class _Recording:
     """One topic of one bag: stamps (T,) [s after the bag's first stamp], end-effector positions (T, 3) [m] and, for joint
-    recordings, joints (T, n) [rad] in the robot's order."""
+    recordings, joints (T, n) [rad] in the robot's order, else the hand's rotations (T, 4)
+    unit quaternions (x, y, z, w)."""
 
     bag: Path
     stamps: np.ndarray
     positions: np.ndarray
     joints: np.ndarray | None
+    rotations: np.ndarray | None = None
+
+    def part(self, a: int, b: int) -> "_Recording":
+        """Samples [a, b) of the recording."""
+        return _Recording(self.bag, self.stamps[a:b], self.positions[a:b],
+                          None if self.joints is None else self.joints[a:b],
+                          None if self.rotations is None else self.rotations[a:b])
 
 
 def is_bag(path: Any) -> bool:
@@ -235,14 +247,15 @@ def _read(bag: Path, topic: str, robot: Any, frames: tuple[str, str] | None) -> 
             connections = [c for c in reader.connections if c.topic == topic]
             messages = ((reader.deserialize(raw, c.msgtype), c.msgtype)
                         for c, _, raw in reader.messages(connections=connections))
+            rotations = None
             if msgtype == JOINT_STATE:
                 stamps, joints = _joint_states(bag, topic, messages, robot)
                 positions = np.asarray(robot.fk(joints), dtype=float)
             elif msgtype == POSE_STAMPED:
-                stamps, positions = _poses(messages)
+                stamps, positions, rotations = _poses(messages)
                 joints = None
             else:
-                stamps, positions = _transforms(bag, topic, messages, frames)
+                stamps, positions, rotations = _transforms(bag, topic, messages, frames)
                 joints = None
     except DemonstrationFileError:
         raise
@@ -252,7 +265,7 @@ def _read(bag: Path, topic: str, robot: Any, frames: tuple[str, str] | None) -> 
         raise DemonstrationFileError(f"{bag}: not a readable ROS 2 bag: empty, truncated or corrupt "
                                      f"({type(exc).__name__}: {exc}); a bag whose recording was cut "
                                      "short may be repaired with 'ros2 bag reindex'") from None
-    return _checked(bag, topic, stamps, positions, joints)
+    return _checked(bag, topic, stamps, positions, joints, rotations)
 
 
 def _stamp(header: Any) -> int:
@@ -293,18 +306,20 @@ def _joint_states(bag: Path, topic: str, messages: Any, robot: Any) -> tuple[lis
     return stamps, q
 
 
-def _poses(messages: Any) -> tuple[list[int], np.ndarray]:
-    stamps, rows = [], []
+def _poses(messages: Any) -> tuple[list[int], np.ndarray, np.ndarray]:
+    stamps, rows, turns = [], [], []
     for msg, _ in messages:
         stamps.append(_stamp(msg.header))
-        p = msg.pose.position
+        p, o = msg.pose.position, msg.pose.orientation
         rows.append((p.x, p.y, p.z))
-    return stamps, np.array(rows, dtype=float).reshape(-1, 3)
+        turns.append((o.x, o.y, o.z, o.w))
+    return (stamps, np.array(rows, dtype=float).reshape(-1, 3),
+            np.array(turns, dtype=float).reshape(-1, 4))
 
 
 def _transforms(bag: Path, topic: str, messages: Any,
-                frames: tuple[str, str]) -> tuple[list[int], np.ndarray]:
-    stamps, rows = [], []
+                frames: tuple[str, str]) -> tuple[list[int], np.ndarray, np.ndarray]:
+    stamps, rows, turns = [], [], []
     pairs: set[tuple[str, str]] = set()
     for msg, _ in messages:
         for transform in msg.transforms:
@@ -312,19 +327,21 @@ def _transforms(bag: Path, topic: str, messages: Any,
             pairs.add(pair)
             if pair == frames:
                 stamps.append(_stamp(transform.header))
-                t = transform.transform.translation
+                t, r = transform.transform.translation, transform.transform.rotation
                 rows.append((t.x, t.y, t.z))
+                turns.append((r.x, r.y, r.z, r.w))
     if not rows:
         listed = ", ".join(f"{a}->{b}" for a, b in sorted(pairs)) or "none (no messages)"
         raise DemonstrationFileError(f"{bag}: {topic} has no transform {frames[0]}->{frames[1]} "
                                      f"(only a directly published pair is read, no chain is "
                                      f"composed); its pairs: {listed}")
-    return stamps, np.array(rows, dtype=float)
+    return stamps, np.array(rows, dtype=float), np.array(turns, dtype=float)
 
 
 def _checked(bag: Path, topic: str, stamps: list[int], positions: np.ndarray,
-             joints: np.ndarray | None) -> _Recording:
-    """Stamps [ns] that increase (DemonstrationFileError naming the bag otherwise), as seconds."""
+             joints: np.ndarray | None, rotations: np.ndarray | None) -> _Recording:
+    """Stamps [ns] that increase (DemonstrationFileError naming the bag otherwise), as seconds;
+    rotations unit (DemonstrationFileError naming the bag and the message otherwise)."""
     if len(stamps) == 0:
         raise DemonstrationFileError(f"{bag}: topic {topic!r} has no messages")
     if len(stamps) < 2:
@@ -343,8 +360,10 @@ def _checked(bag: Path, topic: str, stamps: list[int], positions: np.ndarray,
                                      "increasing stamps")
     positions = as_array(positions, f"{bag}: {topic} positions", DemonstrationFileError,
                          MAX_COORDINATE)
-    # seconds from the bag's first stamp (float64 keeps nanoseconds over days)
-    return _Recording(bag, (ns - ns[0]) * 1e-9, positions, joints)
+    seconds = (ns - ns[0]) * 1e-9      # from the bag's first stamp (float64 keeps ns over days)
+    if rotations is not None:       # unit here (naming the message); the rest in from_trajectories
+        rotations = unit_quaternions(rotations, f"{bag}: {topic} message", DemonstrationFileError)
+    return _Recording(bag, seconds, positions, joints, rotations)
 
 
 # ------------------------------------------------------------------------------ splitting
@@ -366,8 +385,7 @@ def _split_at_rests(recording: _Recording, rest_speed: float, rest_duration: flo
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b - a < 2:
             continue
-        part = _Recording(recording.bag, t[a:b], recording.positions[a:b],
-                          None if recording.joints is None else recording.joints[a:b])
+        part = recording.part(a, b)
         out.extend(_motions(part, rest_speed, rest_duration, smoothing))
     if not out:
         raise DemonstrationFileError(f"{recording.bag}: no motion: the end effector stays below "
@@ -390,8 +408,7 @@ def _motions(part: _Recording, rest_speed: float, rest_duration: float,
         a, b = max(a - 1, 0), min(b + 1, len(t))        # from the rest before to the rest after
         if b - a < 2:
             continue
-        out.append(_Recording(part.bag, t[a:b], part.positions[a:b],
-                              None if part.joints is None else part.joints[a:b]))
+        out.append(part.part(a, b))
     return out
 
 
@@ -415,7 +432,9 @@ def _assemble(pieces: list[_Recording], robot: Any, smoothing: str, name: str,
             pos, vel = smooth_trajectory(t, p.positions, smoothing, f"{name}[{m}]")
             positions.append(pos)
             velocities.append(vel)
-        return Demonstrations.from_trajectories(positions, times, velocities=velocities, name=name)
+        rotations = None if pieces[0].rotations is None else [p.rotations for p in pieces]
+        return Demonstrations.from_trajectories(positions, times, velocities=velocities, name=name,
+                                                orientations=rotations)
     except InvalidDemonstrationsError as exc:
         raise DemonstrationFileError(f"{_names(bags)}: {exc}") from None
     except InvalidArgumentError as exc:     # e.g. stamps closer than the time resolution

@@ -14,6 +14,8 @@ from .alignment import dtw_warp
 from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrationsError,
                      InvalidObstacleError)
 from .obstacles import Obstacle, obstacle_from_dict
+from .quaternions import (checked_quaternions, continuous_quaternions, slerp_quaternions,
+                          unit_quaternions)
 from skillplan.validation import (MAX_COORDINATE, as_array, as_count, as_file, as_path, as_positive, as_sequence,
                          as_time, as_vector)
 
@@ -67,10 +69,6 @@ def _check_joints(joint_positions: Any, joint_names: Any,
     return q, tuple(str(n) for n in names)
 
 
-#: how far from unit length a recorded quaternion may be before it is refused (|q| - 1)
-QUATERNION_TOLERANCE = 1e-2
-
-
 def _check_orientations(orientations: Any, shape: tuple[int, int]) -> np.ndarray | None:
     """(M,T,4) unit quaternions (x, y, z, w), normalised and sign-continuous along each
     demonstration (q and -q are one rotation; the one nearer the previous sample is kept)."""
@@ -80,32 +78,7 @@ def _check_orientations(orientations: Any, shape: tuple[int, int]) -> np.ndarray
     if o.ndim != 3 or o.shape[:2] != shape or o.shape[2] != 4:
         raise _E(f"orientations: expected shape ({shape[0]}, {shape[1]}, 4) like the positions "
                  f"(M, T) with quaternions (x, y, z, w), got {o.shape}")
-    norm = np.linalg.norm(o, axis=-1)
-    bad = np.abs(norm - 1.0) > QUATERNION_TOLERANCE
-    if bad.any():
-        m, t = (int(i) for i in np.argwhere(bad)[0])
-        raise _E(f"orientations[{m}, {t}]: expected a unit quaternion (x, y, z, w) within "
-                 f"{QUATERNION_TOLERANCE:g} of length 1, got length {norm[m, t]:.4g}")
-    return continuous_quaternions(o / norm[..., None])
-
-
-def slerp_quaternions(time: np.ndarray, quaternions: np.ndarray,
-                      new_time: np.ndarray) -> np.ndarray:
-    """(T',4) quaternions (x, y, z, w) at ``new_time`` (T',) by spherical linear interpolation
-    of (T,4) ``quaternions`` at strictly increasing ``time`` (T,); sign-continuous."""
-    from scipy.spatial.transform import Rotation, Slerp
-    at = np.clip(np.asarray(new_time, float), time[0], time[-1])
-    return continuous_quaternions(Slerp(time, Rotation.from_quat(quaternions))(at).as_quat())
-
-
-def continuous_quaternions(quaternions: np.ndarray) -> np.ndarray:
-    """(..., T, 4) quaternions with each sample's sign chosen nearest the previous one along
-    the second-to-last axis (the same rotations, no jump from q to -q)."""
-    q = np.array(quaternions, dtype=float, copy=True)
-    dots = np.einsum("...i,...i->...", q[..., 1:, :], q[..., :-1, :])
-    flips = np.cumsum(dots < 0, axis=-1) % 2 == 1
-    q[..., 1:, :][flips] *= -1.0
-    return q
+    return continuous_quaternions(unit_quaternions(o, "orientations", _E))
 
 
 class Demonstrations:
@@ -253,7 +226,8 @@ class Demonstrations:
                           num_points: int | None = None, *, velocities: Sequence[Any] | None = None,
                           obstacles: Sequence[Sequence[Obstacle]] | None = None, name: str = "",
                           duration: float | None = None, joint_positions: Sequence[Any] | None = None,
-                          joint_names: Sequence[str] | None = None) -> "Demonstrations":
+                          joint_names: Sequence[str] | None = None,
+                          orientations: Sequence[Any] | None = None) -> "Demonstrations":
         """Demonstrations from M position arrays (T_m,3) of possibly unequal length.
 
         Each demonstration's time is normalised to its own duration (phase s in [0,1]) and
@@ -263,7 +237,10 @@ class Demonstrations:
         Velocities: given ones (T_m,3) are spline-resampled and scaled by D_m / D_mean so they
         stay the derivative of the re-timed positions; otherwise the spline's time derivative.
         joint_positions: (T_m, n) per trajectory [rad], resampled like the positions, with
-        joint_names (n,).
+        joint_names (n,). orientations: (T_m, 4) unit quaternions (x, y, z, w) per trajectory,
+        checked and repaired as :mod:`scenes.quaternions` says (an error naming
+        ``orientations[m][k]`` when not unit, a warning naming it for a turn faster than
+        MAX_ANGULAR_SPEED at the recorded times) and resampled by slerp at the same phases.
         """
         trajectories = as_sequence(trajectories, "trajectories", "a list of (T_m, 3) position "
                                    "arrays", ScenesTypeError)
@@ -303,9 +280,17 @@ class Demonstrations:
                     np.shape(q)[:1] != (len(p),) for q, p in zip(joint_positions, paths)):
                 raise _E(f"joint_positions: expected {len(paths)} arrays of (T_m, n), one per "
                          "trajectory and as long as it")
+        if orientations is not None:
+            orientations = as_sequence(orientations, "orientations",
+                                       "one (T_m, 4) quaternion array per trajectory", _E)
+            if len(orientations) != len(paths):
+                raise _E(f"orientations: expected {len(paths)} arrays of (T_m, 4) quaternions "
+                         f"(x, y, z, w), one per trajectory, got {len(orientations)}")
+            orientations = [checked_quaternions(o, t, f"orientations[{m}]", _E, name)
+                            for m, (o, t) in enumerate(zip(orientations, stamps))]
         pos = np.empty((len(paths), T, 3))
         vel = np.empty_like(pos)
-        joints = []
+        joints, turns = [], []
         for m, (p, t) in enumerate(zip(paths, stamps)):
             s = as_time((t - t[0]) / durations[m], f"times[{m}] / duration", len(t), _E)
             spline = CubicSpline(s, p, axis=0)
@@ -316,9 +301,12 @@ class Demonstrations:
                 vel[m] = CubicSpline(s, velocities[m], axis=0)(phase) * durations[m] / mean_duration
             if joint_positions is not None:
                 joints.append(CubicSpline(s, np.asarray(joint_positions[m], float), axis=0)(phase))
+            if orientations is not None:
+                turns.append(slerp_quaternions(s, orientations[m], phase))
         return cls(pos, vel, phase * mean_duration, obstacles, name,
                    joint_positions=None if joint_positions is None else np.stack(joints),
-                   joint_names=joint_names)
+                   joint_names=joint_names,
+                   orientations=None if orientations is None else np.stack(turns))
 
     # -- storage -----------------------------------------------------------------------
     def save_npz(self, path: str | Path) -> None:

@@ -4,14 +4,23 @@ Formats (chosen by suffix, then by content):
 
 * ``.mat`` CLAMP reference: struct array ``dataset`` with fields ``pos`` (T,3), ``vel`` (T,3),
   ``time`` (T,) and optional ``obs`` (K,6) boxes [cx,cy,cz,sx,sy,sz]; scalar ``dt``.
-  Missing ``time`` becomes ``arange(T) * dt``; missing ``vel`` is estimated (below).
+  Missing ``time`` becomes ``arange(T) * dt``; missing ``vel`` is estimated (below). The hand's
+  rotation, when recorded: field ``quat_xyzw`` (T,4) unit quaternions (x, y, z, w), or ``pose``
+  (4,4,T) homogeneous transforms (MATLAB's stacking; their translation is the position and
+  replaces ``pos``).
 * ``.mat`` TLGC reference: cell array ``smoothData`` of (N,3) positions without time; time is
   ``linspace(0, NOMINAL_DURATION, N)`` (10 s), velocities estimated.
-* ``.npz``: written by :meth:`Demonstrations.save_npz`; or joint space: ``joint_positions``
-  (M,T,n) [rad], ``time`` (T,) [s], ``joint_names`` (n,) (needs ``robot=``).
+* ``.npz``: written by :meth:`Demonstrations.save_npz` (``orientations`` (M,T,4) when
+  recorded); or joint space: ``joint_positions`` (M,T,n) [rad], ``time`` (T,) [s],
+  ``joint_names`` (n,) (needs ``robot=``); or one recording per demonstration k = 0, 1, ...
+  (``wiping_rim.npz``): ``demo<k>__pos`` (N_k,3) [m] with ``demo<k>__quat_xyzw`` (N_k,4), or
+  ``demo<k>__pose`` (N_k,4,4) homogeneous transforms, and ``demo<k>__t`` (N_k,) [s] (optional:
+  without it the recording lasts NOMINAL_DURATION).
 * ``.csv``: header ``demo,t,x,y,z`` or ``demo,t,x,y,z,vx,vy,vz``, one row per sample; ``demo`` is
   an integer label (order of first appearance), ``t`` in seconds, positions in metres,
-  velocities in m/s. Without velocity columns they are estimated. Joint space (kinesthetic
+  velocities in m/s. Without velocity columns they are estimated. The pose CSV adds the hand's
+  rotation as a unit quaternion in four last columns ``qx,qy,qz,qw`` (header
+  ``demo,t,x,y,z,qx,qy,qz,qw`` or ``demo,t,x,y,z,vx,vy,vz,qx,qy,qz,qw``). Joint space (kinesthetic
   teaching): ``demo,t`` then one column per joint named as in the robot's URDF
   (``robot.joint_names``, any order) [rad], read with ``robot=``. UTF-8 with or without a
   byte-order mark (a spreadsheet's "CSV UTF-8"); quoted fields ("x") are read as their text.
@@ -27,7 +36,11 @@ Velocities missing from a file (and joint velocities) are estimated per demonstr
 Savitzky-Golay filter and interpolates clean ones, "savgol" / "spline" always smooth, "none"
 interpolates and warns when noise dominates); velocities given in the file are kept.
 Joint recordings become end-effector demonstrations by the robot's forward kinematics
-(:mod:`scenes.joint_demonstrations`) and keep their joint trajectories.
+(:mod:`scenes.joint_demonstrations`), with the hand's rotation, and keep their joint
+trajectories. Recorded rotations are checked and repaired as :mod:`scenes.quaternions` says (a
+quaternion not unit or a matrix not a rotation: an error naming the file and the sample; sign
+flips made continuous; a turn faster than 2 pi rad/s: a warning naming the sample).
+Position-only files give position-only demonstrations (``orientations`` None).
 
 Demonstrations sharing the same time stamps are taken as they are; otherwise they are
 resampled with :meth:`Demonstrations.from_trajectories`.
@@ -49,12 +62,17 @@ from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrati
                      InvalidObstacleError)
 from .joint_demonstrations import check_robot, column_order, from_joint_trajectories
 from .obstacles import Box
+from .quaternions import QUATERNION_TOLERANCE, checked_quaternions, quaternions_from_matrices
 from .scene import Scene
 from .smoothing import as_smoothing, smooth_trajectory
 from skillplan.validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_sequence, as_time
 
 CSV_COLUMNS = ("demo", "t", "x", "y", "z")
 CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
+CSV_ORIENTATION_COLUMNS = ("qx", "qy", "qz", "qw")
+#: the headers of workspace CSV files: positions, then velocities and / or the hand's rotation
+CSV_HEADERS = tuple(CSV_COLUMNS + v + o for o in ((), CSV_ORIENTATION_COLUMNS)
+                    for v in ((), CSV_VELOCITY_COLUMNS))
 
 
 def load_demonstrations(path: str | Path | Sequence[str | Path], scenes: Sequence[Any] | None = None,
@@ -123,7 +141,8 @@ def _with_scenes(demos: Demonstrations, scenes: Sequence[Any] | None, source: st
     loaded = [s if isinstance(s, Scene) else Scene.load(s) for s in scenes]
     out = Demonstrations(demos.positions, demos.velocities, demos.time,
                          [list(s.obstacles) for s in loaded], demos.name,
-                         joint_positions=demos.joint_positions, joint_names=demos.joint_names)
+                         joint_positions=demos.joint_positions, joint_names=demos.joint_names,
+                         orientations=demos.orientations)
     if hasattr(demos, "bag_split"):
         out.bag_split = demos.bag_split  # type: ignore[attr-defined]
     return out
@@ -175,10 +194,27 @@ def _from_clamp(path: Path, data: dict[str, Any], smoothing: str) -> Demonstrati
     if entries.dtype != object or not all(hasattr(e, "_fieldnames") for e in entries):
         raise DemonstrationFileError(f"{path}: 'dataset' must be a struct array with fields pos, vel, time")
     dt = data.get("dt")
-    positions, velocities, times, obstacles = [], [], [], []
+    positions, velocities, times, obstacles, rotations = [], [], [], [], []
     for m, item in enumerate(entries):
         where = f"dataset({m + 1})"
-        pos = _trajectory(path, _field(path, item, m, "pos"), f"{where}.pos")
+        pose = _field(path, item, m, "pose", required=False)
+        if pose is not None:
+            if hasattr(item, "pos"):
+                raise DemonstrationFileError(f"{path}: {where}: expected either 'pos' (with an "
+                                             "optional 'quat_xyzw') or 'pose', got both")
+            transforms = _numbers(path, pose, f"{where}.pose")
+            if transforms.ndim == 2:                  # one sample: MATLAB squeezes (4,4,1)
+                transforms = transforms[:, :, None]
+            if transforms.ndim != 3 or transforms.shape[:2] != (4, 4):
+                raise DemonstrationFileError(f"{path}: {where}.pose: expected shape (4, 4, T) "
+                                             f"homogeneous transforms, got {transforms.shape}")
+            transforms = np.moveaxis(transforms, -1, 0)
+            pos, turns = _pose_parts(path, transforms, f"{where}.pose")
+        else:
+            pos = _trajectory(path, _field(path, item, m, "pos"), f"{where}.pos")
+            turns = _field(path, item, m, "quat_xyzw", required=False)
+            if turns is not None:
+                turns = _quaternion_rows(path, turns, f"{where}.quat_xyzw", len(pos))
         vel = _field(path, item, m, "vel", required=False)
         if vel is not None:
             vel = _trajectory(path, vel, f"{where}.vel", len(pos))
@@ -207,9 +243,10 @@ def _from_clamp(path: Path, data: dict[str, Any], smoothing: str) -> Demonstrati
         velocities.append(vel)
         times.append(time)
         obstacles.append(boxes)
+        rotations.append(turns)
     has_obstacles = any(obstacles)
     return _assemble(positions, velocities, times, obstacles if has_obstacles else None, path.stem,
-                     smoothing)
+                     smoothing, _all_or_none(path, rotations, "dataset(m).quat_xyzw or pose"))
 
 
 def _from_tlgc(path: Path, data: dict[str, Any], smoothing: str) -> Demonstrations:
@@ -235,10 +272,50 @@ def _check_recordings(positions: list[np.ndarray], times: list[np.ndarray]) -> N
         as_time(t, f"demonstrations[{m}].time", len(p), InvalidDemonstrationsError)
 
 
+def _quaternion_rows(path: Path, value: Any, name: str, length: int) -> np.ndarray:
+    """A (T, 4) quaternion array (x, y, z, w) read from a file, T = ``length`` (the positions');
+    unit length is checked with the time stamps (:func:`_assemble`)."""
+    arr = _numbers(path, value, name)
+    if arr.ndim != 2 or arr.shape != (length, 4):
+        raise DemonstrationFileError(f"{path}: {name}: expected shape ({length}, 4) quaternions "
+                                     f"(x, y, z, w), one per position, got {arr.shape}")
+    return arr
+
+
+def _pose_parts(path: Path, transforms: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (T, 3) [m] and quaternions (T, 4) (x, y, z, w) of homogeneous transforms
+    (T, 4, 4); DemonstrationFileError naming the file and the sample when one is not a pose."""
+    bottom = np.abs(transforms[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1)
+    if np.any(bottom > 1e-6):
+        k = int(np.argmax(bottom > 1e-6))
+        raise DemonstrationFileError(f"{path}: {name}[{k}]: expected a homogeneous transform "
+                                     f"(last row 0 0 0 1), got last row {transforms[k, 3].tolist()}")
+    positions = _trajectory(path, transforms[:, :3, 3], f"{name} translation")
+    return positions, quaternions_from_matrices(transforms[:, :3, :3], f"{name} rotation",
+                                                DemonstrationFileError)
+
+
+def _all_or_none(path: Path, rotations: list[np.ndarray | None], name: str) -> list[np.ndarray] | None:
+    """The recordings' rotations when every one has them, None when none has; a file giving
+    them for some demonstrations only is refused (DemonstrationFileError naming the first
+    without)."""
+    missing = [m for m, r in enumerate(rotations) if r is None]
+    if len(missing) == len(rotations):
+        return None
+    if missing:
+        raise DemonstrationFileError(f"{path}: {name}: the hand's rotation is recorded for some "
+                                     f"demonstrations but not for demonstration {missing[0]}; "
+                                     "expected it for all or none")
+    return rotations  # type: ignore[return-value]
+
+
 def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], times: list[np.ndarray],
-              obstacles: list | None, name: str, smoothing: str) -> Demonstrations:
+              obstacles: list | None, name: str, smoothing: str,
+              orientations: list[np.ndarray] | None = None) -> Demonstrations:
     """Demonstrations as they are when all share one time axis, else resampled; missing
-    velocities estimated as ``smoothing`` says (positions smoothed alike)."""
+    velocities estimated as ``smoothing`` says (positions smoothed alike); ``orientations``
+    (T_m, 4) per recording checked as :mod:`scenes.quaternions` says (warnings naming ``name``,
+    the file's stem, and the sample)."""
     _check_recordings(positions, times)
     positions, velocities = list(positions), list(velocities)
     for m, (p, v, t) in enumerate(zip(positions, velocities, times)):
@@ -246,9 +323,14 @@ def _assemble(positions: list[np.ndarray], velocities: list[np.ndarray | None], 
             positions[m], velocities[m] = smooth_trajectory(t, p, smoothing, f"{name}[{m}]")
     same_time = all(len(t) == len(times[0]) and np.array_equal(t, times[0]) for t in times)
     if same_time and all(len(p) == len(times[0]) for p in positions):
-        return Demonstrations(np.stack(positions), np.stack(velocities), times[0], obstacles, name)
+        turns = None if orientations is None else np.stack([
+            checked_quaternions(o, times[0], f"orientations[{m}]", InvalidDemonstrationsError, name)
+            for m, o in enumerate(orientations)])
+        return Demonstrations(np.stack(positions), np.stack(velocities), times[0], obstacles, name,
+                              orientations=turns)
     return Demonstrations.from_trajectories(positions, times, velocities=velocities,
-                                            obstacles=obstacles, name=name)
+                                            obstacles=obstacles, name=name,
+                                            orientations=orientations)
 
 
 def _needs_robot(path: Path, robot: Any, what: str) -> Any:
@@ -259,14 +341,23 @@ def _needs_robot(path: Path, robot: Any, what: str) -> Any:
     return robot
 
 
+#: the per-demonstration .npz fields (module docstring): demo<k>__<field>
+NPZ_RECORDING_FIELDS = ("pos", "quat_xyzw", "pose", "t")
+
+
 def _load_npz(path: Path, robot: Any, smoothing: str) -> Demonstrations:
     try:
         with np.load(path, allow_pickle=False) as data:
             joint = "joint_positions" in data.files and "positions" not in data.files
             arrays = {k: data[k] for k in ("joint_positions", "time", "joint_names")
                       if joint and k in data.files}
+            recordings = {k: data[k] for k in data.files
+                          if k.startswith("demo") and k.split("__")[-1] in NPZ_RECORDING_FIELDS}
+            per_demonstration = "positions" not in data.files and not joint and bool(recordings)
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         raise DemonstrationFileError(f"{path}: not a readable demonstrations .npz ({exc})") from None
+    if per_demonstration:
+        return _from_npz_recordings(path, recordings, smoothing)
     if not joint:
         return Demonstrations.load_npz(path)
     robot = _needs_robot(path, robot, "its arrays joint_positions, time, joint_names")
@@ -286,6 +377,44 @@ def _load_npz(path: Path, robot: Any, smoothing: str) -> Demonstrations:
     _check_recordings(list(q), [time] * len(q))
     return from_joint_trajectories(robot, list(q[:, :, order]), [time] * len(q), smoothing,
                                    path.stem)
+
+
+def _from_npz_recordings(path: Path, arrays: dict[str, np.ndarray], smoothing: str) -> Demonstrations:
+    """Demonstrations of a .npz holding one recording per demonstration: ``demo<k>__pos`` with
+    ``demo<k>__quat_xyzw``, or ``demo<k>__pose``, and ``demo<k>__t`` (module docstring)."""
+    labels = sorted({k.split("__")[0] for k in arrays})
+    indices = sorted(int(label[4:]) for label in labels if label[4:].isdigit())
+    if [f"demo{k}" for k in indices] != labels or indices != list(range(len(indices))):
+        raise DemonstrationFileError(f"{path}: expected recordings demo0__*, demo1__*, ... numbered "
+                                     f"from 0 without gaps, got {labels}")
+    positions, times, rotations = [], [], []
+    for k in indices:
+        key = f"demo{k}__"
+        if f"{key}pose" in arrays:
+            if f"{key}pos" in arrays or f"{key}quat_xyzw" in arrays:
+                raise DemonstrationFileError(f"{path}: {key}pose: expected either {key}pos (with "
+                                             f"{key}quat_xyzw) or {key}pose, got both")
+            transforms = _numbers(path, arrays[f"{key}pose"], f"{key}pose")
+            if transforms.ndim != 3 or transforms.shape[1:] != (4, 4):
+                raise DemonstrationFileError(f"{path}: {key}pose: expected shape (N, 4, 4) "
+                                             f"homogeneous transforms, got {transforms.shape}")
+            pos, turns = _pose_parts(path, transforms, f"{key}pose")
+        elif f"{key}pos" in arrays:
+            pos = _trajectory(path, arrays[f"{key}pos"], f"{key}pos", rows="N")
+            turns = (None if f"{key}quat_xyzw" not in arrays else
+                     _quaternion_rows(path, arrays[f"{key}quat_xyzw"], f"{key}quat_xyzw", len(pos)))
+        else:
+            raise DemonstrationFileError(f"{path}: demonstration {k}: expected {key}pos (N, 3) [m] "
+                                         f"or {key}pose (N, 4, 4), got {sorted(a for a in arrays if a.startswith(key))}")
+        if f"{key}t" in arrays:
+            time = as_array(arrays[f"{key}t"], f"{path}: {key}t", DemonstrationFileError).reshape(-1)
+        else:
+            time = np.linspace(0.0, NOMINAL_DURATION, len(pos))
+        positions.append(pos)
+        times.append(time)
+        rotations.append(turns)
+    return _assemble(positions, [None] * len(positions), times, None, path.stem, smoothing,
+                     _all_or_none(path, rotations, "demo<k>__quat_xyzw or demo<k>__pose"))
 
 
 def _read_csv(path: Path) -> tuple[tuple[str, ...], np.ndarray]:
@@ -315,12 +444,13 @@ def _read_csv(path: Path) -> tuple[tuple[str, ...], np.ndarray]:
 
 def _load_csv(path: Path, robot: Any, smoothing: str) -> Demonstrations:
     header, table = _read_csv(path)
-    workspace = header in (CSV_COLUMNS, CSV_COLUMNS + CSV_VELOCITY_COLUMNS)
+    workspace = header in CSV_HEADERS
     if header[:2] != CSV_COLUMNS[:2] or (not workspace and robot is None):
         if header[:2] == CSV_COLUMNS[:2] and len(header) > 2 and "x" not in header:
             _needs_robot(path, robot, f"the columns {','.join(header[2:])!r}")
         raise DemonstrationFileError(f"{path}: expected header {','.join(CSV_COLUMNS)}"
-                                     f"[,{','.join(CSV_VELOCITY_COLUMNS)}] (or demo,t and one "
+                                     f"[,{','.join(CSV_VELOCITY_COLUMNS)}]"
+                                     f"[,{','.join(CSV_ORIENTATION_COLUMNS)}] (or demo,t and one "
                                      f"column per joint with robot=), got {','.join(header)!r}")
     if not np.all(np.isfinite(table)):
         raise DemonstrationFileError(f"{path}: contains NaN/inf values")
@@ -336,12 +466,24 @@ def _load_csv(path: Path, robot: Any, smoothing: str) -> Demonstrations:
         return from_joint_trajectories(robot, [g[:, columns] for g in groups], times,
                                        smoothing, path.stem)
     positions = [g[:, 2:5] for g in groups]
-    velocities = [g[:, 5:8] if len(header) == 8 else None for g in groups]
-    return _assemble(positions, velocities, times, None, path.stem, smoothing)
+    velocities = [g[:, 5:8] if CSV_VELOCITY_COLUMNS[0] in header else None for g in groups]
+    rotations = None
+    if CSV_ORIENTATION_COLUMNS[0] in header:
+        length = np.linalg.norm(table[:, -4:], axis=1)
+        bad = np.flatnonzero(np.abs(length - 1.0) > QUATERNION_TOLERANCE)
+        if bad.size:
+            row = int(bad[0])
+            raise DemonstrationFileError(
+                f"{path}: line {row + 2} (demo {table[row, 0]:.0f}, t = {table[row, 1]:g} s): "
+                f"{','.join(CSV_ORIENTATION_COLUMNS)}: expected a unit quaternion within "
+                f"{QUATERNION_TOLERANCE:g} of length 1, got length {length[row]:.4g}")
+        rotations = [g[:, -4:] for g in groups]
+    return _assemble(positions, velocities, times, None, path.stem, smoothing, rotations)
 
 
 def save_csv(demos: Demonstrations, path: str | Path) -> list[Path]:
-    """Write demonstrations as CSV with columns demo,t,x,y,z,vx,vy,vz (see module docstring).
+    """Write demonstrations as CSV with columns demo,t,x,y,z,vx,vy,vz, and qx,qy,qz,qw when they
+    carry the hand's rotation (the pose CSV; see module docstring).
 
     Demonstrations with recorded obstacles also get one scene file per demonstration,
     ``<stem>.scene<m>.json`` beside the CSV; returns their paths (empty without obstacles),
@@ -354,8 +496,12 @@ def save_csv(demos: Demonstrations, path: str | Path) -> list[Path]:
         scene_paths.append(path.with_name(f"{path.stem}.scene{m}.json"))
         Scene(group).save(scene_paths[-1])
     M, T = demos.M, demos.T
-    table = np.column_stack([np.repeat(np.arange(M), T), np.tile(demos.time, M),
-                             demos.positions.reshape(-1, 3), demos.velocities.reshape(-1, 3)])
-    np.savetxt(path, table, delimiter=",", header=",".join(CSV_COLUMNS + CSV_VELOCITY_COLUMNS),
-               comments="", fmt=["%d"] + ["%.17g"] * 7)
+    columns = [np.repeat(np.arange(M), T), np.tile(demos.time, M),
+               demos.positions.reshape(-1, 3), demos.velocities.reshape(-1, 3)]
+    header = CSV_COLUMNS + CSV_VELOCITY_COLUMNS
+    if demos.orientations is not None:
+        columns.append(demos.orientations.reshape(-1, 4))
+        header += CSV_ORIENTATION_COLUMNS
+    np.savetxt(path, np.column_stack(columns), delimiter=",", header=",".join(header),
+               comments="", fmt=["%d"] + ["%.17g"] * (len(header) - 1))
     return scene_paths

@@ -3,10 +3,13 @@ demonstrations by the robot's own forward kinematics.
 
 Every recording q (T_m, n) [rad] at time (T_m,) [s] is smoothed and differentiated like an
 end-effector recording (:mod:`scenes.smoothing`, in joint space), then mapped by the robot:
-positions = FK(q) [m], velocities = J(q) qdot [m/s] (``robot.ee_kinematics``). The joint
-trajectories are kept in ``Demonstrations.joint_positions`` so a planner can start from them.
+positions = FK(q) [m], velocities = J(q) qdot [m/s] (``robot.ee_kinematics``), the hand's
+rotation = the end effector's rotation matrix (``robot.ee_rotation``) as unit quaternions
+(x, y, z, w) in ``Demonstrations.orientations``. The joint trajectories are kept in
+``Demonstrations.joint_positions`` so a planner can start from them.
 
-``robot`` is any object with ``joint_names`` (n,) and ``ee_kinematics(q, qdot, jacobians)``:
+``robot`` is any object with ``joint_names`` (n,), ``ee_kinematics(q, qdot, jacobians)`` and
+``ee_rotation(q)`` (rotations (..., 3, 3), and None):
 a ``robots.Robot`` (``robots.load_robot("jaco")``, ``Robot.from_urdf(...)``); scenes does
 not import robots, the caller passes it.
 """
@@ -19,6 +22,7 @@ import numpy as np
 
 from .demonstrations import Demonstrations
 from .errors import ScenesTypeError, InvalidDemonstrationsError
+from .quaternions import quaternions_from_matrices
 from .smoothing import smooth_trajectory
 from skillplan.validation import MAX_COORDINATE, as_array, as_sequence, as_time
 
@@ -26,8 +30,10 @@ _E = InvalidDemonstrationsError
 
 
 def check_robot(robot: Any) -> Any:
-    """``robot`` when it has joint_names and ee_kinematics (ScenesTypeError otherwise)."""
-    if not hasattr(robot, "joint_names") or not callable(getattr(robot, "ee_kinematics", None)):
+    """``robot`` when it has joint_names, ee_kinematics and ee_rotation (ScenesTypeError
+    otherwise)."""
+    if not hasattr(robot, "joint_names") or not all(
+            callable(getattr(robot, method, None)) for method in ("ee_kinematics", "ee_rotation")):
         raise ScenesTypeError(f"robot: expected a robots.Robot (robots.load_robot('jaco') or "
                                 f"robots.Robot.from_urdf(...)) to map joint-space "
                                 f"demonstrations, got {type(robot).__name__} {robot!r:.60}")
@@ -60,7 +66,7 @@ def from_joint_trajectories(robot: Any, joint_trajectories: Sequence[Any],
     if len(times) != len(joint_trajectories):
         raise _E(f"times: expected {len(joint_trajectories)} arrays (one per recording), got "
                  f"{len(times)}")
-    q_list, positions, velocities, stamps = [], [], [], []
+    q_list, positions, velocities, rotations, stamps = [], [], [], [], []
     for m, (q, t) in enumerate(zip(joint_trajectories, times)):
         q = as_array(q, f"joint_trajectories[{m}]", _E, MAX_COORDINATE)
         if q.ndim != 2 or q.shape[1] != n or len(q) < 2:
@@ -73,11 +79,15 @@ def from_joint_trajectories(robot: Any, joint_trajectories: Sequence[Any],
         q_list.append(q)
         positions.append(np.asarray(kinematics.position, dtype=float))
         velocities.append(np.asarray(kinematics.velocity, dtype=float))
+        rotations.append(quaternions_from_matrices(robot.ee_rotation(q)[0],
+                                                   f"joint_trajectories[{m}] rotation", _E))
         stamps.append(t)
     names = tuple(robot.joint_names)
     if len(q_list) >= 2 and all(len(t) == len(stamps[0]) and np.array_equal(t, stamps[0])
                                 for t in stamps):
         return Demonstrations(np.stack(positions), np.stack(velocities), stamps[0], None, name,
-                              joint_positions=np.stack(q_list), joint_names=names)
+                              joint_positions=np.stack(q_list), joint_names=names,
+                              orientations=np.stack(rotations))
     return Demonstrations.from_trajectories(positions, stamps, velocities=velocities, name=name,
-                                            joint_positions=q_list, joint_names=names)
+                                            joint_positions=q_list, joint_names=names,
+                                            orientations=rotations)
