@@ -1,4 +1,5 @@
-"""Inverse kinematics of the end-effector position: damped least squares within joint limits.
+"""Inverse kinematics of the end-effector position (and, for one configuration, of its whole
+pose): damped least squares within joint limits.
 
 The solver works on a batch of B independent problems at once (restarts, or all steps of a
 path), so a whole trajectory is refined in one vectorized loop over iterations.
@@ -8,9 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pinocchio as pin
 
 from .errors import RobotError
-from .validation import as_generator, as_joint_array, as_point, as_points
+from .validation import as_array, as_generator, as_joint_array, as_point, as_points
 
 
 @dataclass(frozen=True)
@@ -177,3 +179,59 @@ def solve_ik_trajectory(robot, targets, seed=None, tol: float = 1e-4, max_iter: 
     q = np.column_stack([np.interp(steps, coarse, q_coarse[:, j]) for j in range(robot.n)])
     q, errors = damped_least_squares(robot, targets, q, tol, max_iter)
     return IKTrajectoryResult(q, errors, bool(np.all(errors <= tol)))
+
+
+@dataclass(frozen=True)
+class PoseIKResult:
+    """q (n,) joint values; position_error [m] and angle_error [rad] from the target pose;
+    success = both within their tolerances."""
+
+    q: np.ndarray
+    position_error: float
+    angle_error: float
+    success: bool
+
+
+def solve_pose_ik(robot, position, rotation, seed, tol: float = 1e-6, angle_tol: float = 1e-6,
+                  max_iter: int = 300, damping: float = 1e-2, max_step: float = 0.3) -> PoseIKResult:
+    """Joint values (n,) near ``seed`` (n,) that put the end effector at ``position`` (3,) [m]
+    turned as ``rotation`` (3, 3) (columns: the tool's axes in the base frame), within limits.
+
+    Damped least squares on the 6-vector [p* - p, log(R* R^T)] (metres, radians) with the
+    stacked position and angular Jacobians (``robot.ee_pose_jacobian``),
+    as :func:`damped_least_squares` steps (limits held, steps of at most ``max_step`` rad, a step
+    kept only when it lowers the error). No restarts: the seed chooses the branch.
+    """
+    _check_settings(tol, max_iter)
+    target = as_point(position, "position")
+    goal = as_array(rotation, "rotation", (3, 3), max_leading=0)
+    q = np.clip(as_joint_array(seed, "seed", robot.n).reshape(robot.n), robot.lower_limits,
+                robot.upper_limits)[None]
+    eye = np.eye(6)
+
+    def residual_and_jacobian(q):
+        position, R, jacobian = robot.ee_pose_jacobian(q[0])
+        residual = np.concatenate([target - position, pin.log3(goal @ R.T)])[None]
+        return residual, jacobian[None]
+
+    residual, jac = residual_and_jacobian(q)
+    error = np.linalg.norm(residual, axis=1)
+    lam = np.full(1, float(damping))
+    for _ in range(int(max_iter)):
+        if np.linalg.norm(residual[0, :3]) <= tol and np.linalg.norm(residual[0, 3:]) <= angle_tol:
+            break
+        q_new = _step(q, jac, residual, lam, robot.lower_limits, robot.upper_limits, eye, max_step)
+        res_new, jac_new = residual_and_jacobian(q_new)
+        err_new = np.linalg.norm(res_new, axis=1)
+        if err_new[0] < error[0]:
+            q, residual, jac, error = q_new, res_new, jac_new, err_new
+            lam = np.maximum(lam * 0.5, 1e-6)
+        elif lam[0] >= 1e3:               # no step lowers the error: a local minimum
+            break
+        else:
+            lam = np.minimum(lam * 4.0, 1e3)
+    position_error = float(np.linalg.norm(residual[0, :3]))
+    angle_error = float(np.linalg.norm(residual[0, 3:]))
+    return PoseIKResult(q[0], position_error, angle_error,
+                        position_error <= tol and angle_error <= angle_tol)
+

@@ -233,6 +233,15 @@ class Robot:
                                      columns.transpose(0, 2, 1).reshape(shape3n),
                                      velocity_jacobian.reshape(shape3n))
 
+    def ee_poses(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """End-effector positions (..., 3) [m] and rotations (..., 3, 3) (columns: the tool's x,
+        y, z axes) in the base frame for q (..., n), from one pass of the chain."""
+        flat, lead = self._batch(q, "q")
+        frames = self.chain.joint_frames(flat)
+        pos, _, _ = self.chain.point(frames, self._ee.joint, self._ee.translation, False)
+        rotation = frames.rotations[:, self._ee.joint] @ self._ee.rotation
+        return pos.reshape(lead + (3,)), rotation.reshape(lead + (3, 3))
+
     def ee_rotation(self, q, jacobians: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
         """End-effector rotation (..., 3, 3) (columns: the tool's x, y, z axes in the base
         frame) for q (..., n) and, if asked, its angular Jacobian (..., 3, n): the base-frame
@@ -270,6 +279,21 @@ class Robot:
             position = base.rotation.T @ (position - base.translation)
             jac = base.rotation.T @ jac
         return np.array(position), np.array(jac[:, :self.n])   # reduced model: v = the chain's joints
+
+    def ee_pose_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """End-effector position (3,) [m], rotation (3, 3) and the stacked Jacobian (6, n)
+        (d position / d q over the base-frame angular velocity's d omega / d qdot) of ONE
+        validated configuration q (n,), from Pinocchio's C++ kinematics (for the many small
+        calls of pose inverse kinematics)."""
+        position, linear = self.ee_position_jacobian(q)           # fills self._pin_data
+        data = self._pin_data
+        rotation = data.oMf[self._ee_frame].rotation
+        angular = pin.getFrameJacobian(self.model, data, self._ee_frame,
+                                       pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[3:, :self.n]
+        if self._base_frame_index is not None:
+            base = data.oMf[self._base_frame_index].rotation
+            rotation, angular = base.T @ rotation, base.T @ angular
+        return position, np.array(rotation), np.vstack([linear, angular])
 
     def sphere_attachments(self) -> tuple[np.ndarray, np.ndarray]:
         """Chain joint (S,) and centre in that joint's frame (S, 3) of every collision sphere."""

@@ -12,7 +12,7 @@ import matplotlib
 import pytest
 
 from scenes import shared_dataset as _find_dataset
-from scenes.datasets import DATASETS_ENV
+from scenes.datasets import DATASET_SUFFIXES, DATASETS_ENV
 
 matplotlib.use("Agg")
 
@@ -20,11 +20,11 @@ _SHARED = Path(__file__).resolve().parents[2] / "shared" / "datasets"
 
 
 def dataset_path(name: str) -> Path | None:
-    """Path of <name>.mat in $SKILLPLAN_DATASETS, else in ../shared/datasets beside this
-    checkout (also when the package is installed elsewhere), or None when it is absent."""
+    """Path of <name>.mat (or .npz) in $SKILLPLAN_DATASETS, else in ../shared/datasets beside
+    this checkout (also when the package is installed elsewhere), or None when it is absent."""
     if not os.environ.get(DATASETS_ENV) and _SHARED.is_dir():
-        path = _SHARED / f"{name}.mat"
-        return path if path.is_file() else None
+        paths = [_SHARED / f"{name}{suffix}" for suffix in DATASET_SUFFIXES]
+        return next((p for p in paths if p.is_file()), None)
     return _find_dataset(name)
 
 
@@ -35,7 +35,7 @@ def shared_dataset():
     def get(name: str) -> Path:
         path = dataset_path(name)
         if path is None:
-            pytest.skip(f"{name}.mat not found in ../shared/datasets (set SKILLPLAN_DATASETS)")
+            pytest.skip(f"{name}.mat / .npz not found in ../shared/datasets (set SKILLPLAN_DATASETS)")
         return path
 
     return get
