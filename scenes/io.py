@@ -291,7 +291,7 @@ def _pose_parts(path: Path, transforms: np.ndarray, name: str) -> tuple[np.ndarr
         raise DemonstrationFileError(f"{path}: {name}[{k}]: expected a homogeneous transform "
                                      f"(last row 0 0 0 1), got last row {transforms[k, 3].tolist()}")
     positions = _trajectory(path, transforms[:, :3, 3], f"{name} translation")
-    return positions, quaternions_from_matrices(transforms[:, :3, :3], f"{name} rotation",
+    return positions, quaternions_from_matrices(transforms[:, :3, :3], f"{path}: {name} rotation",
                                                 DemonstrationFileError)
 
 
