@@ -62,7 +62,8 @@ from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrati
                      InvalidObstacleError)
 from .joint_demonstrations import check_robot, column_order, from_joint_trajectories
 from .obstacles import Box
-from .quaternions import QUATERNION_TOLERANCE, checked_quaternions, quaternions_from_matrices
+from .quaternions import (QUATERNION_TOLERANCE, checked_quaternions, quaternions_from_matrices,
+                          unit_quaternions)
 from .scene import Scene
 from .smoothing import as_smoothing, smooth_trajectory
 from skillplan.validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_sequence, as_time
@@ -273,13 +274,13 @@ def _check_recordings(positions: list[np.ndarray], times: list[np.ndarray]) -> N
 
 
 def _quaternion_rows(path: Path, value: Any, name: str, length: int) -> np.ndarray:
-    """A (T, 4) quaternion array (x, y, z, w) read from a file, T = ``length`` (the positions');
-    unit length is checked with the time stamps (:func:`_assemble`)."""
+    """A (T, 4) unit quaternion array (x, y, z, w) read from a file, T = ``length`` (the
+    positions'); DemonstrationFileError naming the file, ``name`` and the sample otherwise."""
     arr = _numbers(path, value, name)
     if arr.ndim != 2 or arr.shape != (length, 4):
         raise DemonstrationFileError(f"{path}: {name}: expected shape ({length}, 4) quaternions "
                                      f"(x, y, z, w), one per position, got {arr.shape}")
-    return arr
+    return unit_quaternions(arr, f"{path}: {name}", DemonstrationFileError)
 
 
 def _pose_parts(path: Path, transforms: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:

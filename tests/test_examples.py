@@ -110,6 +110,10 @@ def test_readme_file_formats_load(tmp_path):
     (tmp_path / "demos.csv").write_text(_blocks("csv")[0])
     demos = load_demonstrations(tmp_path / "demos.csv")
     assert (demos.M, demos.T) == (3, 5)
+    (tmp_path / "poses.csv").write_text(_blocks("csv")[1])
+    poses = load_demonstrations(tmp_path / "poses.csv")
+    assert poses.orientations.shape == (2, 3, 4)
+    np.testing.assert_allclose(np.abs(poses.orientations[:, -1, 1]), np.sqrt(0.5), atol=1e-6)
     plan = json.loads(plan_text)
     # every field but those to_dict leaves out (the joint covariance, the request's objects,
     # the problem solved)

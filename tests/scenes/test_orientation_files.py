@@ -303,7 +303,7 @@ def test_bad_quaternion_in_npz_and_mat_names_the_file_and_sample(tmp_path):
         arrays[f"demo{m}__quat_xyzw"] = demos.orientations[m].copy()
     arrays["demo1__quat_xyzw"][13] *= 1.5
     np.savez(tmp_path / "bad.npz", **arrays)
-    with raises_naming(DemonstrationFileError, str(tmp_path / "bad.npz"), "orientations[1][13]") as info:
+    with raises_naming(DemonstrationFileError, str(tmp_path / "bad.npz"), "demo1__quat_xyzw[13]") as info:
         load_demonstrations(tmp_path / "bad.npz")
     one_line(str(info.value))
     entries = np.empty(2, dtype=[("pose", object), ("time", object)])
