@@ -3,7 +3,7 @@ vectorized forward kinematics with Jacobians, and inverse kinematics for initial
 from .errors import (CollisionGeometryError, InvalidArrayError, RetimingError, RobotError,
                      SphereFileError, TrajectoryError, TrajectoryExistsError, TrajectoryFileError,
                      UnknownFrameError, UnknownRobotError, UnsupportedJointError, URDFParseError)
-from .ik import IKResult, IKTrajectoryResult
+from .ik import IKResult, IKTrajectoryResult, PoseIKResult
 from .kinematics import EndEffectorKinematics
 from .robot import Robot
 from .sphere_model import SphereModel
@@ -14,7 +14,8 @@ from .trajectory import JointTrajectory, RetimingLimits, load_trajectory
 
 __all__ = [
     "Robot", "load_robot", "resolve_robot", "available_robots", "EndEffectorKinematics", "SphereModel",
-    "IKResult", "IKTrajectoryResult", "JointTrajectory", "RetimingLimits", "load_trajectory", "retime",
+    "IKResult", "IKTrajectoryResult", "PoseIKResult", "JointTrajectory", "RetimingLimits", "load_trajectory",
+    "retime",
     "RetimingReport", "check_limits", "uniform_scaling",
     "self_collision_report", "SelfCollisionReport", "disabled_pairs",
     "RobotError", "UnknownRobotError", "UnknownFrameError", "URDFParseError", "UnsupportedJointError",

@@ -31,6 +31,7 @@ QUATERNION_TOLERANCE = 1e-2
 #: how far a recorded rotation matrix may be from orthonormal (max |R^T R - I|) before refused
 ROTATION_TOLERANCE = 1e-2
 #: fastest plausible turn of a guided hand between two samples [rad/s]; faster warns
+#: (see docs/decisions.md#max_angular_speed)
 MAX_ANGULAR_SPEED = 2.0 * np.pi
 
 
