@@ -9,13 +9,14 @@ from typing import Any, Sequence
 
 import numpy as np
 from scipy.interpolate import CubicSpline
+from scipy.spatial.transform import Rotation
 
 from .alignment import dtw_warp
 from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrationsError,
                      InvalidObstacleError)
 from .obstacles import Obstacle, obstacle_from_dict
-from .quaternions import (checked_quaternions, continuous_quaternions, slerp_quaternions,
-                          unit_quaternions)
+from .quaternions import (checked_quaternions, continuous_quaternions, quaternions_from_matrices,
+                          slerp_quaternions, unit_quaternions)
 from skillplan.validation import (MAX_COORDINATE, as_array, as_count, as_file, as_path, as_positive, as_sequence,
                          as_time, as_vector)
 
@@ -219,6 +220,25 @@ class Demonstrations:
                                                          for group in self.obstacles]
         return self._replace(self.positions + offset, self.velocities, self.time, obstacles,
                              joint_positions=None)
+
+    def transformed(self, rotation: Any, offset: Any) -> "Demonstrations":
+        """The whole set moved rigidly: every position p becomes rotation @ p + offset (3,) [m],
+        velocities and the hand's rotations turn with it (rotation (3, 3), a proper rotation
+        within 1e-2); e.g. to place a recorded set (``wiping_rim``) in an arm's workspace.
+        Joint trajectories are dropped (the arm did not make the moved paths); recorded
+        obstacles are moved by ``translated`` only (InvalidDemonstrationsError naming
+        ``rotation`` for a set with obstacles and a rotation other than the identity)."""
+        R = Rotation.from_quat(quaternions_from_matrices(rotation, "rotation", _E)).as_matrix()
+        offset = as_vector(offset, "offset", 3, _E)
+        if self.obstacles is not None and not np.allclose(R, np.eye(3), atol=1e-12):
+            raise _E("rotation: expected the identity for demonstrations with recorded obstacles "
+                     "(obstacles are moved by translated(offset) only)")
+        turns = None if self.orientations is None else (
+            Rotation.from_matrix(R) * Rotation.from_quat(self.orientations.reshape(-1, 4))
+        ).as_quat().reshape(self.orientations.shape)
+        moved = self._replace(self.positions @ R.T, self.velocities @ R.T, self.time,
+                              joint_positions=None, orientations=turns)
+        return moved.translated(offset)
 
     # -- construction ------------------------------------------------------------------
     @classmethod

@@ -64,7 +64,7 @@ def unit_quaternions(values: Any, name: str, error: type[ValueError]) -> np.ndar
     bad = np.abs(norm - 1.0) > QUATERNION_TOLERANCE
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise error(f"{name}[{', '.join(map(str, index))}]: expected a unit quaternion (x, y, z, w) "
+        raise error(f"{_at(name, index)}: expected a unit quaternion (x, y, z, w) "
                     f"within {QUATERNION_TOLERANCE:g} of length 1, got {_shown(q[index])} of length "
                     f"{norm[index]:.4g}")
     return q / norm[..., None]
@@ -106,7 +106,7 @@ def quaternions_from_matrices(values: Any, name: str, error: type[ValueError]) -
     bad = (gap > ROTATION_TOLERANCE) | (np.linalg.det(R) < 0)
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise error(f"{name}[{', '.join(map(str, index))}]: expected a rotation matrix (orthonormal "
+        raise error(f"{_at(name, index)}: expected a rotation matrix (orthonormal "
                     f"within {ROTATION_TOLERANCE:g}, determinant +1), got max |R^T R - I| "
                     f"{gap[index]:.3g} and determinant {np.linalg.det(R[index]):.3g}")
     flat = R.reshape(-1, 3, 3)
@@ -117,6 +117,11 @@ def quaternions_from_matrices(values: Any, name: str, error: type[ValueError]) -
 def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Quaternions (N,4) of the rotations a^-1 b (x, y, z, w) for unit quaternions a, b (N,4)."""
     return (Rotation.from_quat(a).inv() * Rotation.from_quat(b)).as_quat()
+
+
+def _at(name: str, index: tuple[int, ...]) -> str:
+    """``name[i, j]`` of one sample of an array (``name`` for a single one)."""
+    return f"{name}[{', '.join(map(str, index))}]" if index else name
 
 
 def _shown(q: np.ndarray) -> str:

@@ -352,3 +352,30 @@ def test_command_line_bad_quaternion_file_is_one_line_and_exit_2(tmp_path, capsy
     assert code == 2 and len(err) == 1 and "Traceback" not in err[0], err
     assert str(path) in err[0] and "line 4" in err[0]
     assert not (tmp_path / "prior.npz").exists()
+
+
+# ------------------------------------------------------------------------------ moving the set
+def test_transformed_turns_positions_velocities_and_rotations_together():
+    """A rigid transform of the whole set (placing a recorded set in an arm's workspace): the
+    hand's rotation relative to its path is unchanged, and so are the distances."""
+    demos = turning_demonstrations(num_demos=2, num_points=30)
+    R = Rotation.from_rotvec([0.3, -0.2, 1.1])
+    moved = demos.transformed(R.as_matrix(), [0.1, -0.2, 0.3])
+    np.testing.assert_allclose(moved.positions, R.apply(demos.positions.reshape(-1, 3)).reshape(2, 30, 3)
+                               + [0.1, -0.2, 0.3], atol=1e-12)
+    np.testing.assert_allclose(moved.velocities, R.apply(demos.velocities.reshape(-1, 3)).reshape(2, 30, 3),
+                               atol=1e-12)
+    expected = (R * Rotation.from_quat(demos.orientations.reshape(-1, 4))).as_quat()
+    assert per_step_angle(moved.orientations, expected) < 1e-6
+    with raises_naming(InvalidDemonstrationsError, "rotation"):
+        demos.transformed(np.diag([1.0, 1.0, -1.0]), [0, 0, 0])
+
+
+def test_scenes_of_a_pose_file_keep_the_rotations(tmp_path):
+    from scenes import Box, Scene
+    demos = turning_demonstrations(num_demos=2, num_points=20)
+    save_csv(demos, tmp_path / "poses.csv")
+    scene = Scene([Box([0.3, -0.3, 0.1], [0.05, 0.05, 0.05])])
+    loaded = load_demonstrations(tmp_path / "poses.csv", scenes=[scene, scene])
+    assert loaded.obstacles is not None
+    assert per_step_angle(loaded.orientations, demos.orientations) < 1e-6
