@@ -15,7 +15,7 @@ from clamp.prior import so3
 
 from .states import StateWindow
 
-__all__ = ["orientation_state"]
+__all__ = ["orientation_state", "rotation_chart"]
 
 
 def orientation_state(window: StateWindow, rows: np.ndarray, mean_rotations: np.ndarray,
@@ -35,3 +35,19 @@ def orientation_state(window: StateWindow, rows: np.ndarray, mean_rotations: np.
     dy[:, 3:, :n] = Rbar_T @ domega[rows]
     dy[:, 3:, n:] = Rbar_T @ W
     return y, dy
+
+
+def rotation_chart(window: StateWindow, reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The hand's rotation and angular velocity in a chart about ``reference`` rotations
+    (K, 3, 3) of all window rows: z (K, 6) = [log(reference^T R), omega] [rad, rad/s] and
+    d z / d theta (K, 6, 2n). An orientation state y is an affine function of z at a fixed
+    step (its mean rotation a constant turn), so predicting z predicts y: the solver's
+    correction (:mod:`clamp.optim.solver`) moves trial points onto it."""
+    R, W, omega, domega = window.rotation()
+    r = so3.log_map(np.swapaxes(reference, -1, -2) @ R)
+    n = window.n
+    dz = np.zeros((len(R), 6, 2 * n))
+    dz[:, :3, :n] = so3.right_jacobian_inverse(r) @ np.swapaxes(R, -1, -2) @ W
+    dz[:, 3:, :n] = domega
+    dz[:, 3:, n:] = W
+    return np.concatenate([r, omega], axis=1), dz

@@ -28,6 +28,7 @@ class OrientationGPFamily(Family):
     name = "orientation_gp"
     arity = 2
     kinematics = 1
+    stiff_rotation = True
 
     def __init__(self, rotations: np.ndarray, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray):
         self.Phi = as_array(Phi, "Phi", ("K", 6, 6))
@@ -42,11 +43,12 @@ class OrientationGPFamily(Family):
         return cls(orientation.rotations, orientation.Phi, orientation.u, orientation.Q)
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
-        states = self.first[rows]
-        i = window.local(states)
-        y0, dy0 = orientation_state(window, i, self.rotations[states], jacobians)
-        y1, dy1 = orientation_state(window, i + 1, self.rotations[states + 1], jacobians)
-        error = transition_residuals(self.Phi[rows], self.u[rows], y0, y1)
+        i = window.local(self.first[rows])
+        span = np.arange(i.min(), i.max() + 2)              # every state once: i and i + 1
+        y, dy = orientation_state(window, span, self.rotations[window.first + span], jacobians)
+        before, after = i - span[0], i + 1 - span[0]
+        error = transition_residuals(self.Phi[rows], self.u[rows], y[before], y[after])
         if not jacobians:
             return Linearization(rows, error, None)
-        return Linearization(rows, error, np.concatenate([-self.Phi[rows] @ dy0, dy1], axis=2))
+        return Linearization(rows, error, np.concatenate([-self.Phi[rows] @ dy[before],
+                                                          dy[after]], axis=2))

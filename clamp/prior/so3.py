@@ -32,10 +32,25 @@ def to_quaternions(R: np.ndarray) -> np.ndarray:
     return np.where(q[..., 3:] < 0, -q, q)
 
 
+#: [rad] beyond pi minus this angle the log map is scipy's (the axis from the symmetric part)
+_NEAR_PI = 1e-3
+
+
 def log_map(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors r (..., 3) [rad] with Exp(r) = R (..., 3, 3), |r| <= pi."""
-    R = np.array(R, dtype=float)
-    return Rotation.from_matrix(R.reshape(-1, 3, 3)).as_rotvec().reshape(R.shape[:-2] + (3,))
+    """Rotation vectors r (..., 3) [rad] with Exp(r) = R (..., 3, 3), |r| <= pi: the angle
+    from the trace and the skew part, r = a / (2 sin a) vee(R - R^T); near pi, scipy's."""
+    R = np.asarray(R, dtype=float)
+    vee = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
+                    R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    sine2 = np.linalg.norm(vee, axis=-1)                                  # 2 sin a
+    angle = np.arctan2(sine2, np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    small = sine2 < 1e-12
+    scale = np.where(small, 0.5, angle / np.where(small, 1.0, sine2))
+    r = scale[..., None] * vee
+    near_pi = angle > np.pi - _NEAR_PI
+    if np.any(near_pi):
+        r[near_pi] = Rotation.from_matrix(np.array(R[near_pi])).as_rotvec()
+    return r
 
 
 def exp_map(r: np.ndarray) -> np.ndarray:
