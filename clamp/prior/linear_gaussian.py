@@ -88,7 +88,7 @@ ORIENTATION_PREFIX = "orientation_"
 
 def _orientation_part(path: Path, contents: dict[str, np.ndarray]) -> LinearGaussianPrior:
     """The orientation chain stored in a prior file's ``orientation_*`` entries."""
-    from clamp.prior.orientation_prior import OrientationPrior
+    OrientationPrior = LinearGaussianPrior.of_kind("orientation")
     part = {k[len(ORIENTATION_PREFIX):]: v for k, v in contents.items()
             if k.startswith(ORIENTATION_PREFIX)}
     missing = [ORIENTATION_PREFIX + k for k in (*_ARRAY_KEYS[1:], "info") if k not in part]
@@ -144,6 +144,18 @@ class LinearGaussianPrior:
     """
 
     default_kind: ClassVar[str] = "generic"
+    #: the subclass of every kind (a subclass registers itself by its default_kind)
+    _KINDS: ClassVar[dict[str, type["LinearGaussianPrior"]]] = {}
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        LinearGaussianPrior._KINDS[cls.default_kind] = cls
+
+    @staticmethod
+    def of_kind(kind: str) -> type["LinearGaussianPrior"]:
+        """The prior class of ``kind`` ("workspace", "orientation", ...; registered when its
+        module was imported, as ``clamp.prior`` imports them all)."""
+        return LinearGaussianPrior._KINDS.get(kind, LinearGaussianPrior)
 
     def __init__(self, time: np.ndarray, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray,
                  mean0: np.ndarray, cov0: np.ndarray, *, state_names: tuple[str, ...] | None = None,
@@ -558,10 +570,9 @@ class WorkspacePrior(LinearGaussianPrior):
         self.orientation = self._checked_orientation(orientation)
 
     def _checked_orientation(self, orientation: Any) -> Any:
-        from clamp.prior.orientation_prior import OrientationPrior
         if orientation is None:
             return None
-        if not isinstance(orientation, OrientationPrior):
+        if not isinstance(orientation, LinearGaussianPrior.of_kind("orientation")):
             raise ClampTypeError(f"orientation: expected an OrientationPrior or None, got "
                                  f"{type(orientation).__name__}")
         if orientation.T != self.T:
