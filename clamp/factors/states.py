@@ -74,7 +74,9 @@ class StateWindow:
             spin = W * self.qdot[:, None, :]                               # (K, 3, n)
             omega = spin.sum(axis=2)
             after = omega[:, :, None] - np.cumsum(spin, axis=2)            # sum over i > k
-            domega = np.cross(W, after, axisa=1, axisb=1, axisc=1)
+            domega = np.stack([W[:, 1] * after[:, 2] - W[:, 2] * after[:, 1],     # W x after
+                               W[:, 2] * after[:, 0] - W[:, 0] * after[:, 2],
+                               W[:, 0] * after[:, 1] - W[:, 1] * after[:, 0]], axis=1)
             self._rotation = (R, W, omega, domega)
         return self._rotation
 

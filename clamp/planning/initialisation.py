@@ -144,7 +144,7 @@ MAX_STEP = 0.1
 
 
 def pose_refined(robot, initialisation: Initialisation, rotations: np.ndarray, dt: float,
-                 iterations: int = 15, damping: float = 1e-3) -> Initialisation:
+                 iterations: int = 6, damping: float = 1e-3) -> Initialisation:
     """``initialisation`` (IK of a position path) turned towards the hand's rotations
     (T, 3, 3) (a pose prior's conditioned mean): damped least squares on the pose error
     [p(q_i) - path_i, ROTATION_WEIGHT log(R_i^T R(q_i))] of every state but the first (the
