@@ -205,6 +205,8 @@ class CheckConfig:
     goal_tolerance: float = 0.002
     #: [m] end-effector via-point (or [rad] joint via-point) error
     via_tolerance: float = 0.002
+    #: [rad] the hand's rotation error at a goal or via pose (1 deg)
+    rotation_tolerance: float = 0.017453292519943295
     #: [m] IK accuracy required to accept an end-effector start as reachable
     ik_tolerance: float = 1e-4
     #: [rad] joint position limits (the limit factors are soft)
@@ -332,7 +334,8 @@ class PlannerConfig:
                       strictly_positive=True)
         for name in ("limit_tolerance", "velocity_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", minimum=0.0)
-        for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance"):
+        for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance",
+                     "rotation_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", strictly_positive=True)
         as_scalar(a.progress, "config.constraints.progress", strictly_positive=True, maximum=1.0)
         as_scalar(a.stiffen, "config.constraints.stiffen", minimum=1.0)

@@ -202,6 +202,10 @@ class Family:
     #: a hair short of passing: the constrained solve keeps updating the start that came this
     #: near (``polish_rounds``; 0.0: never; see docs/decisions.md#polish-rounds)
     near: float = 0.0
+    #: the family holds the hand's rotation through a stiff learned chain (a pose prior's):
+    #: the solver's correction moves trial points onto the rotation its linear model predicts,
+    #: as it does onto the workspace states (:mod:`clamp.optim.solver`)
+    stiff_rotation: bool = False
 
     def relaxed(self, floor: float) -> "Family | None":
         """A copy whose hinges start nearer the constraint (a smaller safety margin, never

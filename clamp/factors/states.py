@@ -17,7 +17,7 @@ import numpy as np
 class StateWindow:
     """Joint states theta (K, 2n) of support states first .. first + K - 1 of ``robot``."""
 
-    __slots__ = ("robot", "theta", "first", "_workspace", "_centres")
+    __slots__ = ("robot", "theta", "first", "_workspace", "_centres", "_rotation")
 
     def __init__(self, robot: Any, theta: np.ndarray, first: int = 0):
         self.robot = robot
@@ -25,6 +25,7 @@ class StateWindow:
         self.first = int(first)
         self._workspace: tuple[np.ndarray, np.ndarray] | None = None
         self._centres: np.ndarray | None = None
+        self._rotation: tuple[np.ndarray, ...] | None = None
 
     @property
     def n(self) -> int:
@@ -62,6 +63,22 @@ class StateWindow:
             jac[:, 3:, n:] = kin.jacobian
             self._workspace = (x, jac)
         return self._workspace
+
+    def rotation(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The hand's rotation R (K, 3, 3), its angular Jacobian W (K, 3, n) (base-frame angular
+        velocity omega = W qdot), omega (K, 3) [rad/s] and d omega / d q (K, 3, n), computed
+        once. Column k of d omega / d q is w_k x sum_{i > k} w_i qdot_i (joint i's axis turns
+        with every revolute joint k upstream of it)."""
+        if self._rotation is None:
+            R, W = self.robot.ee_rotation(self.q, jacobians=True)
+            spin = W * self.qdot[:, None, :]                               # (K, 3, n)
+            omega = spin.sum(axis=2)
+            after = omega[:, :, None] - np.cumsum(spin, axis=2)            # sum over i > k
+            domega = np.stack([W[:, 1] * after[:, 2] - W[:, 2] * after[:, 1],     # W x after
+                               W[:, 2] * after[:, 0] - W[:, 0] * after[:, 2],
+                               W[:, 0] * after[:, 1] - W[:, 1] * after[:, 0]], axis=1)
+            self._rotation = (R, W, omega, domega)
+        return self._rotation
 
     def sphere_centres(self) -> np.ndarray:
         """Collision-sphere centres (K, S, 3) [m] of every state (no Jacobians)."""

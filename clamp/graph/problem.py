@@ -102,6 +102,13 @@ class PlanningProblem:
         """Whether every factor connects one state or two neighbouring states (fast solver)."""
         return self._foreign_states is not None
 
+    @property
+    def stiff_rotation(self) -> bool:
+        """Whether a family reads the hand's rotation through a stiff learned chain
+        (:attr:`clamp.factors.Family.stiff_rotation`): the solver's correction then moves trial
+        points onto the predicted rotation as well."""
+        return any(f.stiff_rotation for f in self.families)
+
     def has(self, name: str) -> bool:
         """Whether a family is called ``name``."""
         return any(f.name == name for f in self.families)

@@ -39,6 +39,7 @@ import numpy as np
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 from clamp.optim.banded import band_layout
+from clamp.factors.hand_orientation import rotation_chart
 from clamp.graph.problem import NormalEquations, PlanningProblem
 from skillplan.threads import single_blas_thread
 
@@ -123,19 +124,35 @@ class WorkspaceCorrection:
     """
 
     def __init__(self, window_of, x: np.ndarray, jacobian: np.ndarray, iterations: int,
-                 damping: float = 1e-9, tolerance: float = 1e-8):
+                 damping: float = 1e-9, tolerance: float = 1e-8,
+                 rotations: np.ndarray | None = None):
         self.window_of = window_of
+        self.rotations = rotations
+        if rotations is not None:           # the hand's rotation too (a pose prior's chain)
+            z, dz = rotation_chart(window_of(None), rotations)
+            x, jacobian = np.concatenate([x, z], axis=1), np.concatenate([jacobian, dz], axis=1)
         self.x, self.jacobian = x, jacobian
         self.iterations = iterations
         self.damping = damping * np.eye(x.shape[1])
         self.tolerance = tolerance
+
+    def states(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The corrected states at theta (T, 2n) and their Jacobian: the workspace states,
+        with ``rotations`` (the linearization point's hand rotations (T, 3, 3)) also the
+        rotation chart about them (:func:`clamp.factors.hand_orientation.rotation_chart`)."""
+        window = self.window_of(theta)
+        x, jac = window.workspace()
+        if self.rotations is None:
+            return x, jac
+        z, dz = rotation_chart(window, self.rotations)
+        return np.concatenate([x, z], axis=1), np.concatenate([jac, dz], axis=1)
 
     def apply(self, theta: np.ndarray, delta: np.ndarray) -> np.ndarray:
         """The corrected trial point (T, 2n) for the step delta (T, 2n) (theta + delta moved)."""
         target = self.x + np.einsum("tij,tj->ti", self.jacobian, delta)
         out = theta + delta
         for k in range(self.iterations + 1):
-            x, jac = self.window_of(out).workspace()
+            x, jac = self.states(out)
             residual = target - x
             if k == self.iterations or np.max(np.abs(residual)) <= self.tolerance:
                 break
@@ -197,8 +214,13 @@ def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float
         system: NormalEquations = problem.normal_equations(theta)
         g = system.g.reshape(-1)
         solver = DampedBandSolver(layout.band(system.D, system.E), g, layout.rows)
-        corrector = (WorkspaceCorrection(problem.window, *problem.window(theta).workspace(),
-                                         correction) if correction else None)
+        corrector = None
+        if correction:
+            window = problem.window(theta)
+            rotations = window.rotation()[0] if problem.stiff_rotation else None
+            corrector = WorkspaceCorrection(
+                lambda at: window if at is None else problem.window(at), *window.workspace(),
+                correction, rotations=rotations)
         lap("linearize")
         accepted = model_converged = False
         trials_here = 0

@@ -12,15 +12,16 @@ import numpy as np
 
 from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError
-from clamp.factors import (EEPositionFamily, Family, JointGPFamily, JointLimitFamily,
+from clamp.factors import (EEPositionFamily, EERotationFamily, Family, JointGPFamily, JointLimitFamily,
                            JointTargetFamily, ObstacleFamily, PostureFamily, PostureMotionFamily,
-                           PostureVelocityFamily,
+                           OrientationGPFamily, OrientationStartFamily, PostureVelocityFamily,
                            WorkspaceGPFamily, WorkspaceStartFamily, shifted_start_mean)
-from clamp.planning.initialisation import (Initialisation, joint_velocities, prior_mean_initialisation,
-                                  straight_line_initialisation)
+from clamp.planning.initialisation import (Initialisation, joint_velocities, pose_refined,
+                                           prior_mean_initialisation, straight_line_initialisation)
 from clamp.graph.keys import state_key
 from clamp.optim.optimizers import optimize
 from clamp.graph.problem import PlanningProblem
+from clamp.prior import so3
 from clamp.planning.request import Request, Target, as_extras, as_sdf, has_obstacles
 from clamp.validation import as_array
 
@@ -42,8 +43,12 @@ def configured_initialisation(prior: Any, robot: Any, request: Request,
         goal_position = None
         if goal is not None:
             goal_position = goal.value if goal.kind == "position" else robot.fk(goal.value)
-        return prior_mean_initialisation(robot, mean_path, dt, request.q_start, goal_position,
+        init = prior_mean_initialisation(robot, mean_path, dt, request.q_start, goal_position,
                                          opt.blend_start_offset, config.checks.ik_tolerance)
+        orientation = getattr(prior, "orientation", None)
+        if orientation is None:
+            return init
+        return pose_refined(robot, init, orientation.mean_rotations, dt)
     if opt.straight_line_configurations is not None:
         first, last = (as_array(c, f"config.optimizer.straight_line_configurations[{k}]",
                                 (robot.n,))
@@ -96,6 +101,7 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
         families.append(WorkspaceStartFamily(
             shifted_start_mean(prior.mean0, prior.cov0, request.start_position),
             np.asarray(prior.cov0)))
+    families += orientation_families(prior, robot, request, config)
     families.append(JointGPFamily(T, n, dt, model.Qc))
     start = request.start
     if start.kind == "position" and model.fix_start_configuration:
@@ -118,6 +124,32 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
         families.append(JointLimitFamily(np.arange(T), robot.lower_limits, robot.upper_limits,
                                          robot.velocity_limits, model.limit_sigma,
                                          model.limit_margin, model.velocity_margin))
+    return families
+
+
+def orientation_families(prior: Any, robot: Any, request: Request,
+                         config: PlannerConfig) -> list[Family]:
+    """A pose prior's families (none for a position-only prior): its orientation chain through
+    the arm (:class:`~clamp.factors.OrientationGPFamily`), its start at the arm's start rotation
+    (:class:`~clamp.factors.OrientationStartFamily`, with the workspace start) and the goal and
+    via rotations (:class:`~clamp.factors.EERotationFamily`, noise ``goal_sigma`` /
+    ``via_sigma`` read in radians)."""
+    orientation = getattr(prior, "orientation", None)
+    if orientation is None:
+        return []
+    model, T = config.model, orientation.T
+    families: list[Family] = [OrientationGPFamily.of(orientation)]
+    if model.workspace_start:
+        start = so3.log_map(orientation.rotations[0].T @ robot.ee_rotation(request.q_start)[0])
+        families.append(OrientationStartFamily(
+            orientation.rotations[0], shifted_start_mean(orientation.mean0, orientation.cov0, start),
+            np.asarray(orientation.cov0)))
+    targets = [(T - 1, request.goal, model.goal_sigma)] if request.goal is not None else []
+    targets += [(i, target, model.via_sigma) for i, target in request.vias]
+    chosen = [(i, t.rotation, s) for i, t, s in targets if t.rotation is not None]
+    if chosen:
+        index, rotation, sigma = zip(*chosen)
+        families.append(EERotationFamily(index, np.array(rotation), sigma))
     return families
 
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from clamp.errors import ShapeError
+from clamp.prior import so3
 from clamp.validation import as_array, as_count, as_scalar
 
 
@@ -133,3 +134,38 @@ def _wrapped(robot, dq: np.ndarray) -> np.ndarray:
     continuous = ~np.isfinite(np.asarray(robot.lower_limits)) | ~np.isfinite(
         np.asarray(robot.upper_limits))
     return np.where(continuous, (dq + np.pi) % (2 * np.pi) - np.pi, dq)
+
+
+#: [m / rad] how much a radian of the hand's rotation error weighs against a metre of position
+#: in :func:`pose_refined` (the position stays first: 0.1 m per rad, 1.7 mm per degree)
+ROTATION_WEIGHT = 0.1
+#: [rad] the largest joint change of one step of :func:`pose_refined`
+MAX_STEP = 0.1
+
+
+def pose_refined(robot, initialisation: Initialisation, rotations: np.ndarray, dt: float,
+                 iterations: int = 6, damping: float = 1e-3) -> Initialisation:
+    """``initialisation`` (IK of a position path) turned towards the hand's rotations
+    (T, 3, 3) (a pose prior's conditioned mean): damped least squares on the pose error
+    [p(q_i) - path_i, ROTATION_WEIGHT log(R_i^T R(q_i))] of every state but the first (the
+    arm's start), all states at once, ``iterations`` steps within the joint limits; velocities
+    from the new joint path. The planner's initial guess only: the solve does the rest."""
+    q = np.array(initialisation.q, dtype=float)
+    path = np.asarray(initialisation.path, dtype=float)
+    targets = np.swapaxes(np.asarray(rotations, dtype=float), -1, -2)[1:]
+    eye = damping * np.eye(6)
+    for _ in range(iterations):
+        kin = robot.ee_kinematics(q[1:], None, jacobians=True)
+        R, W = robot.ee_rotation(q[1:], jacobians=True)
+        r = so3.log_map(targets @ R)
+        error = np.concatenate([kin.position - path[1:], ROTATION_WEIGHT * r], axis=1)
+        jac = np.concatenate([kin.jacobian, ROTATION_WEIGHT * so3.right_jacobian_inverse(r)
+                              @ np.swapaxes(R, -1, -2) @ W], axis=1)                 # (T-1, 6, n)
+        step = np.swapaxes(jac, -1, -2) @ np.linalg.solve(jac @ np.swapaxes(jac, -1, -2) + eye,
+                                                          error[..., None])
+        step = step[..., 0]
+        largest = np.abs(step).max(axis=1, keepdims=True)
+        q[1:] = robot.clip_to_limits(q[1:] - step * np.minimum(1.0, MAX_STEP / np.maximum(
+            largest, 1e-12)))
+    return Initialisation(q, joint_velocities(q, dt), path,
+                          np.linalg.norm(robot.fk(q) - path, axis=1))

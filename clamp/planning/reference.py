@@ -23,7 +23,8 @@ import numpy as np
 from clamp.factors import Family, WorkspaceGPFamily, WorkspaceStartFamily
 from clamp.graph.problem import PlanningProblem
 from clamp.optim.solver import levenberg_marquardt
-from clamp.prior.conditioning import conditioned, retargeted, same_pattern
+from clamp.prior.conditioning import (conditioned, conditioned_orientation, retargeted,
+                                      same_pattern)
 
 
 def target_observations(prior: Any, robot: Any, request: Any) -> list[tuple[int, np.ndarray]]:
@@ -39,8 +40,50 @@ def target_observations(prior: Any, robot: Any, request: Any) -> list[tuple[int,
     return observations + [(i, position(t)) for i, t in request.vias]
 
 
+def rotation_observations(robot: Any, request: Any, T: int) -> list[tuple[int, np.ndarray]]:
+    """(state index, rotation (3, 3)) of the hand at the request's start (the arm's), goal and
+    via points that fix it: poses, and joint targets through forward kinematics (a position
+    target leaves the rotation free)."""
+    def rotation(target: Any) -> np.ndarray | None:
+        if target.kind == "joint":
+            return robot.ee_rotation(target.value)[0]
+        return target.rotation
+    observations = [(0, robot.ee_rotation(request.q_start)[0])]
+    if request.goal is not None and rotation(request.goal) is not None:
+        observations.append((T - 1, rotation(request.goal)))
+    return observations + [(i, rotation(t)) for i, t in request.vias if rotation(t) is not None]
+
+
+def with_rotation_targets(conditioned_prior: Any, prior: Any, robot: Any, request: Any,
+                          config: Any) -> Any:
+    """``conditioned_prior`` (a conditioning of ``prior``) with ``prior``'s orientation chain
+    conditioned on the hand's start rotation and the request's goal and via rotations
+    (:func:`rotation_observations`); as it is for a position-only prior."""
+    orientation = getattr(prior, "orientation", None)
+    if orientation is None:
+        return conditioned_prior
+    observations = rotation_observations(robot, request, orientation.T)
+    return conditioned_prior.with_orientation(conditioned_orientation(
+        orientation, observations, config.model.conditioning_sigma))
+
+
 def planning_prior(prior: Any, robot: Any, request: Any, config: Any,
                    previous: Any = None) -> Any:
+    """:func:`position_planning_prior`; for a pose prior (``config.model.condition_on_targets``)
+    conditioned on the start position even without a goal or via points (the start factor's
+    optimum, docs/decisions.md#pose-prior), and its orientation chain on the start, goal and
+    via rotations (:func:`with_rotation_targets`)."""
+    position = position_planning_prior(prior, robot, request, config, previous)
+    if getattr(prior, "orientation", None) is None or not config.model.condition_on_targets:
+        return position
+    if position is prior:
+        position = conditioned(prior, target_observations(prior, robot, request),
+                               config.model.conditioning_sigma)
+    return with_rotation_targets(position, prior, robot, request, config)
+
+
+def position_planning_prior(prior: Any, robot: Any, request: Any, config: Any,
+                            previous: Any = None) -> Any:
     """The prior a plan for ``request`` uses: ``prior`` conditioned on the start position and
     on the goal and via positions (joint targets through forward kinematics) when the request
     has any and ``config.model.condition_on_targets``; otherwise ``prior`` itself.
@@ -64,8 +107,9 @@ def conditioned_reference(prior: Any, robot: Any, request: Any, config: Any,
     :func:`planning_prior`, when it already is)."""
     if model_prior is not None and model_prior is not prior:
         return model_prior
-    return conditioned(prior, target_observations(prior, robot, request),
-                           config.model.conditioning_sigma)
+    return with_rotation_targets(conditioned(prior, target_observations(prior, robot, request),
+                                             config.model.conditioning_sigma),
+                                 prior, robot, request, config)
 
 
 class _HandKinematics:

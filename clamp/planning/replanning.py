@@ -84,7 +84,11 @@ def _same_targets(request: Request, inputs: PlanInputs) -> bool:
     def same(target: Target | None, value: Any) -> bool:
         if target is None or value is None:
             return target is None and value is None
-        return bool(np.array_equal(target.value, value))
+        given = target.given()
+        if isinstance(given, tuple) or isinstance(value, tuple):    # a pose
+            return (isinstance(given, tuple) and isinstance(value, tuple)
+                    and all(np.array_equal(a, b) for a, b in zip(given, value)))
+        return bool(np.array_equal(given, value))
     return (same(request.goal, inputs.goal) and len(request.vias) == len(inputs.via_points)
             and all(i == j and same(target, value)
                     for (i, target), (j, value) in zip(request.vias, inputs.via_points)))

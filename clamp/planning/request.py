@@ -11,22 +11,34 @@ from typing import Any
 import numpy as np
 
 from clamp.config import PlannerConfig, as_config
+from clamp.prior import so3
 from clamp.prior.linear_gaussian import check_prior
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.planning.reach import check_prior_reach
 from clamp.validation import as_array, as_count
 from skillplan.validation import as_sequence
 from scenes import Scene
+from scenes.demonstrations import QUATERNION_TOLERANCE
 from scenes.obstacles import Obstacle
 from clamp.factors import Family
 
 
 @dataclass(frozen=True)
 class Target:
-    """A start / goal / via point: kind "joint" (value (n,) rad) or "position" (value (3,) m)."""
+    """A start / goal / via point: kind "joint" (value (n,) rad) or "position" (value (3,) m);
+    a pose is a position target with the hand's ``rotation`` (3, 3) as well (None: position
+    only)."""
 
     kind: str
     value: np.ndarray
+    rotation: np.ndarray | None = None
+
+    def given(self) -> Any:
+        """The target as a caller gives it (what :func:`as_target` reads back): the value, or
+        for a pose the pair (position (3,), quaternion (4,) x, y, z, w)."""
+        if self.rotation is None:
+            return self.value
+        return (self.value, so3.to_quaternions(self.rotation))
 
 
 @dataclass(frozen=True)
@@ -91,15 +103,49 @@ def as_extras(extra_factors: Any) -> list:
                        "or makers", ClampTypeError)
 
 
+def as_pose(value: Any, name: str) -> Target | None:
+    """A pose target from a homogeneous transform (4, 4) or a pair (position (3,) [m],
+    quaternion (4,) x, y, z, w), None when ``value`` is neither; ShapeError / InvalidParameterError
+    naming ``name`` for a pose that is not one (not a rotation, not a unit quaternion)."""
+    pair = (isinstance(value, (tuple, list)) and len(value) == 2
+            and all(np.ndim(part) == 1 for part in value)
+            and (np.size(value[0]), np.size(value[1])) == (3, 4))
+    if not pair and np.ndim(value) == 2 and np.shape(value) == (4, 4):
+        matrix = as_array(value, name, (4, 4))
+        if np.abs(matrix[3] - [0.0, 0.0, 0.0, 1.0]).max() > 1e-9:
+            raise InvalidParameterError(f"{name}: expected a homogeneous transform with last "
+                                        f"row [0, 0, 0, 1], got {matrix[3].tolist()}")
+        rotation = matrix[:3, :3]
+        if np.abs(rotation.T @ rotation - np.eye(3)).max() > 1e-6 or np.linalg.det(rotation) < 0:
+            raise InvalidParameterError(f"{name}: expected a proper rotation in the transform's "
+                                        "upper-left (3, 3) block")
+        return Target("position", matrix[:3, 3].copy(), rotation)
+    if pair:
+        position = as_array(value[0], f"{name} position", (3,))
+        quaternion = as_array(value[1], f"{name} quaternion", (4,))
+        norm = float(np.linalg.norm(quaternion))
+        if abs(norm - 1.0) > QUATERNION_TOLERANCE:
+            raise InvalidParameterError(f"{name} quaternion: expected a unit quaternion (x, y, "
+                                        f"z, w) within {QUATERNION_TOLERANCE:g} of length 1, got "
+                                        f"length {norm:.4g}")
+        return Target("position", position, so3.from_quaternions(quaternion / norm))
+    return None
+
+
 def as_target(value: Any, name: str, n: int) -> Target:
-    """A joint configuration (n,) or an end-effector position (3,) (joint wins when n == 3)."""
+    """A joint configuration (n,), an end-effector position (3,) (joint wins when n == 3) or
+    an end-effector pose (:func:`as_pose`: a transform (4, 4) or (position, quaternion))."""
+    pose = as_pose(value, name)
+    if pose is not None:
+        return pose
     size = np.size(value) if np.ndim(value) == 1 else -1
     if size == n:
         return Target("joint", as_array(value, name, (n,)))
     if size == 3:
         return Target("position", as_array(value, name, (3,)))
-    raise ShapeError(f"{name}: expected a joint configuration ({n},) or an end-effector "
-                     f"position (3,), got shape {np.shape(value)}")
+    raise ShapeError(f"{name}: expected a joint configuration ({n},), an end-effector "
+                     f"position (3,) or a pose (a transform (4, 4), or (position (3,), "
+                     f"quaternion (4,))), got shape {np.shape(value)}")
 
 
 def _via_targets(via_points: Sequence[tuple[int, Any]], T: int,
@@ -141,6 +187,10 @@ def make_request(prior: Any, robot: Any, start: Any, goal: Any = None, via_point
         raise InvalidParameterError(f"start: expected a joint configuration ({n},) or an "
                                     "end-effector position (3,), got None")
     start_target = as_target(start, "start", n)
+    if start_target.rotation is not None:
+        raise InvalidParameterError(f"start: expected a joint configuration ({n},) or an "
+                                    "end-effector position (3,), got a pose: the start pose is "
+                                    "the arm's (give its start configuration)")
     goal_target = None if goal is None else as_target(goal, "goal", n)
     vias = _via_targets(via_points, T, n)
     ik_error = 0.0

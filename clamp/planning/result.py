@@ -58,7 +58,8 @@ class PlanResult:
     initial_error / final_error: the graph errors of the first problem at its initial
     trajectory and of the problem solved at the plan (``problem``: shifts and weights of its
     constraint families included); start_error, goal_error [m] (rad for joint targets; None without goal),
-    via_errors [m or rad] one per via point;
+    via_errors [m or rad] one per via point; goal_rotation_error, via_rotation_errors [rad] the
+    hand's angle from a goal or via pose's rotation (None without one);
     log_likelihood of the plan's workspace path under the prior (initial-state term left out);
     plausibility: the share of sampled executions of the skill (from the plan's start, meeting
     its goal and via points) that stray from it at least as far as the plan
@@ -67,7 +68,10 @@ class PlanResult:
     skill: the skill checks' figures (:class:`clamp.prior.skill.SkillCheck`: max_tube_ratio, the
     plan's largest distance from where the skill goes in units of the demonstrations' spread
     there, limit tube_limit; worst_state; end_distance [m] from where the demonstrations end
-    and completion_radius [m], None when a goal was given; reference: what the plan is judged
+    and completion_radius [m], None when a goal was given; with a pose prior the orientation
+    figures too (:class:`clamp.prior.orientation_skill.OrientationCheck`: max_angle_ratio,
+    worst_angle_state, max_angle_deg, angle_at_worst_deg, end_angle_deg, completion_angle_deg);
+    reference: what the plan is judged
     against, in words: "prior conditioned on start and goal", or with caller families that act
     on the hand's path "..., under the caller's families: tlgc_boundary",
     :func:`clamp.planning.reference.skill_reference`); self_clearance [m]: least distance
@@ -122,6 +126,10 @@ class PlanResult:
     self_clearance: float = float("inf")
     self_contact: dict[str, Any] | None = None
     fixed_overlaps: list[tuple[str, str, float]] = field(default_factory=list)
+    #: [rad] the angle between the hand's rotation and the goal pose's at the end (None
+    #: without a goal rotation), and at every via point (None where it gives no rotation)
+    goal_rotation_error: float | None = None
+    via_rotation_errors: list[float | None] = field(default_factory=list)
     #: uniform time scale k >= 1 the skill was planned at (``time`` is the demonstrations'
     #: times k; :mod:`clamp.planning.time_scale`)
     time_scale: float = 1.0
@@ -148,6 +156,8 @@ class PlanResult:
                 "nearest_contact": self.nearest_contact,
                 "start_error": number(self.start_error), "goal_error": number(self.goal_error),
                 "via_errors": [float(e) for e in self.via_errors],
+                "goal_rotation_error": number(self.goal_rotation_error),
+                "via_rotation_errors": [number(e) for e in self.via_rotation_errors],
                 "violations": {k: float(v) for k, v in self.violations.items()},
                 "within_limits": bool(self.within_limits),
                 "self_clearance_m": number(self.self_clearance),

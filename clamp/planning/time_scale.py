@@ -34,6 +34,7 @@ from clamp.config import QC_FACTOR_LIMIT, as_max_duration, as_time_scale
 from clamp.errors import InvalidParameterError
 from clamp.factors.joint_limits import speeds
 from clamp.prior.linear_gaussian import WorkspacePrior
+from clamp.prior.orientation_prior import OrientationPrior
 
 log = logging.getLogger(__name__)
 
@@ -51,14 +52,27 @@ def time_scaled_prior(prior: Any, k: float) -> Any:
     k = float(as_time_scale(k, "k"))
     if k == 1.0:
         return prior
+    orientation = getattr(prior, "orientation", None)
+    if orientation is not None:       # a pose prior: its rotation chain [r, w] alike
+        orientation = OrientationPrior(*_scaled_chain(orientation, k),
+                                       info=_scaled_info(orientation, k))
+    return WorkspacePrior(*_scaled_chain(prior, k), state_names=tuple(prior.state_names),
+                          info=_scaled_info(prior, k), orientation=orientation)
+
+
+def _scaled_info(prior: Any, k: float) -> dict[str, Any]:
+    info = dict(getattr(prior, "info", {}) or {})
+    return {**info, "time_scale": k * float(info.get("time_scale", 1.0))}
+
+
+def _scaled_chain(prior: Any, k: float) -> tuple[np.ndarray, ...]:
+    """(time, Phi, u, Q, mean0, cov0) of a chain over [positions (3), velocities (3)] traversed
+    ``k`` times slower."""
     s = np.array([1.0, 1.0, 1.0, 1.0 / k, 1.0 / k, 1.0 / k])
     S, S_inv = np.diag(s), np.diag(1.0 / s)
-    info = {**dict(getattr(prior, "info", {}) or {}),
-            "time_scale": k * float((getattr(prior, "info", {}) or {}).get("time_scale", 1.0))}
-    return WorkspacePrior(np.asarray(prior.time) * k, S @ np.asarray(prior.Phi) @ S_inv,
-                          np.asarray(prior.u) * s, S @ np.asarray(prior.Q) @ S,
-                          np.asarray(prior.mean0) * s, S @ np.asarray(prior.cov0) @ S,
-                          state_names=tuple(prior.state_names), info=info)
+    return (np.asarray(prior.time) * k, S @ np.asarray(prior.Phi) @ S_inv,
+            np.asarray(prior.u) * s, S @ np.asarray(prior.Q) @ S,
+            np.asarray(prior.mean0) * s, S @ np.asarray(prior.cov0) @ S)
 
 
 def _joint_noises(model: Any, k: float) -> dict[str, float]:

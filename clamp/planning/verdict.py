@@ -17,13 +17,15 @@ from clamp.config import PlannerConfig
 from clamp.planning.limit_report import limit_violations
 from clamp.errors import ClampTypeError
 from clamp.factors.self_collision import CLEARANCE_TOLERANCE
-from clamp.factors import (JointLimitFamily, ObstacleFamily, SelfCollisionFamily, SkillTubeFamily,
+from clamp.factors import (JointLimitFamily, ObstacleFamily, SelfCollisionFamily,
+                           SkillOrientationFamily, SkillTubeFamily,
                            declared_families, lazy_families)
 from clamp.planning.pipeline import (Model, Posterior, Solution, check_context, ordered_checks,
                                      run_checks)
 from clamp.planning.request import Request, as_scene, has_obstacles
 from clamp.planning.result import PlanInputs, PlanResult
 from clamp.planning.targets import inside_obstacle
+from clamp.prior import so3
 from clamp.validation import as_scalar
 from robots.contact import collision_reason, describe_contact
 from robots.self_collision import self_collision_report
@@ -83,13 +85,25 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     return reasons
 
 
+def rotation_errors(robot: Any, request: Request, q: np.ndarray
+                    ) -> tuple[float | None, list[float | None]]:
+    """The angle [rad] between the hand's rotation and the goal pose's at the last state (None
+    without a goal rotation), and at every via point (None where it gives no rotation), for
+    joint positions q (T, n)."""
+    def error(index: int, target: Any) -> float | None:
+        if target is None or target.rotation is None:
+            return None
+        return float(so3.angle_between(robot.ee_rotation(q[index])[0], target.rotation))
+    return error(len(q) - 1, request.goal), [error(i, t) for i, t in request.vias]
+
+
 def plan_inputs(model: Model) -> PlanInputs:
     """What ``model`` was asked, for ``PlanResult.inputs`` (:func:`clamp.replan` plans it again):
     start, goal and via points as the request's validated values."""
     request = model.request
     return PlanInputs(model.prior, model.robot, model.scene, request.start.value,
-                      None if request.goal is None else request.goal.value,
-                      tuple((index, target.value) for index, target in request.vias),
+                      None if request.goal is None else request.goal.given(),
+                      tuple((index, target.given()) for index, target in request.vias),
                       model.extra_factors, model.config, model.sdf, model.model_prior,
                       model.free_plan)
 
@@ -127,6 +141,7 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
     self_report = found[SelfCollisionFamily.name].report
     limits = list(found[JointLimitFamily.name].reasons)
     skill = found[SkillTubeFamily.name].report
+    turned = found.get(SkillOrientationFamily.name)
     violations = {record.name: record.amount for record in records if record.listed}
     clearance = math.inf if report is None else float(report.min_distance)
     start = request.start
@@ -138,6 +153,7 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
         goal_error = float(np.linalg.norm(reached - request.goal.value))
     via_errors = [float(np.linalg.norm((position[i] if t.kind == "position" else q[i]) - t.value))
                   for i, t in request.vias]
+    goal_rotation_error, via_rotation_errors = rotation_errors(robot, request, q)
     log_likelihood = float(prior.log_likelihood(x, initial=False))
 
     reasons = list(posterior.faults)
@@ -151,6 +167,13 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
         if error > checks.via_tolerance:
             reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
                            f"{checks.via_tolerance:.4g}")
+    named = [("goal", goal_rotation_error)] + [
+        (f"via point at state {index}", error)
+        for (index, _), error in zip(request.vias, via_rotation_errors)]
+    for name, error in named:
+        if error is not None and error > checks.rotation_tolerance:
+            reasons.append(f"{name}: the hand's rotation {np.degrees(error):.3g} deg from the "
+                           f"pose's, limit {np.degrees(checks.rotation_tolerance):.3g} deg")
     for record in records:                # in check order: collision, self-collision,
         reasons += record.reasons         # limits, constraint families, the skill
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
@@ -160,7 +183,11 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
                       collision_cost=families.get("obstacle", 0.0), min_clearance=clearance,
                       start_error=start_error, goal_error=goal_error,
                       log_likelihood=log_likelihood, plausibility=skill.plausibility,
-                      skill={**skill.to_dict(), "reference": model.reference_name},
+                      skill={**skill.to_dict(), "reference": model.reference_name,
+                             **({} if turned is None or turned.report is None
+                                else turned.report.to_dict())},
+                      goal_rotation_error=goal_rotation_error,
+                      via_rotation_errors=via_rotation_errors,
                       self_clearance=float(self_report.min_distance),
                       fixed_overlaps=[] if report is None else list(report.fixed_overlaps),
                       self_contact=None if self_report.nearest is None

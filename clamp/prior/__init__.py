@@ -6,5 +6,6 @@ skill's region and checks (:mod:`.skill`) and the calibrated plausibility of a p
 smoother, backward messages) is :mod:`.chain`. Knows nothing of robots' planning problems or
 solvers."""
 from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
+from clamp.prior.orientation_prior import OrientationPrior
 
-__all__ = ["LinearGaussianPrior", "WorkspacePrior"]
+__all__ = ["LinearGaussianPrior", "WorkspacePrior", "OrientationPrior"]

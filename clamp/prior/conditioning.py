@@ -35,7 +35,9 @@ import numpy as np
 
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
 from clamp.prior import chain, goal_response
+from clamp.prior import so3
 from clamp.prior.linear_gaussian import WorkspacePrior, check_prior
+from clamp.prior.orientation_prior import OrientationPrior
 from clamp.validation import as_array, as_count, as_scalar
 from skillplan.validation import MAX_COORDINATE, as_sequence
 
@@ -77,7 +79,7 @@ def conditioned(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndar
     info = {**getattr(prior, "info", {}), "conditioned_on": _observed(observations),
             "conditioning_sigma": sigma}
     exact = WorkspacePrior(prior.time, *_conditioned_chain(prior, observations, sigma),
-                           info=info)
+                           info=info, orientation=getattr(prior, "orientation", None))
     T = exact.T
     if not any(index == T - 1 for index, _ in observations):
         return exact
@@ -90,6 +92,20 @@ def conditioned(prior: WorkspacePrior, observations: Sequence[tuple[int, np.ndar
         return exact
     return exact.with_means(goal_response.capped_mean(rest_mean, np.asarray(exact.mean), scale,
                                                       np.asarray(exact.time)))
+
+
+def conditioned_orientation(orientation: OrientationPrior,
+                            observations: Sequence[tuple[int, np.ndarray]],
+                            sigma: float) -> OrientationPrior:
+    """The orientation chain of a pose prior conditioned exactly on the hand's rotations at
+    some states: (state index, rotation (3, 3)) pairs, checked, observed in the tangent space
+    of their step (r = log(Rbar_i^T R)) with noise ``sigma`` [rad]; the same backward filter
+    as the positions' (module doc), without the goal response's cap."""
+    tangent = [(int(i), so3.log_map(orientation.rotations[i].T @ np.asarray(R, dtype=float)))
+               for i, R in observations]
+    info = {**orientation.info, "conditioned_on": _observed(tangent), "conditioning_sigma": sigma}
+    return OrientationPrior(orientation.time, *_conditioned_chain(orientation, tangent, sigma),
+                            info=info)
 
 
 def _observed(observations: Sequence[tuple[int, np.ndarray]]) -> list[list]:

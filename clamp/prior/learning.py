@@ -51,12 +51,14 @@ from clamp.prior.demonstration_states import (MIN_SPREAD, SPREAD_FLOOR, assemble
                                               block_covariance, demo_arrays, sample_weights,
                                               stack_states)
 from clamp.prior.obstacle_weighting import ObstacleWeighting, as_weighting
+from clamp.prior import so3
 from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
+from clamp.prior.orientation_prior import OrientationPrior, orientation_states
 from clamp.prior.shrinkage import as_shrinkage, shrink_start_offsets
-from clamp.validation import as_array, as_bool, as_scalar
+from clamp.validation import as_array, as_bool, as_scalar, as_time
 from clamp.prior.skill import SkillRegion
 
-__all__ = ["learn_prior", "learn_joint_prior", "update_prior", "fit_transitions", "state_groups",
+__all__ = ["learn_prior", "learn_orientation", "learn_joint_prior", "update_prior", "fit_transitions", "state_groups",
            "METHODS", "MIN_SPREAD", "SPREAD_FLOOR"]
 
 log = logging.getLogger(__name__)
@@ -248,7 +250,31 @@ def learn_prior(demos: object = None, *, positions: np.ndarray | None = None,
                    method=method, weights=sample_weights(states, obstacles, weighting),
                    weighting=weighting, start_shrinkage=start_shrinkage)
     prior.info["skill_region"] = SkillRegion.from_positions(states[..., :3]).to_info()
-    return cast(WorkspacePrior, prior)
+    quaternions = getattr(demos, "orientations", None)
+    if quaternions is None:
+        return cast(WorkspacePrior, prior)
+    orientation = learn_orientation(quaternions, t, coupled=coupled, ridge=ridge, jitter=jitter,
+                                    method=method, start_shrinkage=start_shrinkage)
+    return cast(WorkspacePrior, prior).with_orientation(orientation)
+
+
+def learn_orientation(orientations: Any, time: Any, *, coupled: bool = False,
+                      ridge: float = 1e-6, jitter: float = 1e-12, method: str = "batch",
+                      start_shrinkage: str | float = "auto") -> OrientationPrior:
+    """Learn the hand's orientation chain of a pose prior (:mod:`clamp.prior.orientation_prior`)
+    from unit quaternions (M, T, 4) (x, y, z, w) sampled at ``time`` (T,) [s]: the states
+    [log(Rbar_t^T R_t), Rbar_t^T omega_t] about the chordal mean rotations Rbar_t, learned with
+    the same options as :func:`learn_prior` (no obstacle weighting: the weights are the
+    positions')."""
+    q = as_array(orientations, "orientations", (None, None, 4))
+    t = as_time(time, "time", q.shape[1])
+    rotations = so3.from_quaternions(q / np.linalg.norm(q, axis=-1, keepdims=True))
+    mean = so3.chordal_mean(rotations)
+    states = orientation_states(rotations, mean, t)
+    chain = _learn(states, t, coupled=coupled, ridge=ridge, jitter=jitter,
+                   prior_class=LinearGaussianPrior, kind=OrientationPrior.default_kind,
+                   state_names=None, method=method, start_shrinkage=start_shrinkage)
+    return OrientationPrior.learned_at(chain, mean, states)
 
 
 def update_prior(prior: LinearGaussianPrior, demos: object) -> LinearGaussianPrior:

@@ -24,7 +24,7 @@ import json
 import os
 import zipfile
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 from scipy import stats
@@ -79,6 +79,36 @@ def transition_residuals(Phi: np.ndarray, u: np.ndarray, x_prev: np.ndarray,
     """
     return x_next - np.einsum("kij,...kj->...ki", Phi, x_prev) - u
 
+#: prefix of a workspace prior file's orientation entries (``orientation_Phi``, ...,
+#: ``orientation_info``, ``orientation_posterior_*``): the orientation chain of a pose prior
+#: (:mod:`clamp.prior.orientation_prior`), absent for a position-only prior. Optional entries
+#: of version 1: a reader that predates them loads the position prior alone.
+ORIENTATION_PREFIX = "orientation_"
+
+
+def _orientation_part(path: Path, contents: dict[str, np.ndarray]) -> LinearGaussianPrior:
+    """The orientation chain stored in a prior file's ``orientation_*`` entries."""
+    OrientationPrior = LinearGaussianPrior.of_kind("orientation")
+    part = {k[len(ORIENTATION_PREFIX):]: v for k, v in contents.items()
+            if k.startswith(ORIENTATION_PREFIX)}
+    missing = [ORIENTATION_PREFIX + k for k in (*_ARRAY_KEYS[1:], "info") if k not in part]
+    if missing:
+        raise PriorFileError(f"path: '{path}' has an incomplete orientation prior (lacks "
+                             f"{missing})")
+    try:
+        info = json.loads(str(part["info"]))
+        posterior = None
+        if "posterior_factor" in part:
+            posterior = ConjugatePosterior.from_arrays(
+                {k: part[f"posterior_{k}"] for k in POSTERIOR_KEYS})
+        return OrientationPrior(contents["time"], *(part[k] for k in _ARRAY_KEYS[1:]),
+                                info=info, posterior=posterior)
+    except (KeyError, json.JSONDecodeError, ShapeError, InvalidParameterError,
+            ValueError) as exc:
+        raise PriorFileError(f"path: '{path}' holds an invalid orientation prior: {exc}") \
+            from None
+
+
 def _file_version(path: Path, contents: dict[str, np.ndarray]) -> int | None:
     """The format version of a prior file's ``format`` entry (``NAME/VERSION``), None when the
     file has none (the layout before the entry, read as version 1). PriorFileError naming the
@@ -114,6 +144,18 @@ class LinearGaussianPrior:
     """
 
     default_kind: ClassVar[str] = "generic"
+    #: the subclass of every kind (a subclass registers itself by its default_kind)
+    _KINDS: ClassVar[dict[str, type["LinearGaussianPrior"]]] = {}
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        LinearGaussianPrior._KINDS[cls.default_kind] = cls
+
+    @staticmethod
+    def of_kind(kind: str) -> type["LinearGaussianPrior"]:
+        """The prior class of ``kind`` ("workspace", "orientation", ...; registered when its
+        module was imported, as ``clamp.prior`` imports them all)."""
+        return LinearGaussianPrior._KINDS.get(kind, LinearGaussianPrior)
 
     def __init__(self, time: np.ndarray, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray,
                  mean0: np.ndarray, cov0: np.ndarray, *, state_names: tuple[str, ...] | None = None,
@@ -380,8 +422,12 @@ class LinearGaussianPrior:
         arrays = dict(format=np.array(FILE_FORMAT), kind=np.array(self.kind),
                       state_names=np.array(self.state_names), info=np.array(json.dumps(self.info)),
                       time=self.time, Phi=self.Phi, u=self.u, Q=self.Q, mean0=self.mean0,
-                      cov0=self.cov0, **extra)
+                      cov0=self.cov0, **extra, **self._part_arrays())
         return atomic_write(path, lambda handle: np.savez(handle, **arrays), overwrite=bool(overwrite))
+
+    def _part_arrays(self) -> dict[str, np.ndarray]:
+        """Entries of the file beyond this chain's own (a workspace prior's orientation)."""
+        return {}
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> LinearGaussianPrior:
@@ -439,10 +485,13 @@ class LinearGaussianPrior:
             except KeyError as exc:
                 raise PriorFileError(f"path: '{path}' has an incomplete posterior (lacks "
                                      f"{exc})") from None
+        parts = {}
+        if any(key.startswith(ORIENTATION_PREFIX) for key in contents):
+            parts["orientation"] = _orientation_part(path, contents)
         try:
             return target(*(contents[k] for k in _ARRAY_KEYS), kind=kind, info=info,
                           state_names=None if names is None else tuple(str(s) for s in names),
-                          posterior=posterior)
+                          posterior=posterior, **parts)
         except (ShapeError, InvalidParameterError, ValueError) as exc:
             raise PriorFileError(f"path: '{path}' holds an invalid prior: {exc}") from None
 
@@ -502,7 +551,10 @@ class WorkspacePrior(LinearGaussianPrior):
     """CLAMP's learned end-effector workspace prior: D = 6, x = [p (3) m, v (3) m/s].
 
     Same attributes and methods as :class:`LinearGaussianPrior`; ``position_mean`` (T, 3)
-    and ``velocity_mean`` (T, 3) are views of ``mean``.
+    and ``velocity_mean`` (T, 3) are views of ``mean``. ``orientation``: the hand's learned
+    orientation chain on the same steps (a :class:`clamp.prior.orientation_prior.OrientationPrior`,
+    a pose prior) when the demonstrations carried their rotations, None for a position-only
+    prior; :meth:`mean_quaternions` is its mean orientation.
     """
 
     default_kind: ClassVar[str] = "workspace"
@@ -510,10 +562,82 @@ class WorkspacePrior(LinearGaussianPrior):
     def __init__(self, time: np.ndarray, Phi: np.ndarray, u: np.ndarray, Q: np.ndarray,
                  mean0: np.ndarray, cov0: np.ndarray, *, state_names: tuple[str, ...] | None = None,
                  kind: str | None = None, info: dict[str, Any] | None = None,
-                 posterior: ConjugatePosterior | None = None) -> None:
+                 posterior: ConjugatePosterior | None = None,
+                 orientation: LinearGaussianPrior | None = None) -> None:
         Phi = as_array(Phi, "Phi", (None, 6, 6))
         super().__init__(time, Phi, u, Q, mean0, cov0, state_names=state_names,
                          kind=kind or self.default_kind, info=info, posterior=posterior)
+        self.orientation = self._checked_orientation(orientation)
+
+    def _checked_orientation(self, orientation: Any) -> Any:
+        if orientation is None:
+            return None
+        if not isinstance(orientation, LinearGaussianPrior.of_kind("orientation")):
+            raise ClampTypeError(f"orientation: expected an OrientationPrior or None, got "
+                                 f"{type(orientation).__name__}")
+        if orientation.T != self.T:
+            raise ShapeError(f"orientation: expected a chain over the prior's {self.T} steps, "
+                             f"got {orientation.T}")
+        return orientation
+
+    def with_orientation(self, orientation: Any) -> "WorkspacePrior":
+        """This prior with the orientation chain ``orientation`` (an OrientationPrior over the
+        same steps, or None) instead; everything else shared."""
+        new = copy.copy(self)
+        new.orientation = self._checked_orientation(orientation)
+        return new
+
+    def mean_quaternions(self) -> np.ndarray:
+        """The prior's mean orientation of the hand (T, 4), unit quaternions (x, y, z, w),
+        sign-continuous: the (conditioned) orientation chain's mean rotations
+        Rbar_t Exp(mean r_t). InvalidParameterError for a position-only prior."""
+        from clamp.prior import so3
+        from scenes.demonstrations import continuous_quaternions
+        if self.orientation is None:
+            raise InvalidParameterError("prior: learned from position-only demonstrations; it "
+                                        "has no orientation (learn from demonstrations with "
+                                        "orientations)")
+        return continuous_quaternions(so3.to_quaternions(self.orientation.mean_rotations))
+
+    def _part_arrays(self) -> dict[str, np.ndarray]:
+        part = self.orientation
+        if part is None:
+            return {}
+        extra = {} if part.posterior is None else {
+            f"posterior_{k}": v for k, v in part.posterior.arrays().items()}
+        arrays = dict(Phi=part.Phi, u=part.u, Q=part.Q, mean0=part.mean0, cov0=part.cov0,
+                      info=np.array(json.dumps(part.info)), **extra)
+        return {ORIENTATION_PREFIX + k: v for k, v in arrays.items()}
+
+    def update(self, demos: Any) -> LinearGaussianPrior:
+        """:meth:`LinearGaussianPrior.update`, the orientation chain too for a pose prior (the
+        demonstrations must then carry ``orientations`` (M, T, 4))."""
+        quaternions = getattr(demos, "orientations", None)
+        if self.orientation is not None and quaternions is None:
+            raise InvalidParameterError("demos: this prior learned the hand's orientation; the "
+                                        "demonstrations it updates from need orientations "
+                                        "(M, T, 4) as well")
+        new = super().update(demos)
+        if self.orientation is None:
+            return new
+        return cast(WorkspacePrior, new).with_orientation(self.orientation.updated(quaternions))
+
+    def summary(self) -> str:
+        """:meth:`LinearGaussianPrior.summary`, with the orientation spread in degrees for a
+        pose prior."""
+        text = super().summary()
+        part = self.orientation
+        if part is None:
+            return text
+        radius = np.degrees(part.angle_radius)
+        spread = np.degrees(np.linalg.norm(part.std[:, :3], axis=1))
+        region = part.info.get("orientation_region")
+        if region is not None:
+            spread = np.degrees(np.linalg.norm(np.asarray(region["spread"]), axis=1))
+        return (f"{text}\norientation: the demonstrations' spread about their mean rotation "
+                f"{spread.mean():.1f} deg rms on average (max {spread.max():.1f}), farthest "
+                f"{radius.max():.1f} deg; at the start {radius[0]:.1f} deg, at the end "
+                f"{np.degrees(part.end_radius):.1f} deg")
 
     def _default_state_names(self) -> tuple[str, ...]:
         return ("px", "py", "pz", "vx", "vy", "vz")

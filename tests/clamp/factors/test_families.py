@@ -17,10 +17,12 @@ import numpy as np
 import pytest
 
 from bad_input import raises_naming
-from clamp.factors import (EEPositionFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
+from clamp.factors import (EEPositionFamily, EERotationFamily, JointGPFamily, JointLimitFamily, JointTargetFamily,
                            ObstacleFamily, OrientationFamily, PostureFamily, PostureMotionFamily,
                            PostureVelocityFamily, SelfCollisionFamily, SkillTubeFamily,
-                           StateWindow, WorkspaceGPFamily, WorkspaceStartFamily)
+                           StateWindow, WorkspaceGPFamily, WorkspaceStartFamily,
+                           OrientationGPFamily, OrientationStartFamily)
+from clamp.prior import so3
 from clamp.errors import InvalidParameterError
 from clamp.graph.keys import state_key
 from clamp.graph.problem import PlanningProblem
@@ -77,7 +79,18 @@ def make_families(robot, theta: np.ndarray, rng) -> list:
         OrientationFamily(np.arange(1, T), axis=[0, 0, 1], direction=[0.3, -0.2, -1.0],
                           tolerance=0.05, sigma=0.01),
         SelfCollisionFamily.for_robot(robot, np.arange(T - 1), epsilon=0.1, sigma=0.02, between=2),
+        *pose_families(robot, q, Phi, Q, rng),
     ]
+
+
+def pose_families(robot, q: np.ndarray, Phi: np.ndarray, Q: np.ndarray, rng) -> list:
+    """The pose prior's families (orientation chain, its start, rotation targets) about mean
+    rotations ~17 deg from the hand's at q (T, n): the log map well inside its range."""
+    R, _ = robot.ee_rotation(q)
+    mean = R @ so3.exp_map(0.3 * rng.normal(size=(len(q), 3)))
+    return [OrientationGPFamily(mean, Phi, 0.05 * rng.normal(size=(len(q) - 1, 6)), Q),
+            OrientationStartFamily(mean[0], 0.1 * rng.normal(size=6), Q[0]),
+            EERotationFamily([1, len(q) - 1], mean[[1, -1]], [1e-3, 1e-2])]
 
 
 @pytest.fixture(params=["jaco", "sawyer"])

@@ -1,0 +1,83 @@
+"""Planning with a pose prior (issue 37): the goal pose met on both arms, measured on the
+plan's own kinematics; the skill's orientation check against a plan forced to turn the hand
+away mid-skill, next to today's position-only check of the same plan; bad pose input."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bad_input import raises_naming
+from clamp import errors, learn_prior, plan
+from clamp.factors import OrientationFamily
+from clamp.prior import so3
+from clamp.prior.skill import TUBE_RATIO, skill_checks
+from tests.pose_demos import pose_demonstrations
+
+
+def hand_angle(robot, q, rotation) -> float:
+    """[deg] between the hand's rotation at q (n,) and ``rotation``, through the trace."""
+    R, _ = robot.ee_rotation(q)
+    return float(np.degrees(np.arccos(np.clip(0.5 * (np.trace(rotation.T @ R) - 1.0), -1, 1))))
+
+
+@pytest.mark.parametrize("arm", ["jaco", "sawyer"])
+def test_the_plan_ends_at_the_goal_pose(arm, request):
+    robot = request.getfixturevalue(arm)
+    demos = pose_demonstrations(robot)
+    prior = learn_prior(demos)
+    end = so3.from_quaternions(prior.mean_quaternions()[-1])
+    rotation = end @ so3.exp_map(np.radians(10.0) * np.array([0.0, 0.6, 0.8]))
+    position = prior.mean[-1, :3] + np.array([0.02, -0.01, 0.02])
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = rotation, position
+    result = plan(prior, robot, None, demos.joint_positions[1, 0], goal=pose, covariance=False)
+    assert result.success, result.reasons
+    assert np.linalg.norm(robot.fk(result.q[-1]) - position) <= 1e-3
+    assert hand_angle(robot, result.q[-1], rotation) <= 1.0
+    assert result.goal_rotation_error is not None and np.degrees(result.goal_rotation_error) <= 1.0
+
+
+def test_a_hand_turned_60_degrees_mid_skill_fails_the_orientation_check(sawyer):
+    """An orientation window against the skill turns the hand 60 deg in the middle: the pose
+    verdict fails it, naming the angle, while the position-only skill check passes it."""
+    demos = pose_demonstrations(sawyer, spread=0.03)
+    prior = learn_prior(demos)
+    start = demos.joint_positions[0, 0]
+    free = plan(prior, sawyer, None, start, covariance=False)
+    assert free.success, free.reasons
+    T = prior.T
+    middle = np.arange(T // 2 - 2, T // 2 + 3)
+    R_mid, _ = sawyer.ee_rotation(free.q[T // 2])
+    turned = R_mid @ so3.exp_map([np.radians(60.0), 0.0, 0.0])
+    window = OrientationFamily(middle, rotation=turned, tolerance=np.radians(3.0))
+    result = plan(prior, sawyer, None, start, extra_factors=[window], covariance=False)
+    assert result.violations["orientation"] == 0.0                  # the window is met
+    reference = so3.from_quaternions(prior.mean_quaternions())
+    away = max(hand_angle(sawyer, result.q[i], reference[i]) for i in middle)
+    assert away >= 45.0                                              # measured independently
+    assert not result.success
+    reason = next(r for r in result.reasons if r.startswith("turned away from the skill"))
+    assert "deg from how the skill turns it" in reason and "limit" in reason
+    assert f"{result.skill['angle_at_worst_deg']:.0f} deg" in reason
+    assert result.skill["max_angle_ratio"] > TUBE_RATIO
+    # today's position-only check of the same plan: with the skill
+    position_only = learn_prior(demos.__class__(demos.positions, demos.velocities, demos.time))
+    check = skill_checks(position_only, result.inputs.model_prior, result.ee_path, False)
+    assert check.within_tube and check.completed and not check.reasons
+    assert not any(r.startswith("left the skill") for r in result.reasons)
+
+
+def test_bad_pose_targets_are_named(sawyer):
+    demos = pose_demonstrations(sawyer, T=20)
+    prior = learn_prior(demos)
+    start = demos.joint_positions[0, 0]
+    with raises_naming(errors.InvalidParameterError, "goal quaternion", "unit"):
+        plan(prior, sawyer, None, start, goal=(prior.mean[-1, :3], [0.0, 0.0, 0.0, 2.0]))
+    skewed = np.eye(4)
+    skewed[0, 1] = 0.5
+    with raises_naming(errors.InvalidParameterError, "goal", "rotation"):
+        plan(prior, sawyer, None, start, goal=skewed)
+    pose = np.eye(4)
+    pose[:3, 3] = prior.mean[0, :3]
+    with raises_naming(errors.InvalidParameterError, "start", "pose"):
+        plan(prior, sawyer, None, pose)
