@@ -21,7 +21,9 @@ demonstrations have orientations; it returns the reproduction in the same form, 
          start, goal the training mean's end (the given goal in the goal setting);
   GMR    gmr.GMM with GMR_COMPONENTS components (k-means++ start, seed 0) on (phase, position
          [, quaternion]) samples of the training set, regressed on the phase (the quaternion
-         renormalised). GMR reproduces the time-indexed mean and cannot itself adapt to a new
+         renormalised; every coordinate standardised to zero mean and unit spread over the
+         samples, since gmr regularises a singular covariance by a fixed 1e-3 I, which is not
+         small against positions in metres). GMR reproduces the time-indexed mean and cannot itself adapt to a new
          start or goal (the TLGC paper, section 2): the difference to the start (and to the
          goal) is blended in linearly in phase (rotations: along the rotation vector), so the
          reproduction starts at the start (and ends at the goal). A coordinate every sample
@@ -154,12 +156,14 @@ def gmr(train: scenes.Demonstrations, start: np.ndarray,
     poses, phase = training_poses(train), _phase(train)
     M, T, d = poses.shape
     samples = poses.reshape(M * T, d)
-    varying = samples.std(axis=0) > CONSTANT
-    features = np.column_stack([np.tile(phase, M), samples[:, varying]])
+    centre, spread = samples.mean(axis=0), samples.std(axis=0)
+    varying = spread > CONSTANT
+    scaled = (samples[:, varying] - centre[varying]) / spread[varying]
+    features = np.column_stack([np.tile(phase, M), scaled])
     model = GMM(n_components=GMR_COMPONENTS, random_state=0)
     model.from_samples(features, init_params="kmeans++")
-    y = np.tile(samples.mean(axis=0), (T, 1))
-    y[:, varying] = model.predict(np.array([0]), phase[:, None])
+    y = np.tile(centre, (T, 1))
+    y[:, varying] += model.predict(np.array([0]), phase[:, None]) * spread[varying]
     y = renormalised(y)
     return _blended(y, phase, _target(start, y[0]),
                     None if goal is None else _target(goal, y[-1]))
