@@ -1,25 +1,22 @@
-"""Leave-one-out reproduction of demonstrated skills: CLAMP against TLGC, ProMP and DMP (issue 28).
+"""Leave-one-out reproduction of demonstrated skills: CLAMP against TLGC, ProMP, DMP and GMR
+(issues 28 and 37), of positions and, where the demonstrations have them, hand orientations.
 
 For every data set and every demonstration k: learn from all demonstrations but k, reproduce
 from demonstration k's start ("start" setting) or from its start to its end ("goal" setting)
-on k's time steps, and compare with demonstration k. Figures are means over the folds.
+on k's time steps, and compare with demonstration k. Figures are means over the folds. On
+data with orientations the start and the end are poses (position and quaternion).
 
 Methods
   CLAMP arm   clamp.plan(clamp.learn_prior(train), robots.load_robot("jaco"), None, start,
-              goal=end or None) with default settings: the end-effector path the arm makes;
+              goal=end or None) with default settings: the end-effector path the arm makes
+              (its rotation by forward kinematics, where the prior is a pose prior);
   CLAMP mean  the prior's own conditional mean (clamp.condition_prior on the start, and the
-              end in the goal setting): the model without the arm;
-  TLGC        fixed-ratio reproduction (tlgc.reproduce) of a spline cylinder fitted to the
-              training set, the start projected onto the first section's plane (start setting
-              only: the rule has no goal);
-  ProMP       movement_primitives.promp.ProMP, 20 RBF weights per dimension, the weight
-              distribution the mean and covariance of the training demonstrations' ridge
-              weights plus a weak weight prior (1 cm)^2 I (without it 3-5 demonstrations
-              leave too few directions to meet both start and goal: 17-50 mm end errors),
-              conditioned on the start (and the end) with 0.1 mm noise;
-  DMP         movement_primitives.dmp.DMP, 20 weights per dimension, imitating the training
-              mean, started at the start, goal = the training mean's end (the true end in the
-              goal setting).
+              end in the goal setting): the model without the arm; its rotation
+              ``prior.mean_quaternions()`` of the prior conditioned on the start (end) pose,
+              where the installed clamp learns pose priors (n/a otherwise);
+  TLGC, ProMP, DMP, GMR: the peers, benchmarks/lfd_peers.py (TLGC: position and start
+              setting only; on pose data ProMP and GMR model the quaternion's components,
+              renormalised, and DMP is movement_primitives' CartesianDMP).
 
 Data (every set expressed in the Jaco2's workspace, metres; figures in that frame)
   box_closing.mat      as recorded (6 demonstrations, T = 250, dt = 0.16 s);
@@ -30,17 +27,34 @@ Data (every set expressed in the Jaco2's workspace, metres; figures in that fram
   synthetic skills     scenes.make_demonstrations(skill, 6 demos, 250 states, seed 0);
   LASA (13 shapes)     x = 0.42 + 0.004 u, y = -0.32 + 0.004 v, z = 0.12, each demonstration
                        resampled to 200 states on its normalised time, mean duration
-                       (datasets README).
+                       (datasets README);
+  wiping_rim.npz       6 real demonstrations with position and quaternion, 9-51 s at ~100 Hz,
+                       each resampled to 250 states on its normalised time (positions by
+                       cubic spline, rotations by slerp), the mean duration; placed by a
+                       rigid transform (180 deg about z, the bounding box centred on
+                       (0.35, -0.30, 0.30)): every sampled position is in the Jaco's reach;
+  pose skills          synthetic skills with orientation (pouring, inserting) from
+                       POSE_SKILLS_SOURCE where the installed scenes / robots provide it
+                       (a note otherwise); any Demonstrations with orientations fit.
 
-Metrics (reproduction against the held-out demonstration, both on its T time steps)
+Metrics (reproduction against the held-out demonstration, both on its T time steps;
+benchmarks/lfd_metrics.py)
   dtw    mean point distance along the optimal DTW alignment [mm];
   sea    swept error area [cm^2]: the area between the two curves on equal-time points (sum of
          the quadrilaterals' two triangles; planar sets only);
   end    end error [mm];
   vel    velocity RMSE [mm/s], velocities by central differences in time of both paths;
+  ori    orientation error [deg]: the mean geodesic angle 2 arccos |<q1, q2>| between the
+         rotations of the pairs of the position DTW alignment (pose data only);
+  oend   end orientation error [deg] (pose data only);
   fail   CLAMP arm plans with success False (their paths are scored all the same).
 
-Run: python benchmarks/bench_lfd.py [--quick] [--sets box_closing lasa ...] [--workers N]
+Targets printed at the end: whether CLAMP (arm, and its mean) has the lowest orientation error
+in every pose cell (set x setting), and, with --anchor FILE (a --record FILE of an earlier
+run, e.g. of main), whether every position cell's CLAMP arm DTW is at most 2 % above it.
+
+Run: python benchmarks/bench_lfd.py [--quick] [--sets box_closing lasa wiping_rim ...]
+[--workers N] [--record FILE] [--anchor FILE]
 (--quick: 2 folds per set, 4 LASA shapes, 2 synthetic skills).
 
 Full run (2 cores, ~170 s CPU), CLAMP arm mean DTW [mm], plain chain -> start shrinkage "auto":
@@ -78,6 +92,7 @@ unsuccessful plans; wall 578 s on 1 worker at load 3-5.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import time
 import warnings
@@ -86,29 +101,41 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.spatial.transform import Rotation
 
 import clamp
+import lfd_peers
 import robots
 import scenes
 from harness import exit_with_parent, print_environment, shared_demonstrations
+from lfd_metrics import dtw_mean, geodesic_angle, orientation_error, swept_area
+from skillplan.threads import single_blas_thread
 
-METHODS = ("CLAMP arm", "CLAMP mean", "TLGC", "ProMP", "DMP")
-RIVALS = ("CLAMP arm", "TLGC", "ProMP", "DMP")          # who wins: CLAMP as users run it
+METHODS = ("CLAMP arm", "CLAMP mean", "TLGC", "ProMP", "DMP", "GMR")
+RIVALS = ("CLAMP arm", "TLGC", "ProMP", "DMP", "GMR")    # who wins: CLAMP as users run it
+PEERS = ("TLGC", "ProMP", "DMP", "GMR")
 SETTINGS = ("start", "goal")
-METRICS = ("dtw", "sea", "end", "vel")
+METRICS = ("dtw", "sea", "end", "vel", "ori", "oend")
 SHARED = ("box_closing", "needle_threading", "pick_place", "synthetic0")
+POSE_SETS = ("wiping_rim", "pose_synthetic")
 REGION_CENTRE = np.array([0.30, -0.40, 0.25])            # the synthetic skills' region
 REGION_SIZE = 0.30                                       # largest side of an embedded set [m]
 LASA_ORIGIN, LASA_SCALE, LASA_HEIGHT, LASA_STATES = np.array([0.42, -0.32]), 0.004, 0.12, 200
 TLGC_STATES = 200
-WEIGHTS = 20                                             # ProMP / DMP weights per dimension
-PROMP_NOISE = 1e-4                                       # [m] std of ProMP's conditioning
-PROMP_WEIGHT_PRIOR = 1e-2                                # [m] std added to every weight
+WIPING_STATES = 250
+WIPING_TURN = Rotation.from_euler("z", 180.0, degrees=True)   # recording base -> Jaco base
+WIPING_CENTRE = np.array([0.35, -0.30, 0.30])            # [m] the placed set's box centre
+# where posedata's synthetic skills with orientation are looked for: (module, function); each
+# called as function(skill, num_demos=6, seed=0) -> Demonstrations with orientations
+POSE_SKILLS_SOURCE = ("robots", "make_pose_demonstrations")
+POSE_SKILLS = ("pouring", "inserting")
+DTW_TOLERANCE = 0.02                                     # target: arm DTW <= 1.02 x anchor
 
 
 @dataclass
 class DataSet:
-    """Demonstrations in the Jaco's workspace; group "shared", "synthetic" or "lasa"."""
+    """Demonstrations in the Jaco's workspace; group "shared", "synthetic", "lasa" or "pose"."""
 
     name: str
     demos: scenes.Demonstrations
@@ -116,8 +143,19 @@ class DataSet:
     planar: bool = False
     note: str = ""
 
+    @property
+    def pose(self) -> bool:
+        """Whether the demonstrations have orientations (the pose cells)."""
+        return self.demos.orientations is not None
+
 
 # ---------------------------------------------------------------------------- data
+def _datasets_dir() -> Path:
+    if os.environ.get("SKILLPLAN_DATASETS"):
+        return Path(os.environ["SKILLPLAN_DATASETS"])
+    return Path(__file__).resolve().parents[2] / "shared" / "datasets"
+
+
 def _embedded(demos: scenes.Demonstrations, name: str) -> tuple[scenes.Demonstrations, str]:
     """A TLGC set resampled to TLGC_STATES and scaled/centred into the workspace region."""
     demos = demos.resample(TLGC_STATES)
@@ -131,9 +169,7 @@ def _embedded(demos: scenes.Demonstrations, name: str) -> tuple[scenes.Demonstra
 
 def lasa_shapes() -> dict[str, scenes.Demonstrations]:
     """The 13 LASA shapes embedded on the table (datasets README)."""
-    path = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "lasa_handwriting_dev.npz"
-    if os.environ.get("SKILLPLAN_DATASETS"):
-        path = Path(os.environ["SKILLPLAN_DATASETS"]) / "lasa_handwriting_dev.npz"
+    path = _datasets_dir() / "lasa_handwriting_dev.npz"
     if not path.is_file():
         print(f"# {path.name} not found: LASA skipped")
         return {}
@@ -147,6 +183,48 @@ def lasa_shapes() -> dict[str, scenes.Demonstrations]:
             out[shape] = scenes.Demonstrations.from_trajectories(
                 trajectories, list(stamps), num_points=LASA_STATES, name=shape)
     return out
+
+
+def wiping_rim() -> scenes.Demonstrations | None:
+    """wiping_rim.npz's 6 demonstrations with orientations, resampled to WIPING_STATES on
+    their normalised time and placed in the Jaco's workspace (module doc), or None with a
+    printed note when the file is absent."""
+    path = _datasets_dir() / "wiping_rim.npz"
+    if not path.is_file():
+        print(f"# {path.name} not found: wiping_rim skipped")
+        return None
+    with np.load(path) as data:
+        count = sum(k.endswith("__pos") for k in data.files)
+        recorded = [(data[f"demo{k}__pos"], data[f"demo{k}__quat_xyzw"], data[f"demo{k}__t"])
+                    for k in range(count)]
+    positions = [WIPING_TURN.apply(p) for p, _, _ in recorded]
+    low = np.min([p.min(axis=0) for p in positions], axis=0)
+    high = np.max([p.max(axis=0) for p in positions], axis=0)
+    positions = [p - 0.5 * (low + high) + WIPING_CENTRE for p in positions]
+    duration = float(np.mean([t[-1] - t[0] for _, _, t in recorded]))
+    phase = np.linspace(0.0, 1.0, WIPING_STATES)
+    time_ = duration * phase
+    pos, vel, turns = [], [], []
+    for p, (_, q, t) in zip(positions, recorded):
+        s = (t - t[0]) / (t[-1] - t[0])
+        spline = CubicSpline(s, p, axis=0)
+        pos.append(spline(phase))
+        vel.append(spline(phase, 1) / duration)
+        turns.append(scenes.demonstrations.slerp_quaternions(
+            s, (WIPING_TURN * Rotation.from_quat(q)).as_quat(), phase))
+    return scenes.Demonstrations(np.array(pos), np.array(vel), time_, name="wiping_rim",
+                                 orientations=np.array(turns))
+
+
+def pose_skills() -> dict[str, scenes.Demonstrations]:
+    """The synthetic skills with orientation from POSE_SKILLS_SOURCE, or none with a note."""
+    import importlib
+    module, function = POSE_SKILLS_SOURCE
+    make = getattr(importlib.import_module(module), function, None)
+    if make is None:
+        print(f"# {module}.{function} not installed: the synthetic pose skills skipped")
+        return {}
+    return {skill: make(skill, num_demos=6, seed=0) for skill in POSE_SKILLS}
 
 
 def load_sets(selected: list[str], quick: bool) -> list[DataSet]:
@@ -171,103 +249,84 @@ def load_sets(selected: list[str], quick: bool) -> list[DataSet]:
         for shape in list(shapes)[:4] if quick else shapes:
             sets.append(DataSet(f"lasa:{shape}", shapes[shape], "lasa", planar=True,
                                 note=f"T={LASA_STATES}"))
+    if "wiping_rim" in selected:
+        demos = wiping_rim()
+        if demos is not None:
+            sets.append(DataSet("wiping_rim", demos, "pose",
+                                note=f"T={WIPING_STATES}, {demos.duration:.3g} s, placed"))
+    if "pose_synthetic" in selected:
+        for skill, demos in pose_skills().items():
+            sets.append(DataSet(f"pose:{skill}", demos, "pose",
+                                note=f"{demos.M} demos, T={demos.T}"))
     return sets
 
 
 def subset(demos: scenes.Demonstrations, keep: np.ndarray) -> scenes.Demonstrations:
-    return scenes.Demonstrations(demos.positions[keep], demos.velocities[keep], demos.time,
-                                 name=demos.name)
+    return scenes.Demonstrations(
+        demos.positions[keep], demos.velocities[keep], demos.time, name=demos.name,
+        orientations=None if demos.orientations is None else demos.orientations[keep])
 
 
-# ---------------------------------------------------------------------------- methods
+# ---------------------------------------------------------------------------- CLAMP
 def clamp_methods(train: scenes.Demonstrations, start: np.ndarray, goal: np.ndarray | None,
-                  robot) -> tuple[dict[str, np.ndarray], bool, float]:
-    """(paths of "CLAMP arm" and "CLAMP mean", the plan's success, planning seconds)."""
+                  robot) -> tuple[dict[str, np.ndarray], bool, float, list[str]]:
+    """(reproductions of "CLAMP arm" and "CLAMP mean": (T, 3), or (T, 7) poses where the
+    prior gives rotations; the plan's success; planning seconds; notes of cells n/a)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", clamp.ClampWarning)   # 2-demo training sets warn
         prior = clamp.learn_prior(train)
     T = prior.T
-    observations = [(0, start)] + ([] if goal is None else [(T - 1, goal)])
+    observations = [(0, start[:3])] + ([] if goal is None else [(T - 1, goal[:3])])
     mean = np.asarray(clamp.condition_prior(prior, observations).mean)[:, :3]
     began = time.perf_counter()
-    result = clamp.plan(prior, robot, None, start, goal=goal)
+    result = clamp.plan(prior, robot, None, start[:3], goal=None if goal is None else goal[:3])
     seconds = time.perf_counter() - began
-    return {"CLAMP arm": np.asarray(result.ee_path), "CLAMP mean": mean}, bool(result.success), \
-        seconds
+    out = {"CLAMP arm": np.asarray(result.ee_path), "CLAMP mean": mean}
+    notes: list[str] = []
+    if len(start) == 7:
+        notes = _clamp_rotations(out, prior, robot, np.asarray(result.q), start, goal)
+    return out, bool(result.success), seconds, notes
 
 
-def tlgc_method(train: scenes.Demonstrations, start: np.ndarray) -> np.ndarray:
-    import tlgc
-    cylinder = tlgc.fit_cylinder(train, "spline")
-    return tlgc.reproduce(cylinder, start, plane_tolerance=np.inf, allow_outside=True)
-
-
-def promp_method(train: scenes.Demonstrations, start: np.ndarray,
-                 goal: np.ndarray | None) -> np.ndarray:
-    from movement_primitives.promp import ProMP
-    phase = (train.time - train.time[0]) / train.duration
-    promp = ProMP(n_dims=3, n_weights_per_dim=WEIGHTS)
-    # ProMP.weights normalises its time argument in place: hand it copies
-    weights = np.array([promp.weights(phase.copy(), y) for y in train.positions])
-    cov = np.cov(weights, rowvar=False) + PROMP_WEIGHT_PRIOR ** 2 * np.eye(weights.shape[1])
-    promp.from_weight_distribution(weights.mean(axis=0), cov)
-    noise = PROMP_NOISE ** 2 * np.eye(3)
-    promp = promp.condition_position(start, noise, t=0.0, t_max=1.0)
-    if goal is not None:
-        promp = promp.condition_position(goal, noise, t=1.0, t_max=1.0)
-    return promp.mean_trajectory(phase.copy())
-
-
-def dmp_method(train: scenes.Demonstrations, start: np.ndarray,
-               goal: np.ndarray | None) -> np.ndarray:
-    from movement_primitives.dmp import DMP
-    time_ = train.time - train.time[0]
-    mean = train.positions.mean(axis=0)
-    dmp = DMP(n_dims=3, execution_time=float(time_[-1]), dt=float(np.median(np.diff(time_))),
-              n_weights_per_dim=WEIGHTS)
-    dmp.imitate(time_, mean)
-    dmp.configure(start_y=start, goal_y=mean[-1] if goal is None else goal)
-    t_out, y = dmp.open_loop()
-    if len(t_out) != len(time_):
-        y = np.column_stack([np.interp(time_, t_out, y[:, d]) for d in range(3)])
-    return y
+def _clamp_rotations(out: dict[str, np.ndarray], prior, robot, q: np.ndarray,
+                     start: np.ndarray, goal: np.ndarray | None) -> list[str]:
+    """Add CLAMP's rotations to ``out`` where the installed clamp learns a pose prior: the
+    arm's by forward kinematics of its plan q (T, n), the mean's ``mean_quaternions()`` of the
+    prior conditioned on the start (and goal) pose (index, pose (7,)). Returns notes on what
+    is n/a and why."""
+    if not hasattr(prior, "mean_quaternions"):
+        return ["CLAMP orientation n/a: the installed clamp learns no pose prior"]
+    rotations, _ = robot.ee_rotation(q)
+    arm = scenes.demonstrations.continuous_quaternions(Rotation.from_matrix(rotations).as_quat())
+    out["CLAMP arm"] = np.column_stack([out["CLAMP arm"], arm])
+    T = prior.T
+    poses = [(0, start)] + ([] if goal is None else [(T - 1, goal)])
+    try:
+        conditioned = clamp.condition_prior(prior, poses)
+        quaternions = np.asarray(conditioned.mean_quaternions())
+    except Exception as exc:                         # noqa: BLE001 - reported, not hidden
+        return [f"CLAMP mean orientation n/a: conditioning on poses failed: {exc!r:.100}"]
+    out["CLAMP mean"] = np.column_stack([np.asarray(conditioned.mean)[:, :3], quaternions])
+    return []
 
 
 # ---------------------------------------------------------------------------- metrics
-def dtw_mean(a: np.ndarray, b: np.ndarray) -> float:
-    """Mean point distance along the optimal DTW alignment of paths a (Ta, 3), b (Tb, 3)."""
-    local = np.linalg.norm(a[:, None] - b[None], axis=-1)
-    ta, tb = local.shape
-    acc = np.full((ta + 1, tb + 1), np.inf)
-    steps = np.zeros((ta + 1, tb + 1), dtype=np.int64)    # path length to each cell
-    acc[0, 0] = 0.0
-    for k in range(2, ta + tb + 1):                     # anti-diagonals, vectorised
-        i = np.arange(max(1, k - tb), min(ta, k - 1) + 1)
-        j = k - i
-        options = np.stack([acc[i - 1, j - 1], acc[i - 1, j], acc[i, j - 1]])
-        lengths = np.stack([steps[i - 1, j - 1], steps[i - 1, j], steps[i, j - 1]])
-        best = np.argmin(options, axis=0)
-        cols = np.arange(len(i))
-        acc[i, j] = local[i - 1, j - 1] + options[best, cols]
-        steps[i, j] = lengths[best, cols] + 1
-    return float(acc[ta, tb] / steps[ta, tb])
-
-
-def swept_area(a: np.ndarray, b: np.ndarray) -> float:
-    """Area [m^2] between planar paths a, b (T, >=2) on equal-time points (x, y)."""
-    def triangle(p, q, r):
-        u, v = q - p, r - p
-        return 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
-    a, b = a[:, :2], b[:, :2]
-    return float(np.sum(triangle(a[:-1], a[1:], b[:-1]) + triangle(a[1:], b[1:], b[:-1])))
-
-
-def metrics(path: np.ndarray, demo: np.ndarray, time_: np.ndarray, planar: bool) -> dict:
+def metrics(reproduction: np.ndarray, demo: np.ndarray, time_: np.ndarray, planar: bool,
+            demo_quaternions: np.ndarray | None = None) -> dict:
+    """The metrics (module doc) of a reproduction (T, 3) or (T, 7) against a demonstration's
+    positions (T, 3) (and quaternions (T, 4)); ori / oend NaN without both rotations."""
+    path = reproduction[:, :3]
     vel = np.gradient(path, time_, axis=0) - np.gradient(demo, time_, axis=0)
+    rotated = reproduction.shape[1] == 7 and demo_quaternions is not None
     return {"dtw": 1e3 * dtw_mean(path, demo),
             "sea": 1e4 * swept_area(path, demo) if planar else np.nan,
             "end": 1e3 * float(np.linalg.norm(path[-1] - demo[-1])),
-            "vel": 1e3 * float(np.sqrt(np.mean(np.sum(vel ** 2, axis=1))))}
+            "vel": 1e3 * float(np.sqrt(np.mean(np.sum(vel ** 2, axis=1)))),
+            "ori": (np.degrees(orientation_error(path, reproduction[:, 3:], demo,
+                                                 demo_quaternions)) if rotated else np.nan),
+            "oend": (float(np.degrees(geodesic_angle(reproduction[-1, 3:],
+                                                     demo_quaternions[-1])))
+                     if rotated else np.nan)}
 
 
 # ---------------------------------------------------------------------------- one fold
@@ -277,31 +336,37 @@ def run_fold(task: tuple[DataSet, int]) -> dict:
     demos = data.demos
     robot = robots.load_robot("jaco")
     held = demos.positions[k]
+    held_turns = None if demos.orientations is None else demos.orientations[k]
+    held_poses = held if held_turns is None else np.column_stack([held, held_turns])
     train = subset(demos, np.arange(demos.M) != k)
     out: dict = {"failures": {s: 0 for s in SETTINGS}, "plan_seconds": 0.0, "errors": []}
     for setting in SETTINGS:
-        start, goal = held[0], (held[-1] if setting == "goal" else None)
+        start, goal = held_poses[0], (held_poses[-1] if setting == "goal" else None)
         paths: dict[str, np.ndarray] = {}
         try:
-            clamp_paths, success, seconds = clamp_methods(train, start, goal, robot)
+            clamp_paths, success, seconds, notes = clamp_methods(train, start, goal, robot)
             paths.update(clamp_paths)
             out["failures"][setting] += not success
             out["plan_seconds"] += seconds
+            out["errors"].extend(f"{data.name} {setting}: {note}" for note in notes)
         except Exception as exc:                     # noqa: BLE001 - reported, not hidden
             out["errors"].append(f"{data.name} fold {k} {setting} CLAMP: {exc!r:.120}")
             out["failures"][setting] += 1
-        for method, make in (("TLGC", lambda: tlgc_method(train, start) if goal is None
+        for method, make in (("TLGC", lambda: lfd_peers.tlgc(train, start) if goal is None
                               else None),
-                             ("ProMP", lambda: promp_method(train, start, goal)),
-                             ("DMP", lambda: dmp_method(train, start, goal))):
+                             ("ProMP", lambda: lfd_peers.promp(train, start, goal)),
+                             ("DMP", lambda: lfd_peers.dmp(train, start, goal)),
+                             ("GMR", lambda: lfd_peers.gmr(train, start, goal))):
             try:
-                path = make()
+                with single_blas_thread():           # tiny products: threads only wait
+                    path = make()
             except Exception as exc:                 # noqa: BLE001
                 out["errors"].append(f"{data.name} fold {k} {setting} {method}: {exc!r:.120}")
                 continue
             if path is not None:
                 paths[method] = path
-        out[setting] = {m: metrics(p, held, demos.time, data.planar) for m, p in paths.items()}
+        out[setting] = {m: metrics(p, held, demos.time, data.planar, held_turns)
+                        for m, p in paths.items()}
     return out
 
 
@@ -315,30 +380,41 @@ def mean_over_folds(folds: list[dict], setting: str) -> dict[str, dict[str, floa
     return table
 
 
-def winner(table: dict[str, dict[str, float]]) -> str:
-    present = [m for m in RIVALS if m in table]
-    return min(present, key=lambda m: table[m]["dtw"]) if present else "-"
+def winner(table: dict[str, dict[str, float]], metric: str = "dtw",
+           rivals: tuple[str, ...] = RIVALS) -> str:
+    """The rival with the lowest ``metric`` (NaN: not a contender), or "-"."""
+    present = [m for m in rivals if m in table and not np.isnan(table[m][metric])]
+    return min(present, key=lambda m: table[m][metric]) if present else "-"
+
+
+def _cell(value: float, width: int, digits: int = 2) -> str:
+    return f"{'n/a' if np.isnan(value) else f'{value:.{digits}f}':>{width}}"
 
 
 def print_set(data: DataSet, folds: list[dict]) -> dict[str, dict]:
     summary = {}
     print(f"\n{data.name} (M={data.demos.M}, {data.note}; {len(folds)} folds)")
     print(f"  {'setting':<6} {'method':<11} {'dtw mm':>8} {'sea cm2':>8} {'end mm':>8} "
-          f"{'vel mm/s':>9} {'fail':>5}")
+          f"{'vel mm/s':>9}" + (f" {'ori deg':>8} {'oend deg':>8}" if data.pose else "")
+          + f" {'fail':>5}")
     for setting in SETTINGS:
         table = mean_over_folds(folds, setting)
         fails = sum(f["failures"][setting] for f in folds)
         for method, row in table.items():
             sea = "-" if np.isnan(row["sea"]) else f"{row['sea']:8.2f}"
             fail = f"{fails:5d}" if method == "CLAMP arm" else ""
+            turn = (f" {_cell(row['ori'], 8)} {_cell(row['oend'], 8)}" if data.pose else "")
             print(f"  {setting:<6} {method:<11} {row['dtw']:8.2f} {sea:>8} {row['end']:8.2f} "
-                  f"{row['vel']:9.2f} {fail}")
+                  f"{row['vel']:9.2f}{turn} {fail}")
         best = winner(table)
         mean_best = ("CLAMP mean" in table and
                      all(table["CLAMP mean"]["dtw"] <= table[m]["dtw"]
                          for m in RIVALS if m in table and m != "CLAMP arm"))
         print(f"  {setting:<6} best: {best}" + ("   (CLAMP mean also beats the peers)"
                                                  if mean_best else ""))
+        if data.pose:
+            print(f"  {setting:<6} lowest orientation error: "
+                  f"{winner(table, 'ori', ('CLAMP arm', 'CLAMP mean', *PEERS))}")
         summary[setting] = {"table": table, "best": best, "fails": fails}
     for line in sorted({e for f in folds for e in f["errors"]}):
         print(f"  ! {line}")
@@ -346,14 +422,14 @@ def print_set(data: DataSet, folds: list[dict]) -> dict[str, dict]:
 
 
 def print_overview(sets: list[DataSet], summaries: list[dict]) -> None:
-    print("\nOverview: mean DTW [mm] (CLAMP arm / CLAMP mean / TLGC / ProMP / DMP), winner")
+    print("\nOverview: mean DTW [mm] (" + " / ".join(METHODS) + "), winner")
     for data, summary in zip(sets, summaries):
         if data.group == "lasa":
             continue
         for setting in SETTINGS:
             table = summary[setting]["table"]
             cells = " / ".join(f"{table[m]['dtw']:.2f}" if m in table else "-" for m in METHODS)
-            print(f"  {data.name:<26} {setting:<6} {cells:<48} {summary[setting]['best']}"
+            print(f"  {data.name:<26} {setting:<6} {cells:<56} {summary[setting]['best']}"
                   f"  (fail {summary[setting]['fails']})")
     lasa = [(d, s) for d, s in zip(sets, summaries) if d.group == "lasa"]
     if not lasa:
@@ -379,14 +455,68 @@ def print_overview(sets: list[DataSet], summaries: list[dict]) -> None:
     print(f"  CLAMP arm best in {both} of {2 * len(lasa)} shape x setting cells")
 
 
+def print_pose_targets(sets: list[DataSet], summaries: list[dict]) -> None:
+    """Orientation error [deg] of every pose cell and whether CLAMP's is the lowest in all."""
+    cells = [(d, st, s[st]["table"]) for d, s in zip(sets, summaries) if d.pose
+             for st in SETTINGS]
+    if not cells:
+        return
+    print("\nPose cells: mean orientation error [deg] (" + " / ".join(METHODS) + ")")
+    for data, setting, table in cells:
+        row = " / ".join(_cell(table[m]["ori"], 1) if m in table else "-" for m in METHODS)
+        print(f"  {data.name:<26} {setting:<6} {row}")
+    for clamp_cell in ("CLAMP arm", "CLAMP mean"):
+        lost = [f"{d.name} {st} ({winner(t, 'ori', (clamp_cell, *PEERS))})"
+                for d, st, t in cells if winner(t, "ori", (clamp_cell, *PEERS)) != clamp_cell]
+        unmeasured = sum(clamp_cell not in t or np.isnan(t[clamp_cell]["ori"])
+                         for _, _, t in cells)
+        verdict = ("n/a (no CLAMP orientation in " + f"{unmeasured} of {len(cells)} cells)"
+                   if unmeasured else ("yes" if not lost else "no: " + ", ".join(lost)))
+        print(f"  target: {clamp_cell} has the lowest orientation error in every pose cell: "
+              f"{verdict}")
+
+
+def position_cells(sets: list[DataSet], summaries: list[dict]) -> dict[str, float]:
+    """{"set setting": CLAMP arm mean DTW [mm]} of every position-only cell."""
+    return {f"{d.name} {st}": s[st]["table"]["CLAMP arm"]["dtw"]
+            for d, s in zip(sets, summaries) if not d.pose for st in SETTINGS
+            if "CLAMP arm" in s[st]["table"]}
+
+
+def print_anchor_target(cells: dict[str, float], anchor_path: Path) -> None:
+    """Each position cell's CLAMP arm DTW against the anchor run's, and the 2 % target."""
+    anchor = json.loads(anchor_path.read_text())
+    common = [c for c in cells if c in anchor["cells"]]
+    print(f"\nPosition DTW against the anchor {anchor_path.name} ({anchor.get('label', '')}): "
+          f"CLAMP arm [mm], now / anchor")
+    worse = []
+    for cell in common:
+        ratio = cells[cell] / anchor["cells"][cell]
+        print(f"  {cell:<34} {cells[cell]:8.2f} / {anchor['cells'][cell]:8.2f}  {ratio:6.3f}x")
+        if ratio > 1.0 + DTW_TOLERANCE:
+            worse.append(f"{cell} {100 * (ratio - 1):+.1f} %")
+    missing = len(set(anchor["cells"]) - set(cells))
+    print(f"  target: position DTW at most {100 * DTW_TOLERANCE:.0f} % above the anchor in all "
+          f"{len(common)} common cells: {'yes' if not worse else 'no: ' + ', '.join(worse)}"
+          + (f" ({missing} anchor cells not run)" if missing else ""))
+
+
 def main() -> None:
+    choices = [*SHARED, "synthetic", "lasa", *POSE_SETS]
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
                         help="2 folds per set, 4 LASA shapes, 2 synthetic skills")
-    parser.add_argument("--sets", nargs="+", default=[*SHARED, "synthetic", "lasa"],
-                        help=f"any of {[*SHARED, 'synthetic', 'lasa']}")
+    parser.add_argument("--sets", nargs="+", default=choices, choices=choices, metavar="SET",
+                        help=f"any of {choices}")
     parser.add_argument("--workers", type=int, default=1, help="processes (the machine is shared)")
+    parser.add_argument("--record", type=Path, metavar="FILE",
+                        help="write the position cells' CLAMP arm DTW to FILE (JSON)")
+    parser.add_argument("--anchor", type=Path, metavar="FILE",
+                        help="a --record FILE of an earlier run: print the 2 %% DTW target")
     args = parser.parse_args()
+    if args.anchor is not None and not args.anchor.is_file():
+        parser.error(f"--anchor: expected a JSON file written by --record, got {args.anchor} "
+                     "(not a file)")
     print_environment()
     began = time.perf_counter()
     cpu = time.process_time()
@@ -402,6 +532,17 @@ def main() -> None:
         folds = [r for (d, _), r in zip(tasks, results) if d is data]
         summaries.append(print_set(data, folds))
     print_overview(sets, summaries)
+    print_pose_targets(sets, summaries)
+    cells = position_cells(sets, summaries)
+    if args.anchor is not None:
+        print_anchor_target(cells, args.anchor)
+    if args.record is not None:
+        record = {"label": f"bench_lfd{' --quick' if args.quick else ''} "
+                           f"--sets {' '.join(args.sets)}", "cells": cells}
+        partial = args.record.with_name(args.record.name + ".partial")
+        partial.write_text(json.dumps(record, indent=1) + "\n")
+        partial.replace(args.record)
+        print(f"\nrecorded {len(cells)} position cells to {args.record}")
     plans = sum(r["plan_seconds"] for r in results)
     print(f"\n{len(tasks)} folds, {2 * len(tasks)} arm plans ({plans:.1f} s planning); wall "
           f"{time.perf_counter() - began:.1f} s, this process's CPU {time.process_time() - cpu:.1f} s")
