@@ -59,11 +59,11 @@ CSV_VELOCITY_COLUMNS = ("vx", "vy", "vz")
 
 def load_demonstrations(path: str | Path | Sequence[str | Path], scenes: Sequence[Any] | None = None,
                         *, robot: Any = None, smoothing: str = "auto", topic: str | None = None,
-                        split: str = "bag", frames: Sequence[str] | None = None) -> Demonstrations:
+                        split: str = "auto", frames: Sequence[str] | None = None) -> Demonstrations:
     """Read demonstrations from a .mat (CLAMP or TLGC), .npz or .csv file, or from ROS 2 bags.
 
     ROS 2 bags: ``path`` is a bag (its folder, or a bare .mcap / .db3 file) or a list of bags;
-    ``topic`` (required), ``split`` ("bag" or "rest") and ``frames`` ((parent, child) for a /tf
+    ``topic`` (required), ``split`` ("auto", "bag" or "rest") and ``frames`` ((parent, child) for a /tf
     topic) are passed to :func:`scenes.bags.load_bag_demonstrations` (its defaults for what
     counts as a rest). ``topic``, ``split`` and ``frames`` are for bags only.
 
@@ -84,7 +84,7 @@ def load_demonstrations(path: str | Path | Sequence[str | Path], scenes: Sequenc
                                         smoothing=smoothing)
         return _with_scenes(demos, scenes, _shown(path))
     bag_options = {k: v for k, v in (("topic", topic), ("frames", frames)) if v is not None}
-    if split != "bag":
+    if split != "auto":
         bag_options["split"] = split
     if bag_options:
         raise ScenesTypeError(f"{', '.join(bag_options)}: only for ROS 2 bags (a folder with "

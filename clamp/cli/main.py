@@ -44,7 +44,7 @@ from robots import available_robots, resolve_robot
 from clamp.prior.learning import learn_prior
 from clamp.prior.linear_gaussian import WorkspacePrior
 from scenes import Box, Scene, load_demonstrations, make_demonstrations
-from scenes.bags import is_bag
+from scenes.bags import SPLITS, is_bag
 from scenes.errors import DemonstrationFileError, SceneFileError
 from skillplan.validation import as_file
 
@@ -271,7 +271,7 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
 def check_demonstration_args(args: argparse.Namespace) -> None:
     """The --demos files (or bags) and their options, checked before any output is made."""
     bags = [is_bag(d) for d in args.demos]
-    bag_options = args.topic is not None or args.split != "bag" or args.frames is not None
+    bag_options = args.topic is not None or args.split is not None or args.frames is not None
     if not all(bags) and (len(args.demos) > 1 or bag_options):
         raise DemonstrationFileError(f"--demos: several files, and --topic / --split / --frames, are for "
                                      f"ROS 2 bags (folders with metadata.yaml, .mcap or .db3 files), got "
@@ -293,8 +293,10 @@ def load_demonstrations_from_args(args: argparse.Namespace, robot: Any) -> Any:
         if args.topic is None:                              # a joint-space file needs the arm
             demos = load_demonstrations(args.demos[0], robot=robot)
         else:
-            demos = load_demonstrations(args.demos, robot=robot, topic=args.topic, split=args.split,
-                                        frames=args.frames)
+            demos = load_demonstrations(args.demos, robot=robot, topic=args.topic,
+                                        split=args.split or "auto", frames=args.frames)
+            if not quiet(args):                             # the split, always said
+                print(f"--demos: {demos.bag_split}")
     except DemonstrationFileError as exc:
         if robot is None and "pass robot=" in str(exc):
             raise DemonstrationFileError(f"--robot: {' '.join(args.demos)} hold joint-space demonstrations; "
@@ -350,7 +352,7 @@ LEARNING_OPTIONS = {"--topic": "topic", "--frames": "frames", "--num-points": "n
 def run_plan(args: argparse.Namespace) -> int:
     if args.prior is not None:
         given = [option for option, name in LEARNING_OPTIONS.items() if getattr(args, name) is not None]
-        given += ["--split"] if args.split != "bag" else []
+        given += ["--split"] if args.split is not None else []
         if given:
             raise InvalidParameterError(f"{given[0]}: only with --demos (a prior from --prior was learned "
                                         f"with its own settings: give them to clamp learn)")
@@ -487,8 +489,10 @@ def demonstration_options(p: argparse.ArgumentParser) -> None:
     --translate (shared by clamp learn and clamp plan)."""
     p.add_argument("--topic", default=None,
                    help="bags: the topic to read (JointState, PoseStamped or /tf)")
-    p.add_argument("--split", choices=("bag", "rest"), default="bag",
-                   help="bags: one demonstration per bag, or cut at rests (default bag)")
+    p.add_argument("--split", choices=SPLITS, default=None,
+                   help="bags: auto (default): one demonstration per bag unless a bag holds rests "
+                        "separating repeated motions, judged against its own speed and duration; bag: "
+                        "one demonstration per bag; rest: cut at every rest of 2 mm/s for 2 s")
     p.add_argument("--frames", nargs=2, default=None, metavar=("PARENT", "CHILD"),
                    help="bags with --topic /tf: the transform to read")
     p.add_argument("--num-points", type=integer_at_least(2), default=None, metavar="T",
