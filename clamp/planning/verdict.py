@@ -74,11 +74,16 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
         inside = inside_obstacle(scene, "start", start)
         if inside:
             reasons.append(inside)
-        report = check_clearance(robot, scene, request.q_start[None])
+        required = config.checks.min_clearance
+        report = check_clearance(robot, scene, request.q_start[None], margin=required)
         if report.fault is not None:
             reasons.append(collision_reason(report))
-        elif report.collision:
+        elif report.collision and report.min_distance < 0.0:
             reasons.append("start configuration is in collision: "
+                           + describe_contact(report.nearest, report.geometry))
+        elif report.collision:
+            reasons.append(f"start configuration has clearance {report.min_distance * 1e3:.1f} mm, "
+                           f"below the required min_clearance {required * 1e3:.1f} mm: "
                            + describe_contact(report.nearest, report.geometry))
     return reasons
 
