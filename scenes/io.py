@@ -316,6 +316,13 @@ def _read_csv(path: Path) -> tuple[tuple[str, ...], np.ndarray]:
 def _load_csv(path: Path, robot: Any, smoothing: str) -> Demonstrations:
     header, table = _read_csv(path)
     workspace = header in (CSV_COLUMNS, CSV_COLUMNS + CSV_VELOCITY_COLUMNS)
+    positional = set(header[2:]) & set(CSV_COLUMNS[2:] + CSV_VELOCITY_COLUMNS)
+    if not workspace and positional:        # position columns, robot or not: say their header
+        missing = [c for c in CSV_COLUMNS if c not in header]
+        raise DemonstrationFileError(f"{path}: expected header {','.join(CSV_COLUMNS)}"
+                                     f"[,{','.join(CSV_VELOCITY_COLUMNS)}] for end-effector "
+                                     f"positions, got {','.join(header)!r}"
+                                     + (f" (missing {', '.join(missing)})" if missing else ""))
     if header[:2] != CSV_COLUMNS[:2] or (not workspace and robot is None):
         if header[:2] == CSV_COLUMNS[:2] and len(header) > 2 and "x" not in header:
             _needs_robot(path, robot, f"the columns {','.join(header[2:])!r}")

@@ -31,6 +31,7 @@ from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError, PriorFileError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.planning.planner import plan
+from clamp.planning.reach import check_reach
 from clamp.planning.result import PlanResult
 from clamp.cli.batch import add_batch_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
@@ -39,7 +40,7 @@ from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, ato
                                  save_figure)
 from skillplan.progress import progress
 from robots.retiming import DEFAULT_ACCELERATION_LIMIT
-from robots.errors import RetimingError
+from robots.errors import RetimingError, RobotError
 from robots import available_robots, resolve_robot
 from clamp.prior.learning import learn_prior
 from clamp.prior.linear_gaussian import WorkspacePrior
@@ -58,7 +59,7 @@ TRAJECTORY_FILES = ("trajectory_{}.json", "trajectory_{}_ros2.json")
 def _config(args: argparse.Namespace) -> PlannerConfig:
     """PlannerConfig() (PlannerConfig.fast() with --fast) with the options given on the command
     line; an option left out keeps the Python API's default."""
-    given = {"epsilon": args.epsilon, "initialisation": args.init,
+    given = {"epsilon": args.epsilon, "min_clearance": args.min_clearance, "initialisation": args.init,
              "max_iterations": args.max_iterations, "optimizer": args.optimizer,
              "sigma_obs": args.sigma_obs}
     changes = {name: value for name, value in given.items() if value is not None}
@@ -73,19 +74,57 @@ def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
     atomic_write_text(path, json.dumps(data, indent=1) + "\n", overwrite=True)
 
 
-def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
-    """Plain-text table: one row per plan."""
-    head = (f"{'plan':<22} {'ok':<4} {'iters':>5} {'build s':>8} {'opt s':>7} {'final err':>10} "
-            f"{'clear mm':>9} {'start mm':>9} {'log-lik':>10} {'plaus':>7}  reasons")
+def _mm(value: float | None) -> str:
+    """A length [m] in mm for the summary ("-" for none, "inf" without obstacles)."""
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return "-"
+    return "inf" if not np.isfinite(value) else f"{value * 1e3:.1f}"
+
+
+def summary_table(rows: Sequence[tuple[str, PlanResult]],
+                  exported: dict[str, dict[str, Any]] | None = None, verbose: bool = False) -> str:
+    """Plain-text table, one row per plan: its verdict, clearance [mm] (on the robot's collision
+    geometry), end error [mm] (from where the demonstrations end; without a goal) and goal
+    error [mm] (or rad for a joint goal), orientation error [deg] where one was asked, the time
+    scale k (the plan lasts k times the skill), the executable trajectory's duration [s] on its
+    own clock (``exported[name]["duration"]``: "-" when none was written) and the reasons.
+    ``verbose`` adds the solver's figures: iterations, build and optimisation time [s], the
+    final graph error and the log-likelihood [nats], the plausibility."""
+    head = (f"{'plan':<22} {'verdict':<8} {'clear mm':>8} {'end mm':>7} {'goal mm':>7} "
+            f"{'orient deg':>10} {'k':>5} {'traj s':>7}")
+    if verbose:
+        head += f" {'iters':>5} {'build s':>8} {'opt s':>7} {'final err':>10} {'log-lik':>10} {'plaus':>6}"
+    head += "  reasons"
     lines = [head, "-" * len(head)]
+    exported = exported or {}
     for name, r in rows:
-        clearance = "inf" if not np.isfinite(r.min_clearance) else f"{r.min_clearance * 1e3:.1f}"
-        lines.append(f"{name:<22} {'yes' if r.success else 'no':<4} {r.iterations:>5} "
-                     f"{r.timings['build']:>8.3f} {r.timings['optimize']:>7.3f} "
-                     f"{r.final_error:>10.4g} {clearance:>9} {r.start_error * 1e3:>9.3f} "
-                     f"{r.log_likelihood:>10.4g} {r.plausibility:>7.3f}  "
-                     f"{'; '.join(r.reasons)}")
+        orientation = r.violations.get("orientation")
+        duration = exported.get(name, {}).get("duration")
+        line = (f"{name:<22} {'success' if r.success else 'FAILED':<8} {_mm(r.min_clearance):>8} "
+                f"{_mm(r.skill.get('end_distance')):>7} {_goal(r):>7} "
+                f"{'-' if orientation is None else f'{np.degrees(orientation):.1f}':>10} "
+                f"{r.time_scale:>5.2f} {'-' if duration is None else f'{duration:.2f}':>7}")
+        if verbose:
+            line += (f" {r.iterations:>5} {r.timings['build']:>8.3f} {r.timings['optimize']:>7.3f} "
+                     f"{r.final_error:>10.4g} {r.log_likelihood:>10.4g} {r.plausibility:>6.3f}")
+        lines.append(line + f"  {'; '.join(r.reasons)}")
     return "\n".join(lines)
+
+
+def _goal(result: PlanResult) -> str:
+    """The goal error in mm, or in rad (suffix "r") for a joint goal; "-" without a goal."""
+    goal = None if result.inputs is None else result.inputs.goal
+    if result.goal_error is None or goal is None:
+        return "-"
+    return _mm(result.goal_error) if np.size(goal) == 3 else f"{result.goal_error:.4f}r"
+
+
+def report_failures(args: argparse.Namespace, rows: Sequence[tuple[str, PlanResult]]) -> None:
+    """The first reason of every plan that failed its verdict, one line each on stderr (also
+    under -q: exit code 1 says a plan failed, this says why)."""
+    for name, result in rows:
+        if not result.success and result.reasons:
+            print(f"clamp {args.command}: plan {name!r} failed: {result.reasons[0]}", file=sys.stderr)
 
 
 def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
@@ -213,6 +252,9 @@ def load_robot_from_args(args: argparse.Namespace) -> Any:
     if args.end_effector is None:
         raise InvalidParameterError("--end-effector: required with --urdf (the frame to plan "
                                     "for, e.g. the tool or the last link)")
+    as_file(args.urdf, "--urdf", RobotError)
+    if args.spheres is not None:
+        as_file(args.spheres, "--spheres", RobotError)
     return resolve_robot({"urdf": args.urdf, "end_effector": args.end_effector, "package_dirs": args.package_dir,
                           "spheres": args.spheres, "base_frame": args.base_frame})
 
@@ -262,9 +304,11 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
     if not quiet(args):
         print(f"CLAMP demo: skill {args.skill!r} ({demos.M} demonstrations, T = {demos.T}), "
               f"robot {robot.name}, start {np.round(start, 4).tolist()}")
-        print(summary_table(rows))
+        print(summary_table(rows, {"empty scene": exported["empty"], "obstacle": exported["obstacle"]},
+                            verbose=verbose(args)))
         print(trajectory_summary(exported))
         print(f"wrote figures and plans to {out}")
+    report_failures(args, rows[:2])
     return EXIT_OK if all(record["files"] for record in exported.values()) else EXIT_FAILED
 
 
@@ -374,10 +418,12 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     else:
         demos = load_demonstrations_from_args(args, robot)
         prior = learn_prior(demos)
+    check_reach(robot, np.asarray(prior.mean)[:, :3], "--prior" if args.prior is not None else "--demos")
     scene = Scene.load(args.scene) if args.scene else None
     config = _config(args)
-    goal = None if args.goal is None else np.array(args.goal, dtype=float)
+    goal = None if args.goal is None else joint_values(args.goal, "--goal", robot)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
+    refuse_unstartable(args, result)
     exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime, jerk)}
     source = {"prior": str(args.prior)} if args.prior is not None else {"demos": " ".join(args.demos)}
     write_plan(result, out / "plan.json", robot=robot.name, **source,
@@ -386,23 +432,65 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     _figures(out, prior, demos, robot, config, [("result", result, scene)])
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
+    name = Path(args.prior if args.prior is not None else args.demos[0]).stem
     if not quiet(args):
-        print(summary_table([(Path(args.prior if args.prior is not None else args.demos[0]).stem, result)]))
+        print(summary_table([(name, result)], {name: exported["result"]}, verbose=verbose(args)))
         print(trajectory_summary(exported))
         print(f"wrote figures and plan to {out}")
+    report_failures(args, [(name, result)])
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
+
+
+def verbose(args: argparse.Namespace) -> bool:
+    """True with -v: the summary adds the solver's figures."""
+    return bool(getattr(args, "verbose", 0))
+
+
+#: what a request that can start the plan needs, by the option that asks it
+STARTABLE = {"--goal": "a goal the arm reaches within its joint limits, outside the obstacles",
+             "--start": "a start the arm reaches within its joint limits, clear of the obstacles "
+                        "and of itself",
+             "--start-joints": "a start configuration within the joint limits, clear of the "
+                               "obstacles and of itself"}
+
+
+def refuse_unstartable(args: argparse.Namespace, result: PlanResult) -> None:
+    """A request the planner could not even start (its start or goal out of reach, beyond the
+    joint limits, inside an obstacle or in self-collision: ``stop_reason`` "not started") is bad
+    input: InvalidParameterError naming the option the user typed, what it needs and why."""
+    if result.stop_reason != "not started":
+        return
+    reason = result.reasons[0]
+    option = ("--goal" if reason.startswith(("goal", "via")) else
+              "--start-joints" if args.start_joints is not None else "--start")
+    more = f" (and {len(result.reasons) - 1} more)" if len(result.reasons) > 1 else ""
+    raise InvalidParameterError(f"{option}: {reason}{more}; expected {STARTABLE[option]}")
 
 
 def _start(args: argparse.Namespace, robot: Any) -> np.ndarray:
     """--start x y z (or a configuration), or --start-joints q1 .. qn (the robot's measured
     configuration: exactly one value per joint)."""
     if args.start_joints is None:
-        return np.array(args.start, dtype=float)
+        return joint_values(args.start, "--start", robot)
     if len(args.start_joints) != robot.n:
         raise InvalidParameterError(f"--start-joints: expected {robot.n} joint values [rad] for "
                                     f"{robot.name} ({', '.join(robot.joint_names)}), got "
                                     f"{len(args.start_joints)}")
-    return np.array(args.start_joints, dtype=float)
+    return joint_values(args.start_joints, "--start-joints", robot)
+
+
+def joint_values(values: Sequence[float], option: str, robot: Any) -> np.ndarray:
+    """``values`` as an array; a joint configuration (robot.n values other than a position's 3)
+    that looks like degrees (beyond one turn, and within the joint limits once converted to
+    radians) is refused naming ``option``: radians expected."""
+    array = np.array(values, dtype=float)
+    if len(array) != robot.n or (len(array) == 3 and option != "--start-joints"):
+        return array
+    if np.max(np.abs(array)) > 2.0 * np.pi and bool(np.all(robot.within_limits(np.radians(array)))):
+        raise InvalidParameterError(
+            f"{option}: joint values {np.round(array, 2).tolist()} look like degrees: radians expected "
+            f"(in radians {np.round(np.radians(array), 4).tolist()}, within the limits of {robot.name})")
+    return array
 
 
 def trajectory_summary(exported: dict[str, dict[str, Any]]) -> str:
@@ -438,7 +526,13 @@ def planning_options(p: argparse.ArgumentParser, out_default: str | None = "clam
     p.add_argument("--sigma-obs", type=number, default=None, metavar="M",
                    help=f"obstacle hinge noise [m] (default {defaults.model.sigma_obs})")
     p.add_argument("--epsilon", type=number, default=None, metavar="M",
-                   help=f"obstacle safety distance [m] (default {defaults.model.epsilon})")
+                   help=f"soft safety distance [m]: the obstacle factors push the arm this far from "
+                        f"obstacles where the skill allows; not a guarantee (default "
+                        f"{defaults.model.epsilon}; see --min-clearance)")
+    p.add_argument("--min-clearance", type=number, default=None, metavar="M",
+                   help=f"required clearance [m]: a plan whose collision geometry comes closer than "
+                        f"this to an obstacle (at or between states) fails, exit 1, and gets no "
+                        f"trajectory (default {defaults.checks.min_clearance}: only a collision fails)")
     p.add_argument("--init", choices=INITIALISATIONS, default=None,
                    help=f"initialisation (default {defaults.optimizer.initialisation})")
     p.add_argument("--optimizer", choices=OPTIMIZERS, default=None,

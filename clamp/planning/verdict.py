@@ -88,6 +88,11 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
     return reasons
 
 
+def _length(value: float, target: Any) -> str:
+    """An error or tolerance of a target in its unit: mm for a position, rad for joints."""
+    return f"{value * 1e3:.4g} mm" if target.kind == "position" else f"{value:.4g} rad"
+
+
 def plan_inputs(model: Model) -> PlanInputs:
     """What ``model`` was asked, for ``PlanResult.inputs`` (:func:`clamp.replan` plans it again):
     start, goal and via points as the request's validated values."""
@@ -149,13 +154,15 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
     if not np.isfinite(out.final_error):
         reasons.append("optimisation diverged (non-finite error)")
     if start_error > checks.start_tolerance:
-        reasons.append(f"start error {start_error:.4g} exceeds {checks.start_tolerance:.4g}")
+        reasons.append(f"start error {_length(start_error, start)} exceeds "
+                       f"{_length(checks.start_tolerance, start)}")
     if goal_error is not None and goal_error > checks.goal_tolerance:
-        reasons.append(f"goal error {goal_error:.4g} exceeds {checks.goal_tolerance:.4g}")
-    for (index, _), error in zip(request.vias, via_errors):
+        reasons.append(f"goal error {_length(goal_error, request.goal)} exceeds "
+                       f"{_length(checks.goal_tolerance, request.goal)}")
+    for (index, target), error in zip(request.vias, via_errors):
         if error > checks.via_tolerance:
-            reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
-                           f"{checks.via_tolerance:.4g}")
+            reasons.append(f"via point at state {index}: error {_length(error, target)} exceeds "
+                           f"{_length(checks.via_tolerance, target)}")
     for record in records:                # in check order: collision, self-collision,
         reasons += record.reasons         # limits, constraint families, the skill
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
