@@ -180,7 +180,7 @@ def test_pose_bag_split_at_rests_without_a_pause(tmp_path):
     np.testing.assert_allclose(loaded.positions[0, -1], a[-1], atol=5e-3)
     np.testing.assert_allclose(loaded.positions[1, 0], b[0], atol=5e-3)
     np.testing.assert_allclose(loaded.positions[1, -1], b[-1], atol=5e-3)
-    whole = load_demonstrations([bag, bag], topic="/ee_pose")      # split="bag": as recorded
+    whole = load_demonstrations([bag, bag], topic="/ee_pose", split="bag")      # as recorded
     assert whole.bag_split.count == 2 and whole.bag_split.durations[0] == pytest.approx(time[-1])
 
 
