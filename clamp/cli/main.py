@@ -68,9 +68,13 @@ def _config(args: argparse.Namespace) -> PlannerConfig:
 
 
 def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
-    """Plan and metrics as JSON (arrays as lists; +inf as null), written atomically."""
+    """Plan and metrics as JSON (arrays as lists; +inf as null), written atomically; with the
+    ``trajectory`` record in ``extra``, the nearest contact is dated on both clocks
+    (:func:`on_trajectory_clock`)."""
     data = result.to_dict()
     data.update(extra)
+    if "trajectory" in extra:
+        data["nearest_contact"] = on_trajectory_clock(result, extra["trajectory"])
     atomic_write_text(path, json.dumps(data, indent=1) + "\n", overwrite=True)
 
 
@@ -210,7 +214,8 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
     cannot parameterise, gets none (files of that name left by an earlier run are removed:
     they would pass for this plan's). Returns what the plan JSON records as "trajectory":
     files, retimed, acceleration_limits [rad/s^2] (None when not retimed), jerk_limits [rad/s^3]
-    (None when not jerk-limited), duration [s], error (why there is none)."""
+    (None when not jerk-limited), duration [s], state_times [s] (when the trajectory passes
+    each support state, on its own clock: :func:`state_times`), error (why there is none)."""
     paths = [out / pattern.format(name) for pattern in TRAJECTORY_FILES]
     record: dict[str, Any] = {"files": [], "retimed": retime, "acceleration_limits": None,
                               "jerk_limits": None, "duration": None, "error": None}
@@ -227,7 +232,8 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
         else:
             trajectory.to_json(paths[0], overwrite=True)
             trajectory.to_ros2_json(paths[1], overwrite=True)
-            record.update(files=[path.name for path in paths], duration=trajectory.duration)
+            record.update(files=[path.name for path in paths], duration=trajectory.duration,
+                          state_times=state_times(result.q, trajectory).tolist())
             return record
     else:
         record["error"] = "the plan failed: no executable trajectory"
@@ -235,6 +241,31 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
         path.unlink(missing_ok=True)
     log.warning("plan %r: %s", name, record["error"])
     return record
+
+
+def state_times(q: np.ndarray, trajectory: Any) -> np.ndarray:
+    """When ``trajectory`` (a robots.JointTrajectory of the plan q (T, n) [rad], retimed or not)
+    passes each support state: times (T,) [s] on the trajectory's own clock, matched by the
+    share of the joint-space path length travelled (both follow the same path in order)."""
+    def travelled(points: np.ndarray) -> np.ndarray:
+        steps = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        return steps / steps[-1] if steps[-1] > 0.0 else np.linspace(0.0, 1.0, len(points))
+    return np.interp(travelled(np.asarray(q)), travelled(np.asarray(trajectory.positions)),
+                     np.asarray(trajectory.time_from_start))
+
+
+def on_trajectory_clock(result: PlanResult, record: dict[str, Any]) -> dict[str, Any] | None:
+    """``result.nearest_contact`` (its ``time`` on the skill's clock) with ``trajectory_time``
+    [s] added: the same instant on the executable trajectory's clock (None without a
+    trajectory); None without a contact."""
+    contact = result.nearest_contact
+    if contact is None:
+        return None
+    times = record.get("state_times")
+    index = contact.get("index")
+    moment = None if times is None or index is None else float(
+        np.interp(index, np.arange(len(times)), times))
+    return {**contact, "skill_time": contact.get("time"), "trajectory_time": moment}
 
 
 def load_robot_from_args(args: argparse.Namespace) -> Any:

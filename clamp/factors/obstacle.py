@@ -26,7 +26,7 @@ from clamp.validation import as_array, as_scalar
 
 from robots.contact import collision_reason, describe_contact
 
-from .family import CheckContext, Constraint, ConstraintCheck, Family
+from .family import SKILL_CLOCK, CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
 #: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3)); a query that
@@ -84,9 +84,10 @@ class ObstacleFamily(Family):
         if report.collision and report.fault is None and distance >= 0.0:
             reasons: tuple[str, ...] = (
                 f"clearance {distance * 1e3:.1f} mm below the required min_clearance "
-                f"{required * 1e3:.1f} mm: {describe_contact(report.nearest, report.geometry)}",)
+                f"{required * 1e3:.1f} mm: "
+                f"{describe_contact(report.nearest, report.geometry, SKILL_CLOCK)}",)
         else:
-            reason = collision_reason(report)
+            reason = collision_reason(report, SKILL_CLOCK)
             reasons = () if reason is None else (reason,)
         return ConstraintCheck(cls.name, bool(report.collision), max(0.0, required - distance),
                                reasons, report, clearance=distance, listed=False)
