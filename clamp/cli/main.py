@@ -268,6 +268,13 @@ def on_trajectory_clock(result: PlanResult, record: dict[str, Any]) -> dict[str,
     return {**contact, "skill_time": contact.get("time"), "trajectory_time": moment}
 
 
+def flagged(error: Exception, option: str) -> Exception:
+    """``error`` (a file's error naming the file) as the same kind of error naming ``option``
+    first, the flag the user typed; unchanged when it names a flag already."""
+    text = str(error)
+    return error if text.startswith("--") else type(error)(f"{option}: {text}")
+
+
 def load_robot_from_args(args: argparse.Namespace) -> Any:
     """The robot of ``--robot NAME`` or ``--urdf FILE --end-effector FRAME`` (the arguments
     checked here, the robot loaded by :func:`robots.resolve_robot`, as a batch problem's)."""
@@ -377,7 +384,7 @@ def load_demonstrations_from_args(args: argparse.Namespace, robot: Any) -> Any:
             raise DemonstrationFileError(f"--robot: {' '.join(args.demos)} hold joint-space demonstrations; "
                                          "pass --robot NAME or --urdf FILE --end-effector FRAME (the arm "
                                          "whose forward kinematics gives the end-effector paths)") from None
-        raise
+        raise flagged(exc, "--demos") from None
     if args.num_points is not None:
         demos = demos.resample(args.num_points)
     if args.translate is not None:
@@ -450,7 +457,10 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
         demos = load_demonstrations_from_args(args, robot)
         prior = learn_prior(demos)
     check_reach(robot, np.asarray(prior.mean)[:, :3], "--prior" if args.prior is not None else "--demos")
-    scene = Scene.load(args.scene) if args.scene else None
+    try:
+        scene = Scene.load(args.scene) if args.scene else None
+    except SceneFileError as exc:
+        raise flagged(exc, "--scene") from None
     config = _config(args)
     goal = None if args.goal is None else joint_values(args.goal, "--goal", robot)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])

@@ -70,12 +70,12 @@ def test_start_joints_in_degrees(work):
 def test_unknown_key_in_a_scene_file_names_the_nearest(work):
     result = clamp(["plan", "--robot", "jaco", "--demos", "demos.npz", *START, "--scene", "typo.json",
                     "--out", "out"], work)
-    refused(result, work, "typo.json", "'sise' (did you mean 'size'?)")
+    refused(result, work, "--scene:", "typo.json", "'sise' (did you mean 'size'?)")
 
 
 def test_position_csv_missing_z_says_the_position_header(work):
     result = clamp(["plan", "--robot", "jaco", "--demos", "no_z.csv", *START, "--out", "out"], work)
-    refused(result, work, "no_z.csv", "expected header demo,t,x,y,z", "missing z")
+    refused(result, work, "--demos:", "no_z.csv", "expected header demo,t,x,y,z", "missing z")
 
 
 def test_missing_urdf_names_the_flag(work):
