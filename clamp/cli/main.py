@@ -522,12 +522,13 @@ def _start(args: argparse.Namespace, robot: Any) -> np.ndarray:
 
 def joint_values(values: Sequence[float], option: str, robot: Any) -> np.ndarray:
     """``values`` as an array; a joint configuration (robot.n values other than a position's 3)
-    that looks like degrees (beyond one turn, and within the joint limits once converted to
-    radians) is refused naming ``option``: radians expected."""
+    that looks like degrees (beyond two turns, which a continuous joint in radians may pass
+    one of, and within the joint limits once converted to radians) is refused naming
+    ``option``: radians expected."""
     array = np.array(values, dtype=float)
     if len(array) != robot.n or (len(array) == 3 and option != "--start-joints"):
         return array
-    if np.max(np.abs(array)) > 2.0 * np.pi and bool(np.all(robot.within_limits(np.radians(array)))):
+    if np.max(np.abs(array)) > 4.0 * np.pi and bool(np.all(robot.within_limits(np.radians(array)))):
         raise InvalidParameterError(
             f"{option}: joint values {np.round(array, 2).tolist()} look like degrees: radians expected "
             f"(in radians {np.round(np.radians(array), 4).tolist()}, within the limits of {robot.name})")

@@ -106,3 +106,16 @@ def test_a_plan_failing_its_verdict_under_quiet_says_why_on_stderr(work):
     record = json.loads((work / "failed" / "plan.json").read_text())
     assert not record["success"] and lines[0].endswith(record["reasons"][0])
     assert not list((work / "failed").glob("trajectory_*"))
+
+
+def test_joint_demonstrations_in_degrees(work, jaco):
+    """A joint-space CSV recorded in degrees: radians expected, naming --demos and the file."""
+    from scenes import load_demonstrations
+    q = jaco.ik_trajectory(load_demonstrations(work / "demos.npz").positions[0], seed=jaco.ik(
+        load_demonstrations(work / "demos.npz").positions[0, 0]).q).q
+    rows = ["demo,t," + ",".join(jaco.joint_names)]
+    for m in range(2):
+        rows += [f"{m},{0.1 * k}," + ",".join(f"{v:.6f}" for v in np.degrees(row)) for k, row in enumerate(q)]
+    (work / "degrees.csv").write_text("\n".join(rows) + "\n")
+    result = clamp(["plan", "--robot", "jaco", "--demos", "degrees.csv", *START, "--out", "out"], work)
+    refused(result, work, "--demos:", "degrees.csv", "look like degrees: radians expected")
