@@ -199,6 +199,12 @@ class ConstraintConfig:
 class CheckConfig:
     """Tolerances of the verdict (``PlanResult.success``)."""
 
+    #: [m] required clearance: a plan whose robot collision geometry comes closer than this to
+    #: an obstacle (at or between states) fails its verdict, and the solve treats it as a
+    #: violated constraint; 0: only a collision fails (``ModelConfig.epsilon`` is the soft
+    #: safety distance the obstacle factors aim for, not a guarantee)
+    min_clearance: float = 0.0
+
     #: [m] end-effector start (or [rad] joint start) error
     start_tolerance: float = 1e-3
     #: [m] end-effector goal (or [rad] joint goal) error
@@ -332,7 +338,7 @@ class PlannerConfig:
         if c.acceleration_limit is not None:
             as_scalar(c.acceleration_limit, "config.checks.acceleration_limit",
                       strictly_positive=True)
-        for name in ("limit_tolerance", "velocity_tolerance"):
+        for name in ("min_clearance", "limit_tolerance", "velocity_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", minimum=0.0)
         for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance",
                      "rotation_tolerance"):

@@ -92,12 +92,13 @@ def time_at(index: float, time: np.ndarray | None) -> float | None:
     return float(time[i] + (index - i) * (time[i + 1] - time[i])) if i < T - 1 else float(time[i])
 
 
-def describe_contact(contact: Contact, geometry: str = "urdf") -> str:
+def describe_contact(contact: Contact, geometry: str = "urdf", clock: str = "t") -> str:
     """One phrase naming both sides, where and how far, e.g. "link j2s6s200_link_finger_tip_1
     1.2 mm inside box_0 at state 12.25 (t = 3.10 s), on the URDF collision geometry" (an
     obstacle; geometry: "urdf" or "spheres", what was measured) or "j2s6s200_link_1 and
-    j2s6s200_link_6 overlap by 27.9 mm at state 245.25 (t = 39.24 s)" (self-collision)."""
-    when = "" if contact.time is None else f" (t = {contact.time:.2f} s)"
+    j2s6s200_link_6 overlap by 27.9 mm at state 245.25 (t = 39.24 s)" (self-collision); ``clock``
+    names the time ("skill time t" for a plan's support states)."""
+    when = "" if contact.time is None else f" ({clock} = {contact.time:.2f} s)"
     depth = contact.distance * 1000.0
     if contact.is_self:
         return f"{contact.link} and {contact.other} overlap by {-depth:.1f} mm at state {contact.index:.2f}{when}"
@@ -108,7 +109,7 @@ def describe_contact(contact: Contact, geometry: str = "urdf") -> str:
     return f"link {contact.link} {how} {contact.other} at state {index}{when}, on {source}"
 
 
-def collision_reason(report: Any) -> str | None:
+def collision_reason(report: Any, clock: str = "t") -> str | None:
     """The verdict's reason when ``report`` (a CollisionReport or a SelfCollisionReport) found a
     collision, else None: "collision: ..." / "self-collision: ...; N support states in
     collision" with :func:`describe_contact`, or "collision check failed: ..." (a fault)."""
@@ -121,7 +122,7 @@ def collision_reason(report: Any) -> str | None:
     if contact is None:
         return None
     if not contact.is_self:
-        return f"collision: {describe_contact(contact, report.geometry)}"
+        return f"collision: {describe_contact(contact, report.geometry, clock)}"
     count = int(report.states_in_collision.sum())
-    return (f"self-collision: {describe_contact(contact, report.geometry)}; {count} support "
+    return (f"self-collision: {describe_contact(contact, report.geometry, clock)}; {count} support "
             f"state{'s' if count != 1 else ''} in collision")

@@ -30,6 +30,18 @@ file format, and ``clamp`` refuses a prior beyond the arm's reach naming the lik
 
 Splitting (``split``):
 
+* ``"auto"`` (default): one demonstration per bag, unless the bag holds rests that separate
+  motions which repeat. A rest is judged against the recording's own motion, not a fixed
+  speed or duration (:func:`auto_rests`): the arm slower than :data:`AUTO_REST_FRACTION` of
+  the recording's 95th-percentile speed (and than three times its speed while stillest, the
+  noise), for at least :data:`AUTO_REST_SHARE` of the median motion between such slow runs;
+  a jump between two messages far beyond the recording's steps counts as a rest too (a
+  recording concatenated or restarted). The bag is cut there only when the motions repeat:
+  each starts where the others start and ends where they end (closer than
+  :data:`AUTO_REPEAT_TOLERANCE` of their extent); otherwise (a deliberate pause inside one
+  demonstration, a move back to the start between two) it stays one demonstration. Then
+  ``"auto"`` keeps every motion whole: from the last still sample before it to the first
+  still sample after it.
 * ``"bag"``: one demonstration per bag, as recorded;
 * ``"rest"``: each bag is cut at its rest phases: the end effector's speed (from the positions
   smoothed and differentiated as ``smoothing=`` says, :mod:`scenes.smoothing`) below
@@ -41,6 +53,10 @@ Splitting (``split``):
   pause the recording for it, or record one bag per demonstration. The defaults keep the slow
   deliberate motions of the recorded box_closing set (a 3 s pause below 5 mm/s in every
   demonstration) in one piece.
+
+Whatever the split, a demonstration lasting over :data:`LONG_DEMONSTRATION` times the median
+of the others is warned about (it may hold several), with the cut :func:`auto_rests` would
+suggest. The split is always logged (INFO; ``clamp`` prints it).
 
 The quaternions are checked and repaired as :mod:`scenes.quaternions` says (not unit: an error
 naming the bag and the message; sign flips made continuous; a turn faster than 2 pi rad/s: a
@@ -78,7 +94,19 @@ log = logging.getLogger(__name__)
 #: storage files rosbags reads without their metadata.yaml
 BAG_SUFFIXES = (".mcap", ".db3")
 #: the ``split`` choices (module docstring)
-SPLITS = ("bag", "rest")
+SPLITS = ("auto", "bag", "rest")
+#: split "auto": a rest is slower than this fraction of the recording's 95th-percentile speed
+AUTO_REST_FRACTION = 0.002
+#: split "auto": ... and lasts at least this share of the median motion between slow runs
+AUTO_REST_SHARE = 0.2
+#: split "auto": motions repeat when any two of their starts (and of their ends) lie closer than
+#: this share of their median extent (largest distance from their start)
+AUTO_REPEAT_TOLERANCE = 0.6
+#: a step between two messages longer than this many times the recording's 95th-percentile
+#: step is a jump (no motion): a boundary like a rest
+JUMP_FACTOR = 20.0
+#: a demonstration lasting more than this many times the median of the others is warned about
+LONG_DEMONSTRATION = 3.0
 #: default end-effector speed [m/s] below which the arm counts as resting
 REST_SPEED = 0.002
 #: default shortest rest [s] that separates two demonstrations
@@ -141,15 +169,16 @@ def is_bag(path: Any) -> bool:
 
 
 def load_bag_demonstrations(paths: str | Path | Sequence[str | Path], topic: str, *,
-                            robot: Any = None, split: str = "bag", frames: Sequence[str] | None = None,
+                            robot: Any = None, split: str = "auto", frames: Sequence[str] | None = None,
                             rest_speed: float = REST_SPEED, rest_duration: float = REST_DURATION,
                             smoothing: str = "auto") -> Demonstrations:
     """Demonstrations from one or more ROS 2 bags (folders or bare .mcap / .db3 files; see the
     module docstring).
 
     topic: the topic to read (JointState, PoseStamped or TFMessage). robot: a robots.Robot,
-    needed for JointState (forward kinematics). split: "bag" (one demonstration per bag) or
-    "rest" (cut at rests and pauses). frames: (parent, child) of the transform read from a
+    needed for JointState (forward kinematics). split: "auto" (one demonstration per bag unless
+    its rests separate repeated motions), "bag" (one demonstration per bag) or "rest" (cut at
+    rests and pauses of ``rest_speed`` and ``rest_duration``). frames: (parent, child) of the transform read from a
     TFMessage topic. rest_speed [m/s], rest_duration [s]: what counts as a rest (split "rest").
     smoothing: how velocities are estimated (:mod:`scenes.smoothing`). The result carries
     ``bag_split`` (:class:`BagSplit`). Raises DemonstrationFileError naming the bag and what is
@@ -172,12 +201,15 @@ def load_bag_demonstrations(paths: str | Path | Sequence[str | Path], topic: str
         recording = _read(bag, topic, robot, frames)
         if split == "bag":
             pieces.append(recording)
+        elif split == "auto":
+            pieces.extend(_split_auto(recording))
         else:
             pieces.extend(_split_at_rests(recording, rest_speed, rest_duration, smoothing))
     record = BagSplit(split, tuple(str(p.bag) for p in pieces),
                       tuple(float(p.stamps[0]) for p in pieces),
                       tuple(float(p.stamps[-1] - p.stamps[0]) for p in pieces))
     log.info("%s: %s", _names(bags), record)
+    _warn_long(pieces)
     name = bags[0].stem
     demos = _assemble(pieces, robot, smoothing, name, bags)
     demos.bag_split = record  # type: ignore[attr-defined]  # the attached record (docstring)
@@ -410,6 +442,129 @@ def _motions(part: _Recording, rest_speed: float, rest_duration: float,
             continue
         out.append(part.part(a, b))
     return out
+
+
+# ------------------------------------------------------------------------------ split "auto"
+@dataclass(frozen=True)
+class AutoRests:
+    """The rests :func:`auto_rests` finds in one recording: ``threshold`` [m/s] (the speed
+    below which the arm is still), ``rests`` [(first, last + 1)] sample runs and ``motions``
+    [(first, last + 1)] the sample runs between them, each from the last still sample before
+    it to the first still sample after it."""
+
+    threshold: float
+    rests: tuple[tuple[int, int], ...]
+    motions: tuple[tuple[int, int], ...]
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """The runs [(a, b)] of True in a boolean array."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2])]
+
+
+def auto_rests(stamps: np.ndarray, positions: np.ndarray) -> AutoRests:
+    """Rests of one recording, stamps (T,) [s] and positions (T, 3) [m], judged against its own
+    motion (module docstring, split "auto"). A step is still when it is a jump (longer than
+    :data:`JUMP_FACTOR` times the 95th-percentile step) or a pause (over 5 times the median
+    interval); a sample's speed is the slower of its two steps, median-filtered over 5 samples
+    (noise). Rests at the recording's ends are rests whatever their length."""
+    from scipy.ndimage import median_filter
+    t = np.asarray(stamps, dtype=float)
+    step = np.linalg.norm(np.diff(positions, axis=0), axis=1)
+    interval = np.diff(t)
+    still = (step > JUMP_FACTOR * max(np.percentile(step, 95), 1e-12)) | (interval > 5 * np.median(interval))
+    velocity = np.where(still, 0.0, step / interval)
+    speed = np.minimum(np.r_[velocity[0], velocity], np.r_[velocity, velocity[-1]])
+    speed = median_filter(speed, size=min(5, len(speed)), mode="nearest")
+    threshold = max(AUTO_REST_FRACTION * np.percentile(speed, 95), 3.0 * np.percentile(speed, 5))
+    slow = _runs(speed <= threshold)
+    jumps = set(np.flatnonzero(still).tolist())
+    moving = _runs(speed > threshold)
+    if not moving:
+        return AutoRests(float(threshold), ((0, len(t)),), ())
+    typical = float(np.median([t[b - 1] - t[a] for a, b in moving]))
+    rests = tuple((a, b) for a, b in slow
+                  if a == 0 or b == len(t) or t[b - 1] - t[a] >= AUTO_REST_SHARE * typical
+                  or any(a - 1 <= k < b for k in jumps))
+    resting = np.zeros(len(t), dtype=bool)
+    for a, b in rests:
+        resting[a:b] = True
+    # the arm still within a rest: its steps no longer than twice the rest's median step
+    # (0 for a recording that holds exactly still, its noise otherwise)
+    level = np.full(len(step), np.inf)
+    for a, b in rests:
+        inside = [k for k in range(a, b - 1) if k not in jumps]
+        level[max(a - 1, 0):b] = 2.0 * np.median(step[inside]) if inside else 0.0
+    motions = []
+    for a, b in _runs(~resting):             # each motion grown into its rests while it moves
+        while a > 0 and resting[a - 1] and (a - 1) not in jumps and step[a - 1] > level[a - 1]:
+            a -= 1
+        while b < len(t) and resting[b] and (b - 1) not in jumps and step[b - 1] > level[b - 1]:
+            b += 1
+        first = a - 1 if a > 0 and (a - 1) not in jumps else a      # the still samples around it
+        last = b + 1 if b < len(t) and (b - 1) not in jumps else b
+        motions.append((first, last))
+    return AutoRests(float(threshold), rests, tuple(motions))
+
+
+def _repeat(pieces: list[_Recording]) -> bool:
+    """Whether motions repeat: two or more, any two of their starts (and of their ends) closer
+    than :data:`AUTO_REPEAT_TOLERANCE` times their median extent (largest distance from
+    their start). A pause inside one demonstration fails it: the motion after the pause starts
+    where the one before it ends."""
+    if len(pieces) < 2:
+        return False
+    extent = np.median([np.linalg.norm(p.positions - p.positions[0], axis=1).max() for p in pieces])
+    for ends in (np.array([p.positions[0] for p in pieces]), np.array([p.positions[-1] for p in pieces])):
+        spread = np.linalg.norm(ends[:, None] - ends[None], axis=2).max()
+        if spread > AUTO_REPEAT_TOLERANCE * extent:
+            return False
+    return bool(extent > 0.0)
+
+
+def _cut(recording: _Recording, runs: Sequence[tuple[int, int]]) -> list[_Recording]:
+    return [_Recording(recording.bag, recording.stamps[a:b], recording.positions[a:b],
+                       None if recording.joints is None else recording.joints[a:b]) for a, b in runs]
+
+
+def _split_auto(recording: _Recording) -> list[_Recording]:
+    """Split "auto" of one recording: its repeated motions, or the recording as it is."""
+    found = auto_rests(recording.stamps, recording.positions)
+    pieces = _cut(recording, found.motions)
+    if _repeat(pieces):
+        return pieces
+    if len(pieces) > 1:
+        log.info("%s: %d motions between rests, which do not repeat (a pause inside one "
+                 "demonstration): kept as one demonstration", recording.bag, len(pieces))
+    return [recording]
+
+
+def _warn_long(pieces: list[_Recording]) -> None:
+    """Warn about a demonstration lasting over :data:`LONG_DEMONSTRATION` times the median of
+    the others, with the cut :func:`auto_rests` suggests."""
+    durations = np.array([p.stamps[-1] - p.stamps[0] for p in pieces])
+    for m, piece in enumerate(pieces):
+        others = np.median(np.delete(durations, m))
+        if len(pieces) < 2 or durations[m] <= LONG_DEMONSTRATION * others:
+            continue
+        found = auto_rests(piece.stamps, piece.positions)
+        t = piece.stamps
+        inner = [(a, b) for a, b in found.rests if 0 < a and b < len(t)]
+        if _repeat(_cut(piece, found.motions)):
+            cut = (f"split 'auto' (clamp: --split auto) cuts it into {len(found.motions)} "
+                   f"repeated motions")
+        elif inner:
+            shortest = np.floor(min(t[b - 1] - t[a] for a, b in inner) * 10) / 10
+            cut = (f"its rests at {', '.join(f'{t[a]:.2f}-{t[b - 1]:.2f} s' for a, b in inner)} "
+                   f"cut it into {len(found.motions)} motions, which do not repeat; if they are "
+                   f"demonstrations, record one bag each or pass split='rest' with "
+                   f"rest_speed={found.threshold:.2g}, rest_duration={shortest:g}")
+        else:
+            cut = "it has no rest to cut it at (record one bag per demonstration)"
+        log.warning("demonstration %d (%s @ %.2f s) lasts %.2f s, %.1fx the median %.2f s of the "
+                    "others: it may hold several demonstrations; %s", m, piece.bag.name, t[0],
+                    durations[m], durations[m] / others, others, cut)
 
 
 # ------------------------------------------------------------------------------ assembly

@@ -78,11 +78,11 @@ CSV_HEADERS = tuple(CSV_COLUMNS + v + o for o in ((), CSV_ORIENTATION_COLUMNS)
 
 def load_demonstrations(path: str | Path | Sequence[str | Path], scenes: Sequence[Any] | None = None,
                         *, robot: Any = None, smoothing: str = "auto", topic: str | None = None,
-                        split: str = "bag", frames: Sequence[str] | None = None) -> Demonstrations:
+                        split: str = "auto", frames: Sequence[str] | None = None) -> Demonstrations:
     """Read demonstrations from a .mat (CLAMP or TLGC), .npz or .csv file, or from ROS 2 bags.
 
     ROS 2 bags: ``path`` is a bag (its folder, or a bare .mcap / .db3 file) or a list of bags;
-    ``topic`` (required), ``split`` ("bag" or "rest") and ``frames`` ((parent, child) for a /tf
+    ``topic`` (required), ``split`` ("auto", "bag" or "rest") and ``frames`` ((parent, child) for a /tf
     topic) are passed to :func:`scenes.bags.load_bag_demonstrations` (its defaults for what
     counts as a rest). ``topic``, ``split`` and ``frames`` are for bags only.
 
@@ -103,7 +103,7 @@ def load_demonstrations(path: str | Path | Sequence[str | Path], scenes: Sequenc
                                         smoothing=smoothing)
         return _with_scenes(demos, scenes, _shown(path))
     bag_options = {k: v for k, v in (("topic", topic), ("frames", frames)) if v is not None}
-    if split != "bag":
+    if split != "auto":
         bag_options["split"] = split
     if bag_options:
         raise ScenesTypeError(f"{', '.join(bag_options)}: only for ROS 2 bags (a folder with "
@@ -446,6 +446,15 @@ def _read_csv(path: Path) -> tuple[tuple[str, ...], np.ndarray]:
 def _load_csv(path: Path, robot: Any, smoothing: str) -> Demonstrations:
     header, table = _read_csv(path)
     workspace = header in CSV_HEADERS
+    positional = set(header[2:]) & set(CSV_COLUMNS[2:] + CSV_VELOCITY_COLUMNS
+                                       + CSV_ORIENTATION_COLUMNS)
+    if not workspace and positional:        # position columns, robot or not: say their header
+        missing = [c for c in CSV_COLUMNS if c not in header]
+        raise DemonstrationFileError(f"{path}: expected header {','.join(CSV_COLUMNS)}"
+                                     f"[,{','.join(CSV_VELOCITY_COLUMNS)}]"
+                                     f"[,{','.join(CSV_ORIENTATION_COLUMNS)}] for end-effector "
+                                     f"positions, got {','.join(header)!r}"
+                                     + (f" (missing {', '.join(missing)})" if missing else ""))
     if header[:2] != CSV_COLUMNS[:2] or (not workspace and robot is None):
         if header[:2] == CSV_COLUMNS[:2] and len(header) > 2 and "x" not in header:
             _needs_robot(path, robot, f"the columns {','.join(header[2:])!r}")

@@ -52,6 +52,17 @@ def column_order(columns: Sequence[str], robot: Any, where: str) -> np.ndarray:
     return np.array([list(columns).index(n) for n in names])
 
 
+def _radians(robot: Any, q: np.ndarray, where: str) -> None:
+    """Refuse joint values (T, n) that look like degrees: beyond two turns (a continuous joint
+    in radians may pass one), and within the robot's joint limits once converted to radians
+    (InvalidDemonstrationsError naming them)."""
+    within = getattr(robot, "within_limits", None)
+    if np.max(np.abs(q)) > 4.0 * np.pi and within is not None and bool(np.all(within(np.radians(q)))):
+        raise _E(f"{where}: joint values up to {np.max(np.abs(q)):.1f} look like degrees: radians "
+                 f"expected (converted, every value is within the limits of "
+                 f"{getattr(robot, 'name', 'the robot')})")
+
+
 def from_joint_trajectories(robot: Any, joint_trajectories: Sequence[Any],
                             times: Sequence[Any], smoothing: str = "auto",
                             name: str = "") -> Demonstrations:
@@ -73,6 +84,7 @@ def from_joint_trajectories(robot: Any, joint_trajectories: Sequence[Any],
             raise _E(f"joint_trajectories[{m}]: expected shape (T_m >= 2, {n}) for the joints "
                      f"{list(robot.joint_names)}, got {q.shape}")
         t = as_time(t, f"times[{m}]", len(q), _E)
+        _radians(robot, q, f"joint_trajectories[{m}]")
         q, qdot = smooth_trajectory(t, q, smoothing, f"{name or 'demonstrations'}[{m}] joints",
                                     unit="rad")
         kinematics = robot.ee_kinematics(q, qdot, jacobians=False)

@@ -38,7 +38,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .errors import InvalidObstacleError
-from skillplan.validation import MAX_COORDINATE, as_array, as_points, as_scalar, as_vector
+from skillplan.validation import MAX_COORDINATE, as_array, as_points, as_scalar, as_vector, unknown_names
 
 
 def _frozen(arr: np.ndarray) -> np.ndarray:
@@ -487,13 +487,14 @@ def obstacle_from_dict(data: Any, where: str = "obstacle") -> Obstacle:
         except InvalidObstacleError as exc:
             raise InvalidObstacleError(f"{where}.reference: {exc}") from None
     required, optional = _REQUIRED[kind], _OPTIONAL[kind]
+    extra = fields.keys() - required - optional
+    if extra:
+        raise InvalidObstacleError(f"{where}: unknown {kind} field(s) "
+                                   f"{unknown_names(extra, required | optional)}; "
+                                   f"expected {sorted(required | optional)}")
     missing = required - fields.keys()
     if missing:
         raise InvalidObstacleError(f"{where}: {kind} is missing field(s) {sorted(missing)}")
-    extra = fields.keys() - required - optional
-    if extra:
-        raise InvalidObstacleError(f"{where}: unknown {kind} field(s) {sorted(extra)}; "
-                                   f"expected {sorted(required | optional)}")
     try:
         return OBSTACLE_TYPES[kind](**fields)
     except InvalidObstacleError as exc:

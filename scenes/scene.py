@@ -50,7 +50,8 @@ from .nearest import Nearest
 from .obstacles import OBSTACLE_TYPES, Obstacle, as_coords, obstacle_from_dict
 from .point_cloud import PointCloud
 from .sdf import DEFAULT_CELL_SIZE, SignedDistanceField, check_cell_size
-from skillplan.validation import MAX_COORDINATE, as_bounds, as_instance, as_path, as_scalar, as_sequence
+from skillplan.validation import (MAX_COORDINATE, as_bounds, as_instance, as_path, as_scalar, as_sequence,
+                                 unknown_names)
 
 #: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3))
 DistanceQuery = Callable[[Any], tuple[np.ndarray, np.ndarray]]
@@ -188,7 +189,8 @@ class Scene:
             raise SceneFileError(f"{source}: expected a JSON object with 'obstacles', got {type(data).__name__}")
         extra = data.keys() - {"bounds", "obstacles", "name", "description"}
         if extra:
-            raise SceneFileError(f"{source}: unknown field(s) {sorted(extra)}; "
+            raise SceneFileError(f"{source}: unknown field(s) "
+                                 f"{unknown_names(extra, ('bounds', 'obstacles', 'name', 'description'))}; "
                                  "expected 'obstacles', 'bounds' (and optional 'name', 'description')")
         raw = data.get("obstacles", [])
         if not isinstance(raw, list):

@@ -322,3 +322,15 @@ def as_file(x: Any, name: str, error: type[ValueError],
     if not path.is_file():
         raise error(f"{name}: {path} does not exist (no such file)")
     return path
+
+
+def unknown_names(unknown: Any, valid: Any) -> str:
+    """The unknown keys of a file, each with the nearest valid one when there is a close one
+    (``difflib``): "'sise' (did you mean 'size'?), 'colour'"."""
+    import difflib
+    valid = sorted(valid)
+    out = []
+    for name in sorted(unknown):
+        close = difflib.get_close_matches(str(name), valid, n=1, cutoff=0.6)
+        out.append(f"{name!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+    return ", ".join(out)

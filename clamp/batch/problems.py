@@ -46,7 +46,7 @@ from typing import Any
 
 from clamp.errors import ClampTypeError, ClampError
 from clamp.validation import as_bool
-from skillplan.validation import as_file, as_path, as_sequence
+from skillplan.validation import as_file, as_path, as_sequence, unknown_names
 from skillplan.command_line import atomic_write_text
 
 FORMAT = "clamp-problem"
@@ -109,7 +109,8 @@ def _prior_spec(value: Any, where: str) -> _Frozen:
     kind = kinds[0]
     extra = spec.keys() - {kind, *_PRIOR_KINDS[kind]}
     if extra:
-        raise ProblemFormatError(f"{where}: unknown field(s) {sorted(extra)} for a {kind!r} prior")
+        raise ProblemFormatError(f"{where}: unknown field(s) "
+                                 f"{unknown_names(extra, {kind, *_PRIOR_KINDS[kind]})} for a {kind!r} prior")
     if not isinstance(spec[kind], str) or not spec[kind]:
         raise ProblemFormatError(f"{where}.{kind}: expected a non-empty string, got {spec[kind]!r}")
     if kind == "skill":
@@ -134,7 +135,8 @@ def _robot_spec(value: Any, where: str) -> _Frozen:
                                  f"'end_effector': FRAME}}, got fields {sorted(spec)}")
     extra = spec.keys() - {"urdf", "end_effector", "base_frame"}
     if extra:
-        raise ProblemFormatError(f"{where}: unknown field(s) {sorted(extra)}")
+        raise ProblemFormatError(f"{where}: unknown field(s) "
+                                 f"{unknown_names(extra, ('urdf', 'end_effector', 'base_frame'))}")
     spec.setdefault("base_frame", None)
     for key in ("urdf", "end_effector"):
         if not isinstance(spec[key], str) or not spec[key]:
@@ -188,7 +190,7 @@ class Problem:
         data = _object(data, source)
         extra = data.keys() - set(_FIELDS)
         if extra:
-            raise ProblemFormatError(f"{source}: unknown field(s) {sorted(extra)}; expected "
+            raise ProblemFormatError(f"{source}: unknown field(s) {unknown_names(extra, _FIELDS)}; expected "
                                      f"{', '.join(_FIELDS)}")
         if data.get("format", FORMAT) != FORMAT or data.get("version", VERSION) != VERSION:
             raise ProblemFormatError(f"{source}: expected format {FORMAT!r} version {VERSION}, "

@@ -113,15 +113,17 @@ def summary_table(summary: dict[str, Any]) -> str:
                                     f"{missing}")
     n = summary["problems"]
     status = ", ".join(f"{k} {v}" for k, v in sorted(summary["status"].items()))
-    lines = [f"problems          {n}  ({status})",
-             f"success           {summary['success']} / {n}  ({100 * summary['success_rate']:.1f} %)"]
+    rate = f"  ({100 * summary['success_rate']:.1f} %)" if n else ""
+    lines = [f"problems          {n}  ({status})" if n else "problems          0",
+             f"success           {summary['success']} / {n}{rate}"]
     if summary["feasible"]:
         lines.append(f"feasible solved   {summary['feasible_success']} / {summary['feasible']}  "
                      f"({100 * summary['feasible_success'] / summary['feasible']:.1f} %)")
     if summary["impossible"]:
         lines.append(f"impossible failed {summary['impossible_failed']} / {summary['impossible']}")
-    lines.append(f"plan time         median {1e3 * summary['median_s']:.1f} ms, "
-                 f"p95 {1e3 * summary['p95_s']:.1f} ms")
+    if np.isfinite(summary["median_s"]):
+        lines.append(f"plan time         median {1e3 * summary['median_s']:.1f} ms, "
+                     f"p95 {1e3 * summary['p95_s']:.1f} ms")
     if summary["reasons"]:
         lines.append("failure reasons (problems naming each):")
         lines += [f"  {count:6d}  {key}" for key, count in summary["reasons"].items()]

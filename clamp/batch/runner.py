@@ -362,6 +362,11 @@ def plan_many(problems: Iterable[Problem], executor: Any = None, *,
     results = ResultsFile(out) if owned else out    # checked and locked before any work
     try:
         todo = pending_problems(problems, results)
+        if results is not None and len(todo) < len(problems):
+            # a rerun: say what is left, so an empty result is not mistaken for a batch of none
+            (log.warning if not todo else log.info)(
+                "%d new problems; %d already in %s", len(todo), len(problems) - len(todo),
+                results.path)
         folder = _trajectory_mode(trajectories)
         want_trajectory = not (folder is None and trajectories == "none")
         runner, finish = _runner(executor)

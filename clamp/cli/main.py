@@ -31,6 +31,7 @@ from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError, PriorFileError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.planning.planner import plan
+from clamp.planning.reach import check_reach
 from clamp.planning.result import PlanResult
 from clamp.cli.batch import add_batch_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
@@ -39,12 +40,12 @@ from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, ato
                                  save_figure)
 from skillplan.progress import progress
 from robots.retiming import DEFAULT_ACCELERATION_LIMIT
-from robots.errors import RetimingError
+from robots.errors import RetimingError, RobotError
 from robots import available_robots, resolve_robot
 from clamp.prior.learning import learn_prior
 from clamp.prior.linear_gaussian import WorkspacePrior
 from scenes import Box, Scene, load_demonstrations, make_demonstrations
-from scenes.bags import is_bag
+from scenes.bags import SPLITS, is_bag
 from scenes.errors import DemonstrationFileError, SceneFileError
 from skillplan.validation import as_file
 
@@ -58,7 +59,7 @@ TRAJECTORY_FILES = ("trajectory_{}.json", "trajectory_{}_ros2.json")
 def _config(args: argparse.Namespace) -> PlannerConfig:
     """PlannerConfig() (PlannerConfig.fast() with --fast) with the options given on the command
     line; an option left out keeps the Python API's default."""
-    given = {"epsilon": args.epsilon, "initialisation": args.init,
+    given = {"epsilon": args.epsilon, "min_clearance": args.min_clearance, "initialisation": args.init,
              "max_iterations": args.max_iterations, "optimizer": args.optimizer,
              "sigma_obs": args.sigma_obs}
     changes = {name: value for name, value in given.items() if value is not None}
@@ -67,25 +68,67 @@ def _config(args: argparse.Namespace) -> PlannerConfig:
 
 
 def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
-    """Plan and metrics as JSON (arrays as lists; +inf as null), written atomically."""
+    """Plan and metrics as JSON (arrays as lists; +inf as null), written atomically; with the
+    ``trajectory`` record in ``extra``, the nearest contact is dated on both clocks
+    (:func:`on_trajectory_clock`)."""
     data = result.to_dict()
     data.update(extra)
+    if "trajectory" in extra:
+        data["nearest_contact"] = on_trajectory_clock(result, extra["trajectory"])
     atomic_write_text(path, json.dumps(data, indent=1) + "\n", overwrite=True)
 
 
-def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
-    """Plain-text table: one row per plan."""
-    head = (f"{'plan':<22} {'ok':<4} {'iters':>5} {'build s':>8} {'opt s':>7} {'final err':>10} "
-            f"{'clear mm':>9} {'start mm':>9} {'log-lik':>10} {'plaus':>7}  reasons")
+def _mm(value: float | None) -> str:
+    """A length [m] in mm for the summary ("-" for none, "inf" without obstacles)."""
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return "-"
+    return "inf" if not np.isfinite(value) else f"{value * 1e3:.1f}"
+
+
+def summary_table(rows: Sequence[tuple[str, PlanResult]],
+                  exported: dict[str, dict[str, Any]] | None = None, verbose: bool = False) -> str:
+    """Plain-text table, one row per plan: its verdict, clearance [mm] (on the robot's collision
+    geometry), end error [mm] (from where the demonstrations end; without a goal) and goal
+    error [mm] (or rad for a joint goal), orientation error [deg] where one was asked, the time
+    scale k (the plan lasts k times the skill), the executable trajectory's duration [s] on its
+    own clock (``exported[name]["duration"]``: "-" when none was written) and the reasons.
+    ``verbose`` adds the solver's figures: iterations, build and optimisation time [s], the
+    final graph error and the log-likelihood [nats], the plausibility."""
+    head = (f"{'plan':<22} {'verdict':<8} {'clear mm':>8} {'end mm':>7} {'goal mm':>7} "
+            f"{'orient deg':>10} {'k':>5} {'traj s':>7}")
+    if verbose:
+        head += f" {'iters':>5} {'build s':>8} {'opt s':>7} {'final err':>10} {'log-lik':>10} {'plaus':>6}"
+    head += "  reasons"
     lines = [head, "-" * len(head)]
+    exported = exported or {}
     for name, r in rows:
-        clearance = "inf" if not np.isfinite(r.min_clearance) else f"{r.min_clearance * 1e3:.1f}"
-        lines.append(f"{name:<22} {'yes' if r.success else 'no':<4} {r.iterations:>5} "
-                     f"{r.timings['build']:>8.3f} {r.timings['optimize']:>7.3f} "
-                     f"{r.final_error:>10.4g} {clearance:>9} {r.start_error * 1e3:>9.3f} "
-                     f"{r.log_likelihood:>10.4g} {r.plausibility:>7.3f}  "
-                     f"{'; '.join(r.reasons)}")
+        orientation = r.violations.get("orientation")
+        duration = exported.get(name, {}).get("duration")
+        line = (f"{name:<22} {'success' if r.success else 'FAILED':<8} {_mm(r.min_clearance):>8} "
+                f"{_mm(r.skill.get('end_distance')):>7} {_goal(r):>7} "
+                f"{'-' if orientation is None else f'{np.degrees(orientation):.1f}':>10} "
+                f"{r.time_scale:>5.2f} {'-' if duration is None else f'{duration:.2f}':>7}")
+        if verbose:
+            line += (f" {r.iterations:>5} {r.timings['build']:>8.3f} {r.timings['optimize']:>7.3f} "
+                     f"{r.final_error:>10.4g} {r.log_likelihood:>10.4g} {r.plausibility:>6.3f}")
+        lines.append(line + f"  {'; '.join(r.reasons)}")
     return "\n".join(lines)
+
+
+def _goal(result: PlanResult) -> str:
+    """The goal error in mm, or in rad (suffix "r") for a joint goal; "-" without a goal."""
+    goal = None if result.inputs is None else result.inputs.goal
+    if result.goal_error is None or goal is None:
+        return "-"
+    return _mm(result.goal_error) if np.size(goal) == 3 else f"{result.goal_error:.4f}r"
+
+
+def report_failures(args: argparse.Namespace, rows: Sequence[tuple[str, PlanResult]]) -> None:
+    """The first reason of every plan that failed its verdict, one line each on stderr (also
+    under -q: exit code 1 says a plan failed, this says why)."""
+    for name, result in rows:
+        if not result.success and result.reasons:
+            print(f"clamp {args.command}: plan {name!r} failed: {result.reasons[0]}", file=sys.stderr)
 
 
 def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
@@ -171,7 +214,8 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
     cannot parameterise, gets none (files of that name left by an earlier run are removed:
     they would pass for this plan's). Returns what the plan JSON records as "trajectory":
     files, retimed, acceleration_limits [rad/s^2] (None when not retimed), jerk_limits [rad/s^3]
-    (None when not jerk-limited), duration [s], error (why there is none)."""
+    (None when not jerk-limited), duration [s], state_times [s] (when the trajectory passes
+    each support state, on its own clock: :func:`state_times`), error (why there is none)."""
     paths = [out / pattern.format(name) for pattern in TRAJECTORY_FILES]
     record: dict[str, Any] = {"files": [], "retimed": retime, "acceleration_limits": None,
                               "jerk_limits": None, "duration": None, "error": None}
@@ -188,7 +232,8 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
         else:
             trajectory.to_json(paths[0], overwrite=True)
             trajectory.to_ros2_json(paths[1], overwrite=True)
-            record.update(files=[path.name for path in paths], duration=trajectory.duration)
+            record.update(files=[path.name for path in paths], duration=trajectory.duration,
+                          state_times=state_times(result.q, trajectory).tolist())
             return record
     else:
         record["error"] = "the plan failed: no executable trajectory"
@@ -196,6 +241,38 @@ def write_trajectory(out: Path, name: str, result: PlanResult, robot: Any,
         path.unlink(missing_ok=True)
     log.warning("plan %r: %s", name, record["error"])
     return record
+
+
+def state_times(q: np.ndarray, trajectory: Any) -> np.ndarray:
+    """When ``trajectory`` (a robots.JointTrajectory of the plan q (T, n) [rad], retimed or not)
+    passes each support state: times (T,) [s] on the trajectory's own clock, matched by the
+    share of the joint-space path length travelled (both follow the same path in order)."""
+    def travelled(points: np.ndarray) -> np.ndarray:
+        steps = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        return steps / steps[-1] if steps[-1] > 0.0 else np.linspace(0.0, 1.0, len(points))
+    return np.interp(travelled(np.asarray(q)), travelled(np.asarray(trajectory.positions)),
+                     np.asarray(trajectory.time_from_start))
+
+
+def on_trajectory_clock(result: PlanResult, record: dict[str, Any]) -> dict[str, Any] | None:
+    """``result.nearest_contact`` (its ``time`` on the skill's clock) with ``trajectory_time``
+    [s] added: the same instant on the executable trajectory's clock (None without a
+    trajectory); None without a contact."""
+    contact = result.nearest_contact
+    if contact is None:
+        return None
+    times = record.get("state_times")
+    index = contact.get("index")
+    moment = None if times is None or index is None else float(
+        np.interp(index, np.arange(len(times)), times))
+    return {**contact, "skill_time": contact.get("time"), "trajectory_time": moment}
+
+
+def flagged(error: Exception, option: str) -> Exception:
+    """``error`` (a file's error naming the file) as the same kind of error naming ``option``
+    first, the flag the user typed; unchanged when it names a flag already."""
+    text = str(error)
+    return error if text.startswith("--") else type(error)(f"{option}: {text}")
 
 
 def load_robot_from_args(args: argparse.Namespace) -> Any:
@@ -213,6 +290,9 @@ def load_robot_from_args(args: argparse.Namespace) -> Any:
     if args.end_effector is None:
         raise InvalidParameterError("--end-effector: required with --urdf (the frame to plan "
                                     "for, e.g. the tool or the last link)")
+    as_file(args.urdf, "--urdf", RobotError)
+    if args.spheres is not None:
+        as_file(args.spheres, "--spheres", RobotError)
     return resolve_robot({"urdf": args.urdf, "end_effector": args.end_effector, "package_dirs": args.package_dir,
                           "spheres": args.spheres, "base_frame": args.base_frame})
 
@@ -262,16 +342,18 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
     if not quiet(args):
         print(f"CLAMP demo: skill {args.skill!r} ({demos.M} demonstrations, T = {demos.T}), "
               f"robot {robot.name}, start {np.round(start, 4).tolist()}")
-        print(summary_table(rows))
+        print(summary_table(rows, {"empty scene": exported["empty"], "obstacle": exported["obstacle"]},
+                            verbose=verbose(args)))
         print(trajectory_summary(exported))
         print(f"wrote figures and plans to {out}")
+    report_failures(args, rows[:2])
     return EXIT_OK if all(record["files"] for record in exported.values()) else EXIT_FAILED
 
 
 def check_demonstration_args(args: argparse.Namespace) -> None:
     """The --demos files (or bags) and their options, checked before any output is made."""
     bags = [is_bag(d) for d in args.demos]
-    bag_options = args.topic is not None or args.split != "bag" or args.frames is not None
+    bag_options = args.topic is not None or args.split is not None or args.frames is not None
     if not all(bags) and (len(args.demos) > 1 or bag_options):
         raise DemonstrationFileError(f"--demos: several files, and --topic / --split / --frames, are for "
                                      f"ROS 2 bags (folders with metadata.yaml, .mcap or .db3 files), got "
@@ -293,14 +375,16 @@ def load_demonstrations_from_args(args: argparse.Namespace, robot: Any) -> Any:
         if args.topic is None:                              # a joint-space file needs the arm
             demos = load_demonstrations(args.demos[0], robot=robot)
         else:
-            demos = load_demonstrations(args.demos, robot=robot, topic=args.topic, split=args.split,
-                                        frames=args.frames)
+            demos = load_demonstrations(args.demos, robot=robot, topic=args.topic,
+                                        split=args.split or "auto", frames=args.frames)
+            if not quiet(args):                             # the split, always said
+                print(f"--demos: {demos.bag_split}")
     except DemonstrationFileError as exc:
         if robot is None and "pass robot=" in str(exc):
             raise DemonstrationFileError(f"--robot: {' '.join(args.demos)} hold joint-space demonstrations; "
                                          "pass --robot NAME or --urdf FILE --end-effector FRAME (the arm "
                                          "whose forward kinematics gives the end-effector paths)") from None
-        raise
+        raise flagged(exc, "--demos") from None
     if args.num_points is not None:
         demos = demos.resample(args.num_points)
     if args.translate is not None:
@@ -350,7 +434,7 @@ LEARNING_OPTIONS = {"--topic": "topic", "--frames": "frames", "--num-points": "n
 def run_plan(args: argparse.Namespace) -> int:
     if args.prior is not None:
         given = [option for option, name in LEARNING_OPTIONS.items() if getattr(args, name) is not None]
-        given += ["--split"] if args.split != "bag" else []
+        given += ["--split"] if args.split is not None else []
         if given:
             raise InvalidParameterError(f"{given[0]}: only with --demos (a prior from --prior was learned "
                                         f"with its own settings: give them to clamp learn)")
@@ -372,10 +456,15 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     else:
         demos = load_demonstrations_from_args(args, robot)
         prior = learn_prior(demos)
-    scene = Scene.load(args.scene) if args.scene else None
+    check_reach(robot, np.asarray(prior.mean)[:, :3], "--prior" if args.prior is not None else "--demos")
+    try:
+        scene = Scene.load(args.scene) if args.scene else None
+    except SceneFileError as exc:
+        raise flagged(exc, "--scene") from None
     config = _config(args)
-    goal = None if args.goal is None else np.array(args.goal, dtype=float)
+    goal = None if args.goal is None else joint_values(args.goal, "--goal", robot)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
+    refuse_unstartable(args, result)
     exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime, jerk)}
     source = {"prior": str(args.prior)} if args.prior is not None else {"demos": " ".join(args.demos)}
     write_plan(result, out / "plan.json", robot=robot.name, **source,
@@ -384,23 +473,66 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     _figures(out, prior, demos, robot, config, [("result", result, scene)])
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
+    name = Path(args.prior if args.prior is not None else args.demos[0]).stem
     if not quiet(args):
-        print(summary_table([(Path(args.prior if args.prior is not None else args.demos[0]).stem, result)]))
+        print(summary_table([(name, result)], {name: exported["result"]}, verbose=verbose(args)))
         print(trajectory_summary(exported))
         print(f"wrote figures and plan to {out}")
+    report_failures(args, [(name, result)])
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
+
+
+def verbose(args: argparse.Namespace) -> bool:
+    """True with -v: the summary adds the solver's figures."""
+    return bool(getattr(args, "verbose", 0))
+
+
+#: what a request that can start the plan needs, by the option that asks it
+STARTABLE = {"--goal": "a goal the arm reaches within its joint limits, outside the obstacles",
+             "--start": "a start the arm reaches within its joint limits, clear of the obstacles "
+                        "and of itself",
+             "--start-joints": "a start configuration within the joint limits, clear of the "
+                               "obstacles and of itself"}
+
+
+def refuse_unstartable(args: argparse.Namespace, result: PlanResult) -> None:
+    """A request the planner could not even start (its start or goal out of reach, beyond the
+    joint limits, inside an obstacle or in self-collision: ``stop_reason`` "not started") is bad
+    input: InvalidParameterError naming the option the user typed, what it needs and why."""
+    if result.stop_reason != "not started":
+        return
+    reason = result.reasons[0]
+    option = ("--goal" if reason.startswith(("goal", "via")) else
+              "--start-joints" if args.start_joints is not None else "--start")
+    more = f" (and {len(result.reasons) - 1} more)" if len(result.reasons) > 1 else ""
+    raise InvalidParameterError(f"{option}: {reason}{more}; expected {STARTABLE[option]}")
 
 
 def _start(args: argparse.Namespace, robot: Any) -> np.ndarray:
     """--start x y z (or a configuration), or --start-joints q1 .. qn (the robot's measured
     configuration: exactly one value per joint)."""
     if args.start_joints is None:
-        return np.array(args.start, dtype=float)
+        return joint_values(args.start, "--start", robot)
     if len(args.start_joints) != robot.n:
         raise InvalidParameterError(f"--start-joints: expected {robot.n} joint values [rad] for "
                                     f"{robot.name} ({', '.join(robot.joint_names)}), got "
                                     f"{len(args.start_joints)}")
-    return np.array(args.start_joints, dtype=float)
+    return joint_values(args.start_joints, "--start-joints", robot)
+
+
+def joint_values(values: Sequence[float], option: str, robot: Any) -> np.ndarray:
+    """``values`` as an array; a joint configuration (robot.n values other than a position's 3)
+    that looks like degrees (beyond two turns, which a continuous joint in radians may pass
+    one of, and within the joint limits once converted to radians) is refused naming
+    ``option``: radians expected."""
+    array = np.array(values, dtype=float)
+    if len(array) != robot.n or (len(array) == 3 and option != "--start-joints"):
+        return array
+    if np.max(np.abs(array)) > 4.0 * np.pi and bool(np.all(robot.within_limits(np.radians(array)))):
+        raise InvalidParameterError(
+            f"{option}: joint values {np.round(array, 2).tolist()} look like degrees: radians expected "
+            f"(in radians {np.round(np.radians(array), 4).tolist()}, within the limits of {robot.name})")
+    return array
 
 
 def trajectory_summary(exported: dict[str, dict[str, Any]]) -> str:
@@ -436,7 +568,13 @@ def planning_options(p: argparse.ArgumentParser, out_default: str | None = "clam
     p.add_argument("--sigma-obs", type=number, default=None, metavar="M",
                    help=f"obstacle hinge noise [m] (default {defaults.model.sigma_obs})")
     p.add_argument("--epsilon", type=number, default=None, metavar="M",
-                   help=f"obstacle safety distance [m] (default {defaults.model.epsilon})")
+                   help=f"soft safety distance [m]: the obstacle factors push the arm this far from "
+                        f"obstacles where the skill allows; not a guarantee (default "
+                        f"{defaults.model.epsilon}; see --min-clearance)")
+    p.add_argument("--min-clearance", type=number, default=None, metavar="M",
+                   help=f"required clearance [m]: a plan whose collision geometry comes closer than "
+                        f"this to an obstacle (at or between states) fails, exit 1, and gets no "
+                        f"trajectory (default {defaults.checks.min_clearance}: only a collision fails)")
     p.add_argument("--init", choices=INITIALISATIONS, default=None,
                    help=f"initialisation (default {defaults.optimizer.initialisation})")
     p.add_argument("--optimizer", choices=OPTIMIZERS, default=None,
@@ -487,8 +625,10 @@ def demonstration_options(p: argparse.ArgumentParser) -> None:
     --translate (shared by clamp learn and clamp plan)."""
     p.add_argument("--topic", default=None,
                    help="bags: the topic to read (JointState, PoseStamped or /tf)")
-    p.add_argument("--split", choices=("bag", "rest"), default="bag",
-                   help="bags: one demonstration per bag, or cut at rests (default bag)")
+    p.add_argument("--split", choices=SPLITS, default=None,
+                   help="bags: auto (default): one demonstration per bag unless a bag holds rests "
+                        "separating repeated motions, judged against its own speed and duration; bag: "
+                        "one demonstration per bag; rest: cut at every rest of 2 mm/s for 2 s")
     p.add_argument("--frames", nargs=2, default=None, metavar=("PARENT", "CHILD"),
                    help="bags with --topic /tf: the transform to read")
     p.add_argument("--num-points", type=integer_at_least(2), default=None, metavar="T",

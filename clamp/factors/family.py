@@ -114,6 +114,11 @@ class ConstraintCheck:
         return self.reasons[0] if self.reasons else None
 
 
+#: how the verdict's reasons name a support state's time: on the skill's clock (the
+#: demonstrations' time times the time scale), not the executable trajectory's
+SKILL_CLOCK = "skill time t"
+
+
 @dataclass(frozen=True)
 class CheckContext:
     """What a check (and a lazy family's :meth:`Family.joining`) may use, made by the planner

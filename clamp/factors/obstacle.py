@@ -24,9 +24,9 @@ import numpy as np
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_array, as_scalar
 
-from robots.contact import collision_reason
+from robots.contact import collision_reason, describe_contact
 
-from .family import CheckContext, Constraint, ConstraintCheck, Family
+from .family import SKILL_CLOCK, CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
 #: query(points (..., 3)) -> (signed distance (...,) [m], gradient (..., 3)); a query that
@@ -73,15 +73,24 @@ class ObstacleFamily(Family):
     @classmethod
     def check(cls, context: CheckContext, theta: np.ndarray) -> ConstraintCheck | None:
         """The plan on the robot's collision geometry against the scene (None without
-        obstacles); amount [m]: the deepest penetration."""
+        obstacles): violated by a collision, or a clearance below the required
+        ``config.checks.min_clearance``; amount [m]: how far below that (the deepest
+        penetration when none is required)."""
         report = context.clearance(theta[:, :context.robot.n])
         if report is None:
             return None
-        reason = collision_reason(report)
-        return ConstraintCheck(cls.name, bool(report.collision),
-                               max(0.0, -float(report.min_distance)),
-                               () if reason is None else (reason,), report,
-                               clearance=float(report.min_distance), listed=False)
+        required = float(context.config.checks.min_clearance)
+        distance = float(report.min_distance)
+        if report.collision and report.fault is None and distance >= 0.0:
+            reasons: tuple[str, ...] = (
+                f"clearance {distance * 1e3:.1f} mm below the required min_clearance "
+                f"{required * 1e3:.1f} mm: "
+                f"{describe_contact(report.nearest, report.geometry, SKILL_CLOCK)}",)
+        else:
+            reason = collision_reason(report, SKILL_CLOCK)
+            reasons = () if reason is None else (reason,)
+        return ConstraintCheck(cls.name, bool(report.collision), max(0.0, required - distance),
+                               reasons, report, clearance=distance, listed=False)
 
     def relaxed(self, floor: float) -> "ObstacleFamily | None":
         """A copy with half the safety distance epsilon (at least ``floor`` [m]), or None when

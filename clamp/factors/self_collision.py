@@ -35,7 +35,9 @@ from robots.self_collision import (SPHERE_REACH, SelfCollisionSpheres, self_coll
                                    self_collision_spheres)
 from clamp.validation import as_count, as_scalar
 
-from .family import CheckContext, Constraint, ConstraintCheck, Family
+from robots.contact import collision_reason
+
+from .family import SKILL_CLOCK, CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
 #: |c_a - c_b| below this [m] counts as coincident centres (the direction u is then +x)
@@ -98,7 +100,7 @@ class SelfCollisionFamily(Family):
                                        tolerance=CLEARANCE_TOLERANCE)
         return ConstraintCheck(cls.name, bool(report.collision),
                                max(0.0, -float(report.min_distance)) if report.collision else 0.0,
-                               (report.reason,) if report.collision else (), report,
+                               (collision_reason(report, SKILL_CLOCK),) if report.collision else (), report,
                                listed=False)
 
     @classmethod

@@ -50,10 +50,12 @@ def checker(robot: Any, scene: Any) -> CollisionChecker:
     return found
 
 
-def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | None = None
-                    ) -> CollisionReport | None:
+def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | None = None,
+                    margin: float = 0.0) -> CollisionReport | None:
     """Real-geometry check of q (T, n) [rad] (linear in joint space between states) against the
-    scene; time (T,) [s] only dates the nearest contact. None when the scene has no obstacles."""
+    scene; time (T,) [s] only dates the nearest contact; ``collision`` is a clearance below
+    ``margin`` [m] (the required clearance, ``CheckConfig.min_clearance``; exact below it).
+    None when the scene has no obstacles."""
     if not has_obstacles(scene):
         return None
     def failed(fault: str) -> CollisionReport:
@@ -65,7 +67,7 @@ def check_clearance(robot: Any, scene: Any, q: np.ndarray, time: np.ndarray | No
     except CollisionCheckError as error:          # a collision mesh coal cannot use
         return failed(str(error))
     try:
-        return found.check(q, time, margin=0.0, max_motion=MAX_MOTION, resolution=RESOLUTION)
+        return found.check(q, time, margin=margin, max_motion=MAX_MOTION, resolution=RESOLUTION)
     except CollisionCheckError as error:          # a trajectory too long to subdivide
         return failed(f"the plan could not be checked for collisions: {error}")
 

@@ -309,7 +309,8 @@ def check_context(model: Model, final: bool = False) -> CheckContext:
     return CheckContext(robot, scene, prior, model.reference, model.config, time_,
                         model.problem.num_states, model.request.goal is not None,
                         model.problem.has(ObstacleFamily.name), tuple(model.problem.families),
-                        clearance=lambda q: check_clearance(robot, scene, q, time_),
+                        clearance=lambda q: check_clearance(robot, scene, q, time_,
+                                                            model.config.checks.min_clearance),
                         pusher=lambda path: pusher(scene, reference, path, epsilon), final=final)
 
 

@@ -76,11 +76,16 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
         inside = inside_obstacle(scene, "start", start)
         if inside:
             reasons.append(inside)
-        report = check_clearance(robot, scene, request.q_start[None])
+        required = config.checks.min_clearance
+        report = check_clearance(robot, scene, request.q_start[None], margin=required)
         if report.fault is not None:
             reasons.append(collision_reason(report))
-        elif report.collision:
+        elif report.collision and report.min_distance < 0.0:
             reasons.append("start configuration is in collision: "
+                           + describe_contact(report.nearest, report.geometry))
+        elif report.collision:
+            reasons.append(f"start configuration has clearance {report.min_distance * 1e3:.1f} mm, "
+                           f"below the required min_clearance {required * 1e3:.1f} mm: "
                            + describe_contact(report.nearest, report.geometry))
     return reasons
 
@@ -95,6 +100,11 @@ def rotation_errors(robot: Any, request: Request, q: np.ndarray
             return None
         return float(so3.angle_between(robot.ee_rotation(q[index])[0], target.rotation))
     return error(len(q) - 1, request.goal), [error(i, t) for i, t in request.vias]
+
+
+def _length(value: float, target: Any) -> str:
+    """An error or tolerance of a target in its unit: mm for a position, rad for joints."""
+    return f"{value * 1e3:.4g} mm" if target.kind == "position" else f"{value:.4g} rad"
 
 
 def plan_inputs(model: Model) -> PlanInputs:
@@ -160,13 +170,15 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
     if not np.isfinite(out.final_error):
         reasons.append("optimisation diverged (non-finite error)")
     if start_error > checks.start_tolerance:
-        reasons.append(f"start error {start_error:.4g} exceeds {checks.start_tolerance:.4g}")
+        reasons.append(f"start error {_length(start_error, start)} exceeds "
+                       f"{_length(checks.start_tolerance, start)}")
     if goal_error is not None and goal_error > checks.goal_tolerance:
-        reasons.append(f"goal error {goal_error:.4g} exceeds {checks.goal_tolerance:.4g}")
-    for (index, _), error in zip(request.vias, via_errors):
+        reasons.append(f"goal error {_length(goal_error, request.goal)} exceeds "
+                       f"{_length(checks.goal_tolerance, request.goal)}")
+    for (index, target), error in zip(request.vias, via_errors):
         if error > checks.via_tolerance:
-            reasons.append(f"via point at state {index}: error {error:.4g} exceeds "
-                           f"{checks.via_tolerance:.4g}")
+            reasons.append(f"via point at state {index}: error {_length(error, target)} exceeds "
+                           f"{_length(checks.via_tolerance, target)}")
     named = [("goal", goal_rotation_error)] + [
         (f"via point at state {index}", error)
         for (index, _), error in zip(request.vias, via_rotation_errors)]

@@ -115,7 +115,7 @@ def plot_plan_uncertainty(result: Any, path: str | os.PathLike[str] | None = Non
         ax.plot(result.time, result.ee_path[:, k], color="tab:orange", lw=1.5, label="plan")
         ax.set_ylabel(f"{name} [m]")
     axes[0].legend(loc="best", fontsize=7)
-    axes[-1].set_xlabel("time [s]")
+    axes[-1].set_xlabel("skill time [s]")
     axes[0].set_title(title or f"end-effector position and posterior uncertainty "
                       f"(largest std {1e3 * std.max():.2g} mm)", fontsize=9)
     fig.tight_layout()
@@ -143,7 +143,7 @@ def plot_orientation(result: Any, robot: Any, family: Any,
     ax.axvspan(window[0], window[-1], color="tab:green", alpha=0.12, label="constrained window")
     ax.axhline(np.degrees(family.tolerance), color="tab:red", ls="--", lw=1, label="tolerance")
     ax.plot(result.time, angles, color="tab:blue", lw=1.5, label="angle from target")
-    ax.set_xlabel("time [s]")
+    ax.set_xlabel("skill time [s]")
     ax.set_ylabel("angle [deg]")
     worst = float(np.max(angles[family.first]))
     ax.set_title(title or f"tool orientation (largest in window {worst:.2f} deg)", fontsize=9)
@@ -244,7 +244,7 @@ def plot_joint_angles(result: Any, robot: Any, title: str | None = None) -> Figu
     for ax in axes[n:]:
         ax.axis("off")
     for ax in axes[max(n - cols, 0):n]:
-        ax.set_xlabel("time [s]")
+        ax.set_xlabel("skill time [s]")
         ax.tick_params(labelbottom=True)
     from matplotlib.patches import Patch
     from matplotlib.lines import Line2D
@@ -286,7 +286,7 @@ def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
     ax.scatter(t[k], clearance[k], color="k", s=20, zorder=5,
                label=f"minimum {clearance[k] * 1e3:.1f} mm at {t[k]:.2f} s")
     ax.set_ylim(low, max(cap, epsilon) * 1.1 + 0.01)
-    ax.set_xlabel("time [s]")
+    ax.set_xlabel("skill time [s]")
     ax.set_ylabel("clearance [m]")
     ax.grid(alpha=0.3)
     ax.set_title(title or "distance between the arm and the obstacles", fontsize=10)

@@ -207,7 +207,7 @@ def plot_prior_time(prior: LinearGaussianPrior, demos: object = None, *, level: 
         ax.plot(prior.time, prior.mean[:, k], color="tab:blue", lw=1.8, label="prior mean")
         ax.set_ylabel(f"{prior.state_names[k]} [{unit[k // A]}]")
         if k // A == 1:
-            ax.set_xlabel("time [s]")
+            ax.set_xlabel("skill time [s]")
     axes[0, 0].legend(fontsize=7, loc="best")
     fig.suptitle(title or f"{prior.kind} prior against time")
     return _finish(fig, path, dpi)

@@ -180,7 +180,7 @@ def test_pose_bag_split_at_rests_without_a_pause(tmp_path):
     np.testing.assert_allclose(loaded.positions[0, -1], a[-1], atol=5e-3)
     np.testing.assert_allclose(loaded.positions[1, 0], b[0], atol=5e-3)
     np.testing.assert_allclose(loaded.positions[1, -1], b[-1], atol=5e-3)
-    whole = load_demonstrations([bag, bag], topic="/ee_pose")      # split="bag": as recorded
+    whole = load_demonstrations([bag, bag], topic="/ee_pose", split="bag")      # as recorded
     assert whole.bag_split.count == 2 and whole.bag_split.durations[0] == pytest.approx(time[-1])
 
 
@@ -347,3 +347,65 @@ def test_clamp_plan_learns_from_bags(tmp_path, jaco):
                  "--out", str(out), "-q"]) == 0
     plan_json = json.loads((out / "plan.json").read_text())
     assert plan_json["success"]
+
+
+# ------------------------------------------------------------------------------ split "auto"
+def _chained_bag(path: Path, robot, q, dt: float, rest: float) -> Path:
+    """One JointState bag of the recordings q (K, T, n) at interval dt [s], one after the other,
+    each followed by ``rest`` s of the arm holding still at its end (the next starts at once)."""
+    hold = int(round(rest / dt))
+    joints = np.concatenate([np.concatenate([qk, np.repeat(qk[-1:], hold, axis=0)]) for qk in q])
+    return joint_bag(path, robot, np.arange(len(joints)) * dt, joints, seed=7)
+
+
+def test_auto_split_finds_the_demonstrations_of_a_bag_separated_by_short_rests(jaco, tmp_path, caplog):
+    """Acceptance (issue 38): a bag of 5 demonstrations separated by 1.5 s rests at 46 Hz plus 5
+    single-demonstration bags: the default split finds 10 demonstrations, and the prior is the
+    one learned from the same data as 10 arrays (mean within 1 mm)."""
+    from scenes.joint_demonstrations import from_joint_trajectories
+    dt = 1.0 / 46.0
+    demos = make_demonstrations("box_closing", num_demos=10, num_points=249, dt=dt, seed=4)
+    q = joint_recordings(jaco, demos)
+    bags = [_chained_bag(tmp_path / "five", jaco, q[:5], dt, rest=1.5)]
+    bags += [joint_bag(tmp_path / f"one{m}", jaco, demos.time, q[m], seed=m) for m in range(5, 10)]
+    with caplog.at_level(logging.INFO, logger="scenes.bags"):
+        loaded = load_demonstrations([str(b) for b in bags], topic="/joint_states", robot=jaco)
+    assert loaded.M == 10 and loaded.bag_split.count == 10
+    assert "10 demonstration(s) (split 'auto')" in caplog.text
+    assert "it may hold several" not in caplog.text
+    durations = np.array(loaded.bag_split.durations)
+    assert np.all(np.abs(durations - demos.duration) < 0.05 * demos.duration), durations
+    arrays = from_joint_trajectories(jaco, list(q), [demos.time] * 10)
+    gap = prior_gap(learn_prior(loaded.resample(demos.T)), learn_prior(arrays))
+    assert gap < 1e-3, gap
+
+
+def test_auto_split_keeps_a_demonstration_with_a_pause_whole(jaco, tmp_path):
+    """A demonstration that pauses on its way (a rest between two different motions) is one
+    demonstration: its motions do not repeat."""
+    dt = 1.0 / 46.0
+    demos = make_demonstrations("box_closing", num_demos=2, num_points=120, dt=dt, seed=2)
+    q = joint_recordings(jaco, demos)
+    half = 60
+    paused = np.concatenate([q[:, :half], np.repeat(q[:, half - 1:half], 80, axis=1), q[:, half:]], axis=1)
+    bags = [joint_bag(tmp_path / f"p{m}", jaco, np.arange(paused.shape[1]) * dt, paused[m], seed=m)
+            for m in range(2)]
+    loaded = load_bag_demonstrations(bags, "/joint_states", robot=jaco)
+    assert loaded.bag_split.count == 2
+    np.testing.assert_allclose(loaded.bag_split.durations, (paused.shape[1] - 1) * dt)
+
+
+def test_a_long_demonstration_is_warned_about_with_the_suggested_split(jaco, tmp_path, caplog):
+    """split='bag' on a bag of 3 demonstrations beside 2 single ones: the long one is named with
+    its length against the others' and where its rests would cut it."""
+    dt = 1.0 / 46.0
+    demos = make_demonstrations("box_closing", num_demos=5, num_points=150, dt=dt, seed=6)
+    q = joint_recordings(jaco, demos)
+    bags = [_chained_bag(tmp_path / "three", jaco, q[:3], dt, rest=1.5)]
+    bags += [joint_bag(tmp_path / f"s{m}", jaco, demos.time, q[m], seed=m) for m in (3, 4)]
+    with caplog.at_level(logging.WARNING, logger="scenes.bags"):
+        loaded = load_bag_demonstrations(bags, "/joint_states", robot=jaco, split="bag")
+    assert loaded.M == 3
+    warning = caplog.text
+    assert "demonstration 0 (three" in warning and "it may hold several" in warning, warning
+    assert "--split auto" in warning and "3 repeated motions" in warning, warning

@@ -96,19 +96,22 @@ def test_plan_on_an_unregistered_urdf_arm(tmp_path, capsys):
         assert (out / name).stat().st_size > 0, name
 
 
-def test_failed_plan_exits_1_and_outputs_need_force(tmp_path, capsys):
+def test_start_inside_an_obstacle_is_refused_and_outputs_need_force(tmp_path, capsys):
+    """A start inside a box cannot even be planned: exit 2, one line naming --start, no output
+    folder; a non-empty --out needs --force, and its files are untouched without it."""
     from scenes import Box, Scene
     demos, start = _user_files(tmp_path)
     Scene([Box(start, [0.2, 0.2, 0.2])]).save(tmp_path / "scene.json")  # start inside a box
     argv = ["plan", "--robot", "jaco", "--demos", str(demos), "--start", *map(str, start),
             "--scene", str(tmp_path / "scene.json"), "--out", str(tmp_path / "out")]
-    assert main(argv) == 1
-    plan = json.loads((tmp_path / "out" / "plan.json").read_text())
-    assert not plan["success"] and any("collision" in r for r in plan["reasons"])
-    before = (tmp_path / "out" / "plan.json").stat().st_mtime_ns
-    capsys.readouterr()
-    assert main(argv) == 2  # the folder is no longer empty
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--start:" in err[0] and "inside an obstacle" in err[0], err
+    assert not (tmp_path / "out").exists()
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "mine.txt").write_text("keep me")
+    assert main(argv) == 2  # the folder is not empty
     assert "--force" in capsys.readouterr().err
-    assert (tmp_path / "out" / "plan.json").stat().st_mtime_ns == before
-    assert main(argv + ["--force"]) == 1
+    assert main(argv + ["--force"]) == 2
+    assert (tmp_path / "out" / "mine.txt").read_text() == "keep me"
     assert not list((tmp_path / "out").glob(".*.tmp"))

@@ -118,21 +118,21 @@ def test_start_joints_is_the_plans_first_state(planned, tmp_path):
     assert not (tmp_path / "b").exists()
 
 
-def test_failed_plan_writes_no_trajectory_and_exits_1(planned, tmp_path, capsys):
-    """An unreachable start: exit 1, the plan JSON says why, no trajectory file; with --force
-    over an earlier successful run, its trajectory files go (they would pass for this plan's)."""
+def test_an_unreachable_start_writes_nothing_and_exits_2(planned, tmp_path, capsys):
+    """An unreachable start: exit 2 naming --start, no output folder; with --force over an
+    earlier successful run, that run's plan and trajectory files are left as they were."""
     demos = planned["jaco"].parent / "demos.npz"
     out = tmp_path / "out"
     argv = ["plan", "--robot", "jaco", "--demos", str(demos), "--num-points", "40", "--out", str(out), "-q"]
-    assert main(argv + ["--start", "5", "5", "5"]) == 1
-    plan = json.loads((out / "plan.json").read_text())
-    assert not plan["success"] and plan["reasons"] and plan["trajectory"]["files"] == []
-    assert not list(out.glob("trajectory*"))
+    assert main(argv + ["--start", "5", "5", "5"]) == 2
+    assert "--start: start position [5.0, 5.0, 5.0] is out of reach" in capsys.readouterr().err
+    assert not out.exists()
     good = json.loads((planned["jaco"] / "plan.json").read_text())["q"][0]   # a plan that succeeded
     assert main(argv + ["--start-joints", *map(str, good), "--force"]) == 0
-    assert len(list(out.glob("trajectory*"))) == 2
-    assert main(argv + ["--start", "5", "5", "5", "--force"]) == 1
-    assert not list(out.glob("trajectory*"))
+    written = {path.name: path.read_bytes() for path in out.iterdir()}
+    assert len([name for name in written if name.startswith("trajectory")]) == 2
+    assert main(argv + ["--start", "5", "5", "5", "--force"]) == 2
+    assert {path.name: path.read_bytes() for path in out.iterdir()} == written
 
 
 def test_no_retime_writes_the_plans_own_timing(planned, tmp_path):
