@@ -72,8 +72,7 @@ def fit_key(urdf_path: str | Path, model: pin.Model, geometry: pin.GeometryModel
 
 
 def cached_fit(urdf_path: str | Path, model: pin.Model, geometry: pin.GeometryModel, kind: str,
-               links: Sequence[str] | None = None, max_spheres: int = 40, inflation: float = 0.01,
-               seed: int = 0) -> SphereModel:
+               links: Sequence[str] | None, max_spheres: int, inflation: float, seed: int) -> SphereModel:
     """:func:`robots.spheres.fit_spheres` ``(model, geometry, links, max_spheres, inflation, seed)``,
     or the spheres the same fit stored in the cache before; a new fit is stored. ``urdf_path``:
     the URDF ``model`` and ``geometry`` (of ``kind``: "collision" or "visual") were read from."""

@@ -36,6 +36,8 @@ from .validation import as_generator
 
 MIN_RADIUS = 1e-3  # [m] smallest radius a fitted sphere gets (tiny geometry, large inflation)
 TOLERANCE = 1e-9  # [m] a point this close outside a grown sphere counts as covered (rounding)
+MAX_SPHERES = 40  # default sphere budget of a fit (the planner's, robots.Robot.spheres)
+INFLATION = 0.01  # [m] default growth that makes a fit cover the geometry exactly
 
 
 @dataclass(frozen=True)
@@ -202,8 +204,8 @@ def _fit_link(points: np.ndarray, k: int, inflation: float, rng: np.random.Gener
 
 
 def fit_spheres(model: pin.Model, collision_model: pin.GeometryModel, links: Sequence[str] | None = None,
-                max_spheres: int = 40, inflation: float = 0.01, rng: np.random.Generator | int | None = None,
-                *, samples_per_link: int = 1500, min_gain: float = 0.01, restarts: int = 2,
+                max_spheres: int = MAX_SPHERES, inflation: float = INFLATION,
+                rng: np.random.Generator | int | None = None, *, samples_per_link: int = 1500, min_gain: float = 0.01, restarts: int = 2,
                 iterations: int = 25) -> SphereModel:
     """Spheres covering the collision geometry of the moving links (see the module docstring).
 
