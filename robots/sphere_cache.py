@@ -28,7 +28,6 @@ import pinocchio as pin
 
 from skillplan.command_line import package_version
 
-from . import collision_geometry, spheres
 from .errors import SphereFileError
 from .sphere_model import SphereModel, load_sphere_file, save_sphere_file
 
@@ -38,6 +37,8 @@ log = logging.getLogger(__name__)
 CACHE_ENV = "SKILLPLAN_CACHE_DIR"
 #: bumped when the key's recipe changes
 KEY_FORMAT = 1
+#: the modules whose source is part of the key (a changed fit is a new key, whatever the version)
+FITTING_CODE = ("spheres.py", "collision_geometry.py")
 
 
 def cache_folder() -> Path:
@@ -64,7 +65,7 @@ def fit_key(urdf_path: str | Path, model: pin.Model, geometry: pin.GeometryModel
     recipe = {
         "key_format": KEY_FORMAT, "skillplan": package_version(),
         "pinocchio": pin.__version__, "coal": getattr(coal, "__version__", "unknown"),
-        "code": [_file_digest(module.__file__) for module in (spheres, collision_geometry)],
+        "code": [_file_digest(Path(__file__).with_name(module)) for module in FITTING_CODE],
         "urdf": _file_digest(urdf_path), "meshes": [_file_digest(mesh) for mesh in meshes],
         "kind": kind, "joints": list(model.names), "settings": settings,
     }
@@ -87,6 +88,7 @@ def cached_fit(urdf_path: str | Path, model: pin.Model, geometry: pin.GeometryMo
         else:
             log.info("collision spheres of %s read from the cache (%s)", Path(urdf_path).name, path)
             return found
+    from . import spheres              # deferred: SciPy's optimizer loads only for a new fit
     fitted = spheres.fit_spheres(model, geometry, links, max_spheres, inflation, seed)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -22,8 +22,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import minimize
-from scipy.spatial import cKDTree
 
 from skillplan import validation as _checks
 from skillplan.progress import progress
@@ -86,6 +84,7 @@ def enclosing_ball(points: np.ndarray) -> tuple[np.ndarray, float]:
     squared = np.einsum("ij,ij->i", local, local)
     centre = np.zeros(3)
     active = np.unique(np.concatenate([np.argmax(local, axis=0), np.argmin(local, axis=0), [np.argmax(squared)]]))
+    from scipy.optimize import minimize   # deferred: SciPy loads when spheres are fitted
     for _ in range(20):
         subset, subset_squared = local[active], squared[active]
         x0 = np.append(centre, np.max(subset_squared - 2.0 * subset @ centre))
@@ -355,4 +354,5 @@ def _boundary_to_surface(centres: np.ndarray, radii: np.ndarray, surface_points:
     depth = np.linalg.norm(boundary[:, None] - centres[None], axis=2) - radii[None]
     depth[np.arange(len(boundary)), owner] = np.inf
     exposed = boundary[np.all(depth > 0.0, axis=1)]
+    from scipy.spatial import cKDTree
     return cKDTree(surface_points).query(exposed)[0] if len(exposed) else np.zeros(0)
