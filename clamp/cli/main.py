@@ -32,6 +32,7 @@ from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError, PriorFileError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.cli.batch import add_batch_parser
+from clamp.cli.show import add_show_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
                                  integer_at_least, number, output_directory, output_file, quiet, run,
@@ -87,7 +88,7 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
     return "\n".join(lines)
 
 
-def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
+def write_figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
              plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
     """Prior figures; per plan: 3-D, top view, joint angles, clearance and uncertainty
     figures and the browser animation (HTML). ``demos`` None (a plan from a saved prior): the
@@ -269,7 +270,7 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
                trajectory=exported["empty"])
     write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
                scene=scene.to_dict(), trajectory=exported["obstacle"])
-    _figures(out, prior, demos, robot, config,
+    write_figures(out, prior, demos, robot, config,
              [("empty", empty, None), ("obstacle", with_obstacle, scene)])
     save_view_inputs(out, {"empty": {"scene": None, "start": start},
                            "obstacle": {"scene": scene, "start": start}}, prior, demos, robot_spec(args), config)
@@ -400,7 +401,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     if args.figures:
-        _figures(out, prior, demos, robot, config, [("result", result, scene)])
+        write_figures(out, prior, demos, robot, config, [("result", result, scene)])
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
     if not quiet(args):
@@ -564,10 +565,11 @@ def parser() -> argparse.ArgumentParser:
     user.add_argument("--figures", action="store_true",
                       help="also draw the figures (prior, plan 3-D, top view, joints, clearance, "
                            "uncertainty) and the browser animation: seconds more (default: plan and "
-                           "trajectory files only)")
+                           "trajectory files only; clamp show OUT draws them later)")
     user.set_defaults(run=run_plan)
     add_batch_parser(sub)
     add_view_parser(sub)
+    add_show_parser(sub)
     return main
 
 

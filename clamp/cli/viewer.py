@@ -76,6 +76,17 @@ def robot_spec(args: argparse.Namespace) -> dict[str, Any]:
 def load_view(folder: str | Path, name: str | None = None) -> tuple[Any, Any]:
     """Plan the recorded problem of ``folder`` again; returns (PlanResult, Demonstrations).
     ``name``: which plan (``problem_<name>.json``); None: the only one, or ``obstacle``."""
+    _, _, result, demos = replan_recorded(folder, name)
+    return result, demos
+
+
+def replan_recorded(folder: str | Path, name: str | None = None) -> tuple[str, dict[str, Any], Any, Any]:
+    """The recorded problem ``name`` of the output folder ``folder`` (None: the only one, or
+    ``obstacle``) planned again: (its name, the keyword arguments of :func:`clamp.plan`, the
+    PlanResult, the Demonstrations or None)."""
+    from clamp.batch.runner import resolve      # deferred: the planner loads when a plan is made
+    from clamp.planning.planner import plan
+    from scenes import Demonstrations
     folder = Path(as_path(folder, "FOLDER", InvalidParameterError))
     if not folder.is_dir():
         raise InvalidParameterError(f"FOLDER: expected the output folder of clamp plan / clamp demo, "
@@ -90,15 +101,13 @@ def load_view(folder: str | Path, name: str | None = None) -> tuple[Any, Any]:
             raise InvalidParameterError(f"--plan: {str(folder)!r} holds several plans; choose one of {found}")
     elif name not in found:
         raise InvalidParameterError(f"--plan: no plan {name!r} in {str(folder)!r}; choose one of {found}")
-    from clamp.batch.runner import resolve      # deferred: the planner loads when a plan is made
-    from clamp.planning.planner import plan
-    from scenes import Demonstrations
     problem = Problem.from_json((folder / problem_file(name)).read_text(encoding="utf-8"),
                                 source=str(folder / problem_file(name)))
-    result = plan(**resolve(problem, folder))
+    inputs = resolve(problem, folder)
+    result = plan(**inputs)
     demos_file = problem.to_dict()["meta"].get("demonstrations")
     demos = Demonstrations.load_npz(folder / demos_file) if demos_file else None
-    return result, demos
+    return name, inputs, result, demos
 
 
 def run_view(args: argparse.Namespace) -> int:

@@ -84,3 +84,24 @@ def test_a_second_plan_reads_the_fitted_spheres_and_plans_the_same_q(tmp_path, p
         assert not list((tmp_path / name).glob("*.png")) and not list((tmp_path / name).glob("*.html"))
     problem = json.loads((tmp_path / "warm" / "problem_plan.json").read_text())
     assert problem["robot"]["package_dirs"] == [str(share.resolve())]
+
+
+def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys):
+    from clamp.cli.main import main
+    from scenes import Box, Scene, make_demonstrations
+    demos = make_demonstrations("box_closing", num_points=40, seed=1)
+    demos.save_npz(tmp_path / "demos.npz")
+    Scene([Box([0.9, 0.9, 0.5], [0.05, 0.05, 0.05])]).save(tmp_path / "scene.json")
+    out = tmp_path / "out"
+    assert main(["plan", "-q", "--demos", str(tmp_path / "demos.npz"), "--robot", "jaco", "--start",
+                 *map(str, demos.positions[:, 0].mean(axis=0)), "--scene", str(tmp_path / "scene.json"),
+                 "--out", str(out)]) == 0
+    assert not list(out.glob("*.png"))
+    assert main(["show", str(out)]) == 0
+    for name in ("prior_3d.png", "plan_result.png", "plan_result_top.png", "plan_result_joints.png",
+                 "plan_result_clearance.png", "animation_result.html"):
+        assert (out / name).stat().st_size > 0, name
+    assert "wrote the figures and the animation of plan 'plan'" in capsys.readouterr().out
+    assert main(["show", str(out)]) == 2                            # drawn already: only with --force
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert "--force" in line and "plan_result.png" in line
