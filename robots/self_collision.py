@@ -374,8 +374,8 @@ def self_collision_spheres(robot: Robot) -> SelfCollisionSpheres:
     kept when the joints that move them are neither the same nor parent and child (the "rigid"
     and "adjacent" rules of :func:`disabled_pairs`), their gap ``|c_s - c_t| - r_s - r_t``
     comes below SPHERE_REACH (0.1 m) in at least one of the ALWAYS_SAMPLES seeded configurations
-    (pairs that never come near are left out), and they do not overlap in ALWAYS_FRACTION of them (the "always" rule
-    on spheres). Each pair's ``clearance`` is the gap it keeps in ALWAYS_FRACTION of them.
+    (pairs that never come near are left out), and they do not overlap in ALWAYS_FRACTION of
+    them (the "always" rule on spheres). Each pair's ``clearance`` is the gap it keeps in ALWAYS_FRACTION of them.
     """
     if not isinstance(robot, Robot):
         raise CollisionCheckError(f"robot: expected a robots.Robot, got {type(robot).__name__}")
