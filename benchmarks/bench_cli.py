@@ -1,6 +1,8 @@
 """The command line as a new user with their own arm meets it: wall time of whole processes.
 
-Run: python benchmarks/bench_cli.py [--repeats N]  (prints; never asserts on time).
+Run: python benchmarks/bench_cli.py [--repeats N] [--anchor CHECKOUT]  (prints; never asserts on
+time). ``--anchor /path/to/main`` times another checkout of the project in the same rounds,
+interleaved (its plans may draw figures: it is timed as it is).
 
 The user's arm is example-robot-data's Franka Panda URDF (end effector ``panda_hand``, meshes
 found with ``--package-dir``); the demonstrations are joint-space recordings in the documented
@@ -17,6 +19,9 @@ the prior's mean path half way along it. Timed, each as a fresh process (``pytho
 No figures are asked for (``--figures`` is off by default). Medians over ``--repeats`` runs
 (each first plan gets its own empty cache folder), printed beside the targets of issue 38
 (``--version`` <= 0.5 s, second plan <= 3 s, first plan <= 8 s) and the machine's load average.
+Anchors, timed in the same rounds: the interpreter alone (``python -c pass``) and NumPy's import
+(``python -c 'import numpy'``, which ``clamp --version`` needs): on a loaded machine every
+figure grows with them, so compare the ratios.
 The first plan's q and the second's are compared: they must be identical (the cache stores the
 spheres exactly).
 """
@@ -36,8 +41,9 @@ import numpy as np
 from harness import print_environment
 
 ROOT = Path(__file__).resolve().parents[1]
-#: issue 38's targets [s] per timed command
-TARGETS = {"clamp --version": 0.5, "clamp learn": None, "first clamp plan (cold cache)": 8.0,
+#: issue 38's targets [s] per timed command (None: no target; the anchors: the interpreter alone)
+TARGETS = {"anchor: python -c pass": None, "anchor: python -c 'import numpy'": None,
+           "clamp --version": 0.5, "clamp learn": None, "first clamp plan (cold cache)": 8.0,
            "second clamp plan (cached spheres)": 3.0}
 
 
@@ -77,43 +83,60 @@ def timed(command: list[str], env: dict[str, str]) -> tuple[float, subprocess.Co
     return seconds, done
 
 
+def one_round(checkout: Path, folder: Path, files: dict[str, str], k: int) -> dict[str, float]:
+    """Wall time [s] of each timed command of round ``k`` with the project of ``checkout``."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(checkout), os.environ.get("PYTHONPATH")])))
+    clamp = [sys.executable, "-m", "clamp"]
+    arm = ["--urdf", files["urdf"], "--end-effector", "panda_hand", "--package-dir", files["share"]]
+    work = Path(tempfile.mkdtemp(prefix="round_", dir=folder))
+    times = {"anchor: python -c pass": timed([sys.executable, "-c", "pass"], env)[0],
+             "anchor: python -c 'import numpy'": timed([sys.executable, "-c", "import numpy"], env)[0],
+             "clamp --version": timed([*clamp, "--version"], env)[0]}
+    times["clamp learn"] = timed([*clamp, "learn", "-q", "--demos", files["csv"], *arm,
+                                  "--out", str(work / "prior.npz")], env)[0]
+    run_env = dict(env, SKILLPLAN_CACHE_DIR=str(work / "cache"))     # a fresh, empty sphere cache
+    plans = []
+    for name in ("first clamp plan (cold cache)", "second clamp plan (cached spheres)"):
+        out = work / f"out{len(plans)}"
+        times[name] = timed([*clamp, "plan", "-q", *arm, "--prior", str(work / "prior.npz"), "--scene",
+                             files["scene"], "--start", *files["start"].split(), "--out", str(out)], run_env)[0]
+        plans.append(json.loads((out / "plan.json").read_text(encoding="utf-8")))
+    same = np.array_equal(np.array(plans[0]["q"]), np.array(plans[1]["q"]))
+    print(f"{checkout} round {k}: first and second plan q identical: {same}; success "
+          f"{plans[0]['success']}, clearance {1e3 * plans[0]['min_clearance']:.1f} mm", flush=True)
+    return times
+
+
 def main() -> None:
     options = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     options.add_argument("--repeats", type=int, default=3, help="runs per command (default 3)")
-    repeats = options.parse_args().repeats
+    options.add_argument("--anchor", type=Path, default=None, metavar="CHECKOUT",
+                         help="another checkout of the project (e.g. main's) timed in the same rounds")
+    given = options.parse_args()
+    checkouts = [ROOT] + ([given.anchor.resolve()] if given.anchor else [])
     print_environment()
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
-    clamp = [sys.executable, "-m", "clamp"]
-    times: dict[str, list[float]] = {name: [] for name in TARGETS}
+    times = {checkout: {name: [] for name in TARGETS} for checkout in checkouts}
     with tempfile.TemporaryDirectory(prefix="bench_cli_") as tmp:
         folder = Path(tmp)
         files = panda_files(folder)
-        arm = ["--urdf", files["urdf"], "--end-effector", "panda_hand", "--package-dir", files["share"]]
-        for k in range(repeats):
-            times["clamp --version"].append(timed([*clamp, "--version"], env)[0])
-            prior = folder / f"prior{k}.npz"
-            times["clamp learn"].append(timed([*clamp, "learn", "-q", "--demos", files["csv"], *arm,
-                                               "--out", str(prior)], env)[0])
-            cache = folder / f"cache{k}"                 # a fresh, empty sphere cache per repeat
-            run_env = dict(env, SKILLPLAN_CACHE_DIR=str(cache))
-            plans = []
-            for name in ("first clamp plan (cold cache)", "second clamp plan (cached spheres)"):
-                out = folder / f"out{k}_{len(plans)}"
-                command = [*clamp, "plan", "-q", *arm, "--prior", str(prior), "--scene", files["scene"],
-                           "--start", *files["start"].split(), "--out", str(out)]
-                times[name].append(timed(command, run_env)[0])
-                plans.append(json.loads((out / "plan.json").read_text(encoding="utf-8")))
-            same = np.array_equal(np.array(plans[0]["q"]), np.array(plans[1]["q"]))
-            print(f"repeat {k}: first and second plan q identical: {same}; "
-                  f"success {plans[0]['success']}, clearance {1e3 * plans[0]['min_clearance']:.1f} mm")
+        for k in range(given.repeats):
+            for checkout in checkouts:                   # interleaved: a drifting load hits both
+                for name, seconds in one_round(checkout, folder, files, k).items():
+                    times[checkout][name].append(seconds)
     load = os.getloadavg()
     print(f"\nload average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs "
-          f"(medians of {repeats} runs, each a fresh process)")
-    print(f"{'command':38s} {'median s':>9s} {'target s':>9s}")
-    for name, seconds in times.items():
-        target = TARGETS[name]
-        verdict = "" if target is None else ("  met" if np.median(seconds) <= target else "  MISSED")
-        print(f"{name:38s} {np.median(seconds):9.2f} {'-' if target is None else f'{target:.1f}':>9s}{verdict}")
+          f"(medians of {given.repeats} runs, each a fresh process)")
+    for checkout in checkouts:
+        numpy_s = float(np.median(times[checkout]["anchor: python -c 'import numpy'"]))
+        print(f"\n{checkout}\n{'command':38s} {'median s':>9s} {'/ numpy':>8s} "
+              f"{'/ anchor':>9s} {'target s':>9s}")
+        for name, seconds in times[checkout].items():
+            target, median = TARGETS[name], float(np.median(seconds))
+            verdict = "" if target is None else ("  met" if median <= target else "  MISSED")
+            versus = (f"{median / float(np.median(times[checkouts[-1]][name])):9.2f}"
+                      if len(checkouts) > 1 else f"{'-':>9s}")
+            print(f"{name:38s} {median:9.2f} {median / numpy_s:8.1f} {versus} "
+                  f"{'-' if target is None else f'{target:.1f}':>9s}{verdict}")
 
 
 if __name__ == "__main__":

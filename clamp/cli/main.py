@@ -89,7 +89,7 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]]) -> str:
 
 
 def write_figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
-             plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
+                  plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
     """Prior figures; per plan: 3-D, top view, joint angles, clearance and uncertainty
     figures and the browser animation (HTML). ``demos`` None (a plan from a saved prior): the
     same figures, drawn from the prior alone (mean path and envelope, no demonstrations)."""
@@ -271,7 +271,7 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
     write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
                scene=scene.to_dict(), trajectory=exported["obstacle"])
     write_figures(out, prior, demos, robot, config,
-             [("empty", empty, None), ("obstacle", with_obstacle, scene)])
+                  [("empty", empty, None), ("obstacle", with_obstacle, scene)])
     save_view_inputs(out, {"empty": {"scene": None, "start": start},
                            "obstacle": {"scene": scene, "start": start}}, prior, demos, robot_spec(args), config)
     if not quiet(args):
