@@ -7,32 +7,18 @@ it (:mod:`clamp.planning.planner`, :mod:`clamp.optim.solver`), returning a :clas
 (:mod:`clamp.planning.pipeline`: :func:`make_request` -> :func:`model` -> :func:`solve` ->
 :func:`posterior` -> :func:`evaluate`) can be run one by one.
 """
-from clamp.config import CheckConfig, ModelConfig, OptimizerConfig, PlannerConfig
-from clamp.errors import (ClampError, ClampWarning, InsufficientDemonstrationsError,
-                          InvalidParameterError, NonFiniteError, PriorFileError, ShapeError)
-from clamp.prior.learning import learn_joint_prior, learn_prior
-from clamp.optim.optimizers import optimize
-from clamp.planning.pipeline import Model, Posterior, Solution, model, posterior, solve
-from clamp.planning.planner import build, plan, plan_model
-from clamp.planning.request import Request, make_request
-from clamp.planning.verdict import evaluate
-from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
-from clamp.graph.problem import PlanningProblem
-from clamp.planning.replanning import replan
-from clamp.planning.result import PlanResult
-from clamp.prior.obstacle_weighting import ObstacleWeighting
-from clamp.prior.conditioning import condition_prior
+from __future__ import annotations
 
-__all__ = [
-    "learn_prior", "learn_joint_prior", "WorkspacePrior", "LinearGaussianPrior",
-    "PlannerConfig", "ModelConfig", "OptimizerConfig", "CheckConfig",
-    "plan", "build", "replan",
-    "make_request", "Request", "model", "Model", "solve", "Solution", "posterior", "Posterior",
-    "evaluate", "plan_model", "condition_prior", "ObstacleWeighting", "optimize",
-    "PlanningProblem", "PlanResult", "show",
-    "ClampError", "ClampWarning", "InsufficientDemonstrationsError", "InvalidParameterError",
-    "NonFiniteError", "PriorFileError", "ShapeError",
-]
+import lazy_loader
+
+# the names and where they live: __init__.pyi (submodules load on first use: ``import clamp``
+# and ``clamp --version`` do not load GTSAM, SciPy or the planner)
+__getattr__, _lazy_dir, _lazy_names = lazy_loader.attach_stub(__name__, __file__)
+__all__ = [*_lazy_names, "show"]
+
+
+def __dir__() -> list[str]:
+    return __all__
 
 
 def show(result: PlanResult, demonstrations: object = None, **options: object) -> object:

@@ -1,25 +1,7 @@
 """Kinematics of real arms: Pinocchio models, joint limits, end effector, collision spheres,
 vectorized forward kinematics with Jacobians, and inverse kinematics for initialisation."""
-from .errors import (CollisionGeometryError, InvalidArrayError, RetimingError, RobotError,
-                     SphereFileError, TrajectoryError, TrajectoryExistsError, TrajectoryFileError,
-                     UnknownFrameError, UnknownRobotError, UnsupportedJointError, URDFParseError)
-from .ik import IKResult, IKTrajectoryResult, PoseIKResult
-from .kinematics import EndEffectorKinematics
-from .robot import Robot
-from .sphere_model import SphereModel
-from .registry import available_robots, load_robot, resolve_robot
-from .retiming import RetimingReport, check_limits, retime, uniform_scaling
-from .self_collision import SelfCollisionReport, disabled_pairs, self_collision_report
-from .trajectory import JointTrajectory, RetimingLimits, load_trajectory
+import lazy_loader
 
-__all__ = [
-    "Robot", "load_robot", "resolve_robot", "available_robots", "EndEffectorKinematics", "SphereModel",
-    "IKResult", "IKTrajectoryResult", "PoseIKResult", "JointTrajectory", "RetimingLimits", "load_trajectory",
-    "retime",
-    "RetimingReport", "check_limits", "uniform_scaling",
-    "self_collision_report", "SelfCollisionReport", "disabled_pairs",
-    "RobotError", "UnknownRobotError", "UnknownFrameError", "URDFParseError", "UnsupportedJointError",
-    "InvalidArrayError", "SphereFileError", "CollisionGeometryError", "TrajectoryError",
-    "TrajectoryFileError", "TrajectoryExistsError", "RetimingError",
-]
-
+# the names and where they live: __init__.pyi (submodules load on first use: ``import robots``
+# does not load Pinocchio, SciPy or TOPP-RA)
+__getattr__, __dir__, __all__ = lazy_loader.attach_stub(__name__, __file__)

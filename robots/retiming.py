@@ -63,7 +63,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from .errors import RetimingError
 from .trajectory import JointTrajectory
@@ -363,6 +362,7 @@ class _ChordPath:
         # end tangents dq/ds = qdot dt/ds, dt/ds of the end intervals
         bc = ((1, traj.velocities[0] * (t_knots[1] - t_knots[0]) / s_knots[1]),
               (1, traj.velocities[-1] * (t_knots[-1] - t_knots[-2]) / (s_knots[-1] - s_knots[-2])))
+        from scipy.interpolate import CubicSpline   # deferred: importing the limits stays light
         self.spline = CubicSpline(s_knots, traj.positions[kept], bc_type=bc)
         self._orders = [self.spline, self.spline.derivative()]
         self._orders.append(self._orders[1].derivative())
@@ -720,6 +720,7 @@ def _deviation(robot, original: JointTrajectory, retimed: JointTrajectory,
     per input interval, from the moving input interval before that position to the one after
     (the retimed path may pass a sample at a slightly different time than the original, and
     skips pauses: a distance to the path, not a timing error)."""
+    from scipy.interpolate import CubicHermiteSpline
     t = retimed.time_from_start
     fractions = np.arange(substeps) / substeps
     dense = np.append((t[:-1, None] + np.diff(t)[:, None] * fractions).ravel(), t[-1])

@@ -15,7 +15,8 @@ from .errors import InvalidArrayError, RobotError, UnknownFrameError, URDFParseE
 from .kinematics import CONTINUOUS, EndEffectorKinematics, SerialChain, frame_index, frame_names
 from .sphere_model import SphereModel, load_sphere_file
 from .validation import as_file, as_joint_array, as_scalar
-from robots.spheres import fit_spheres
+from robots.sphere_cache import cached_fit
+from robots.spheres import INFLATION, MAX_SPHERES
 from robots.ik import solve_ik
 from robots.ik import solve_ik_trajectory
 
@@ -134,19 +135,39 @@ class Robot:
     @property
     def spheres(self) -> SphereModel:
         """Collision spheres: given at construction (a SphereModel or a sphere JSON file),
-        else fitted from the URDF's collision geometry on first use (slow: seconds)."""
+        else :meth:`fit_spheres` with its defaults on first use (seconds the first time for a
+        URDF, then read from the sphere cache)."""
         if self._spheres is None:
-            geometry = self.collision_model
-            if not moves(geometry):            # no <collision> on the moving links: fit the <visual>
-                geometry = load_geometry(self.model, self.urdf_path, self.package_dirs, "visual")
-                if not moves(geometry):
-                    raise RobotError(f"spheres: the URDF {str(self.urdf_path)!r} has neither collision nor "
-                                     "visual geometry on its moving links; pass spheres= (a SphereModel or a "
-                                     "sphere JSON file)")
-                log.warning("robot %s: the URDF has no collision geometry on its moving links; collision "
-                            "spheres fitted to its visual geometry", self.name)
-            self._spheres = fit_spheres(self.model, geometry)
+            self._spheres = self.fit_spheres()
         return self._spheres
+
+    def fit_spheres(self, links: Sequence[str] | None = None, max_spheres: int = MAX_SPHERES,
+                    inflation: float = INFLATION, seed: int = 0) -> SphereModel:
+        """Collision spheres fitted to the URDF's ``<collision>`` geometry of the planning chain
+        (a URDF without it on its moving links: its ``<visual>`` geometry, with a warning), by
+        :func:`robots.spheres.fit_spheres` with these settings (``links``: frames to cover, None
+        all moving ones; ``inflation`` [m]); the same fit made before, in this process or another,
+        is read from :mod:`robots.sphere_cache`. The one fit of the planner and of
+        ``python -m robots.sphere_cli``."""
+        geometry, kind = self.fitting_geometry()
+        if kind == "visual":
+            log.warning("robot %s: the URDF has no collision geometry on its moving links; collision "
+                        "spheres fitted to its visual geometry", self.name)
+        return cached_fit(self.urdf_path, self.model, geometry, kind, links, max_spheres, inflation, seed)
+
+    def fitting_geometry(self) -> tuple[pin.GeometryModel, str]:
+        """The geometry collision spheres are fitted to and its kind: the URDF's ``<collision>``
+        geometry ("collision"), or its ``<visual>`` geometry ("visual") when no collision geometry
+        moves; RobotError when neither does."""
+        geometry = self.collision_model
+        if moves(geometry):
+            return geometry, "collision"
+        geometry = load_geometry(self.model, self.urdf_path, self.package_dirs, "visual")
+        if not moves(geometry):
+            raise RobotError(f"spheres: the URDF {str(self.urdf_path)!r} has neither collision nor "
+                             "visual geometry on its moving links; pass spheres= (a SphereModel or a "
+                             "sphere JSON file)")
+        return geometry, "visual"
 
     @spheres.setter
     def spheres(self, value: SphereModel | str | Path | None) -> None:

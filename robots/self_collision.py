@@ -75,7 +75,7 @@ from .distance_search import PairSearch
 from .errors import CollisionCheckError
 from .robot import Robot
 from .validation import as_array, as_scalar
-from robots.spheres import fit_spheres
+from robots.sphere_cache import cached_fit
 
 #: configurations sampled for the "always in contact" rule
 ALWAYS_SAMPLES = 1000
@@ -357,8 +357,8 @@ def _fixed_spheres(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
                     if o.parentJoint == 0})
     if not fixed:
         return np.zeros((0, 3)), np.zeros(0)
-    spheres = fit_spheres(model, robot.collision_model, links=fixed, max_spheres=max(FIXED_SPHERES, len(fixed)),
-                          inflation=robot.spheres.inflation)
+    spheres = cached_fit(robot.urdf_path, model, robot.collision_model, "collision", fixed,
+                         max(FIXED_SPHERES, len(fixed)), robot.spheres.inflation, 0)   # fitted once per URDF
     local = np.array([att.rotation @ centre + att.translation for att, centre in
                       zip(map(robot.attachment, spheres.link_names), spheres.centres)])
     frames = robot.chain.joint_frames(robot.neutral_configuration()[None])
@@ -370,12 +370,12 @@ def self_collision_spheres(robot: Robot) -> SelfCollisionSpheres:
     """The sphere pairs a planner keeps apart, computed once per robot and sphere model.
 
     Spheres: ``robot.spheres`` plus up to FIXED_SPHERES (6) fitted to the base's geometry (by
-    ``robots.spheres.fit_spheres``, same inflation). A pair (s, t) is kept when the joints that
-    move them are neither the same nor parent and child (the "rigid" and "adjacent" rules of
-    :func:`disabled_pairs`), their gap ``|c_s - c_t| - r_s - r_t`` comes below SPHERE_REACH
-    (0.1 m) in at least one of the ALWAYS_SAMPLES seeded configurations (pairs that never come
-    near are left out), and they do not overlap in ALWAYS_FRACTION of them (the "always" rule
-    on spheres). Each pair's ``clearance`` is the gap it keeps in ALWAYS_FRACTION of them.
+    ``robots.spheres.fit_spheres``, through the sphere cache, same inflation). A pair (s, t) is
+    kept when the joints that move them are neither the same nor parent and child (the "rigid"
+    and "adjacent" rules of :func:`disabled_pairs`), their gap ``|c_s - c_t| - r_s - r_t``
+    comes below SPHERE_REACH (0.1 m) in at least one of the ALWAYS_SAMPLES seeded configurations
+    (pairs that never come near are left out), and they do not overlap in ALWAYS_FRACTION of
+    them (the "always" rule on spheres). Each pair's ``clearance`` is the gap it keeps in ALWAYS_FRACTION of them.
     """
     if not isinstance(robot, Robot):
         raise CollisionCheckError(f"robot: expected a robots.Robot, got {type(robot).__name__}")

@@ -22,8 +22,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import minimize
-from scipy.spatial import cKDTree
 
 from skillplan import validation as _checks
 from skillplan.progress import progress
@@ -36,6 +34,8 @@ from .validation import as_generator
 
 MIN_RADIUS = 1e-3  # [m] smallest radius a fitted sphere gets (tiny geometry, large inflation)
 TOLERANCE = 1e-9  # [m] a point this close outside a grown sphere counts as covered (rounding)
+MAX_SPHERES = 40  # default sphere budget of a fit (the planner's, robots.Robot.spheres)
+INFLATION = 0.01  # [m] default growth that makes a fit cover the geometry exactly
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,7 @@ def enclosing_ball(points: np.ndarray) -> tuple[np.ndarray, float]:
     squared = np.einsum("ij,ij->i", local, local)
     centre = np.zeros(3)
     active = np.unique(np.concatenate([np.argmax(local, axis=0), np.argmin(local, axis=0), [np.argmax(squared)]]))
+    from scipy.optimize import minimize   # deferred: SciPy loads when spheres are fitted
     for _ in range(20):
         subset, subset_squared = local[active], squared[active]
         x0 = np.append(centre, np.max(subset_squared - 2.0 * subset @ centre))
@@ -202,8 +203,8 @@ def _fit_link(points: np.ndarray, k: int, inflation: float, rng: np.random.Gener
 
 
 def fit_spheres(model: pin.Model, collision_model: pin.GeometryModel, links: Sequence[str] | None = None,
-                max_spheres: int = 40, inflation: float = 0.01, rng: np.random.Generator | int | None = None,
-                *, samples_per_link: int = 1500, min_gain: float = 0.01, restarts: int = 2,
+                max_spheres: int = MAX_SPHERES, inflation: float = INFLATION,
+                rng: np.random.Generator | int | None = None, *, samples_per_link: int = 1500, min_gain: float = 0.01, restarts: int = 2,
                 iterations: int = 25) -> SphereModel:
     """Spheres covering the collision geometry of the moving links (see the module docstring).
 
@@ -353,4 +354,5 @@ def _boundary_to_surface(centres: np.ndarray, radii: np.ndarray, surface_points:
     depth = np.linalg.norm(boundary[:, None] - centres[None], axis=2) - radii[None]
     depth[np.arange(len(boundary)), owner] = np.inf
     exposed = boundary[np.all(depth > 0.0, axis=1)]
+    from scipy.spatial import cKDTree
     return cKDTree(surface_points).query(exposed)[0] if len(exposed) else np.zeros(0)

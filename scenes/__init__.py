@@ -1,24 +1,7 @@
 """The world and what was shown in it: obstacles, scenes, signed distance fields,
 demonstration sets (import/export, ROS 2 bags, resampling, time alignment) and synthetic skills."""
-from .bags import BagSplit, load_bag_demonstrations
-from .datasets import shared_dataset
-from .demonstrations import NOMINAL_DURATION, Demonstrations
-from .errors import (DemonstrationFileError, InvalidArgumentError, InvalidDemonstrationsError,
-                     InvalidObstacleError, SceneFileError, ScenesError, UnknownSkillError)
-from .io import load_demonstrations, save_csv
-from .mesh import TriangleMesh
-from .obstacles import Box, Capsule, Cylinder, Obstacle, Sphere
-from .point_cloud import PointCloud
-from .scene import DEFAULT_WORKSPACE, Scene, available_scenes, builtin_scene
-from .sdf import SignedDistanceField
-from .synthetic import SKILLS, make_cluttered_demonstrations, make_demonstrations
+import lazy_loader
 
-__all__ = [
-    "Box", "Capsule", "Cylinder", "Obstacle", "Sphere", "TriangleMesh", "PointCloud", "Scene", "SignedDistanceField", "DEFAULT_WORKSPACE",
-    "available_scenes", "builtin_scene",
-    "Demonstrations", "NOMINAL_DURATION", "load_demonstrations", "save_csv",
-    "load_bag_demonstrations", "BagSplit", "shared_dataset",
-    "make_demonstrations", "make_cluttered_demonstrations", "SKILLS",
-    "ScenesError", "InvalidArgumentError", "InvalidObstacleError", "SceneFileError",
-    "InvalidDemonstrationsError", "DemonstrationFileError", "UnknownSkillError",
-]
+# the names and where they live: __init__.pyi (submodules load on first use: ``import scenes``
+# does not load SciPy or rosbags)
+__getattr__, __dir__, __all__ = lazy_loader.attach_stub(__name__, __file__)

@@ -54,7 +54,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.io
 
 from .bags import is_bag, load_bag_demonstrations
 from .demonstrations import NOMINAL_DURATION, Demonstrations
@@ -150,6 +149,7 @@ def _with_scenes(demos: Demonstrations, scenes: Sequence[Any] | None, source: st
 
 
 def _load_mat(path: Path, robot: Any, smoothing: str) -> Demonstrations:
+    import scipy.io                    # deferred: only MATLAB files need it
     try:
         data = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
     except Exception as exc:  # scipy raises several types for corrupt files

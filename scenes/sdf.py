@@ -21,10 +21,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt
 
 from .errors import InvalidArgumentError, InvalidObstacleError
-from .nearest import Nearest
 from .obstacles import Obstacle
 from skillplan.validation import as_bounds, as_points, as_positive
 
@@ -152,6 +150,7 @@ class SignedDistanceField:
             # transform to measure from, so sample the analytic distance at every node
             values = np.empty(shape)
             flat = values.reshape(-1)
+            from .nearest import Nearest    # deferred: SciPy's k-d tree loads when needed
             nearest = Nearest(obstacles)
             rows = max(1, _BLOCK_NODES // (shape[1] * shape[2]))
             for start in range(0, shape[0], rows):
@@ -161,6 +160,7 @@ class SignedDistanceField:
                 flat[start * shape[1] * shape[2]:stop * shape[1] * shape[2]] = \
                     nearest(coords, False)[0]
             return cls._frozen(values, lo, h)
+        from scipy.ndimage import distance_transform_edt   # deferred: SciPy loads when a field is built
         values = distance_transform_edt(~occupied, sampling=h)
         values -= 0.5 * h
         block, inside = _inside_distance(occupied, h)
@@ -264,4 +264,5 @@ def _inside_distance(occupied: np.ndarray, h: float) -> tuple[tuple[slice, ...],
     block = tuple(slice(max(i[0] - 1, 0), i[-1] + 2) for i in idx)
     # The block has a layer of free nodes on every side not at the grid border; beyond the
     # array nothing counts as free, so the nearest free node is always a real one.
+    from scipy.ndimage import distance_transform_edt
     return block, distance_transform_edt(occupied[block], sampling=h)

@@ -40,7 +40,6 @@ from math import comb
 
 import numpy as np
 from scipy.interpolate import CubicSpline, make_smoothing_spline
-from scipy.signal import savgol_coeffs, savgol_filter
 
 from .errors import InvalidArgumentError
 from skillplan.validation import as_array, as_time
@@ -137,6 +136,7 @@ def smooth_trajectory(time: np.ndarray, values: np.ndarray, smoothing: str = "au
 def savgol_window(values: np.ndarray) -> np.ndarray:
     """Per column of values (T, k), the odd Savitzky-Golay window (k,) of least generalized
     cross-validation score (module docstring); T >= MIN_SAMPLES."""
+    from scipy.signal import savgol_coeffs, savgol_filter   # deferred: scipy.signal loads SciPy's stats
     T = len(values)
     largest = max(_SAVGOL_ORDER + 2, T // 2)
     windows = np.unique(np.geomspace(_SAVGOL_ORDER + 2, largest, _SAVGOL_CANDIDATES)
@@ -153,6 +153,7 @@ def savgol_window(values: np.ndarray) -> np.ndarray:
 def savgol_smooth(time: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Savitzky-Golay positions and derivative (T, k) of values (T, k) at time (T,) [s], each
     column with its GCV window, at the median step."""
+    from scipy.signal import savgol_filter
     step = float(np.median(np.diff(time)))
     positions, derivative = np.empty_like(values), np.empty_like(values)
     for column, window in enumerate(savgol_window(values)):

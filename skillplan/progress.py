@@ -9,8 +9,6 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from tqdm.auto import tqdm
-
 from .errors import ArgumentTypeError
 from skillplan.validation import as_instance, as_scalar
 
@@ -35,6 +33,7 @@ def progress(iterable: Iterable[Any] | None = None, *, description: str, total: 
     if total is not None:
         as_scalar(total, "total", minimum=0.0)
     as_scalar(delay, "delay", minimum=0.0)
+    from tqdm.auto import tqdm      # deferred: importing the project stays light
     enabled = _state["enabled"]
     return tqdm(iterable, desc=description, total=total, unit=unit, leave=False, delay=delay,
                 disable=None if enabled is None else not enabled, dynamic_ncols=True)

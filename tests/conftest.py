@@ -41,6 +41,21 @@ def shared_dataset():
     return get
 
 
+@pytest.fixture(scope="session", autouse=True)
+def sphere_cache_folder(tmp_path_factory):
+    """The run's own sphere cache (robots.sphere_cache), shared by its tests and by the command
+    lines they start (the variable is inherited): the user's cache is never read or written."""
+    from robots.sphere_cache import CACHE_ENV
+    folder = tmp_path_factory.mktemp("cache")
+    previous = os.environ.get(CACHE_ENV)
+    os.environ[CACHE_ENV] = str(folder)
+    yield folder
+    if previous is None:
+        os.environ.pop(CACHE_ENV, None)
+    else:
+        os.environ[CACHE_ENV] = previous
+
+
 @pytest.fixture(scope="session")
 def jaco():
     """The built-in Kinova Jaco2 (robots.load_robot), loaded once for the whole run."""

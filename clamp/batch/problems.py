@@ -16,8 +16,9 @@ be stored in a file, sent to another process or machine and kept next to its res
   demonstration file, learned with ``learn_prior``) or ``{"skill": NAME, "seed": S,
   "num_demos": M, "num_points": T}`` (``scenes.make_demonstrations``; defaults 0, 6, 250);
 - ``robot``: ``{"name": "jaco"}`` (``robots.load_robot``; the string ``"jaco"`` is read as
-  that) or ``{"urdf": PATH, "end_effector": FRAME, "base_frame": FRAME | null}``
-  (``Robot.from_urdf``); both loaded by ``robots.resolve_robot``, as the command lines' robots;
+  that) or ``{"urdf": PATH, "end_effector": FRAME, "base_frame": FRAME | null}``, optionally
+  with ``"package_dirs": [DIR, ...]`` (folders of package:// meshes) and ``"spheres": FILE``
+  (a collision sphere file) (``Robot.from_urdf``); both loaded by ``robots.resolve_robot``, as the command lines' robots;
 - ``scene``: null, a scene object in the scene-file format of :mod:`scenes.scene`, or the path
   of a scene file;
 - ``start``, ``goal``: an end-effector position [x, y, z] (m) or a joint configuration (n,)
@@ -133,7 +134,7 @@ def _robot_spec(value: Any, where: str) -> _Frozen:
     if "urdf" not in spec or "end_effector" not in spec:
         raise ProblemFormatError(f"{where}: expected {{'name': NAME}} or {{'urdf': PATH, "
                                  f"'end_effector': FRAME}}, got fields {sorted(spec)}")
-    extra = spec.keys() - {"urdf", "end_effector", "base_frame"}
+    extra = spec.keys() - {"urdf", "end_effector", "base_frame", "package_dirs", "spheres"}
     if extra:
         raise ProblemFormatError(f"{where}: unknown field(s) "
                                  f"{unknown_names(extra, ('urdf', 'end_effector', 'base_frame'))}")
@@ -141,9 +142,15 @@ def _robot_spec(value: Any, where: str) -> _Frozen:
     for key in ("urdf", "end_effector"):
         if not isinstance(spec[key], str) or not spec[key]:
             raise ProblemFormatError(f"{where}.{key}: expected a non-empty string, got {spec[key]!r}")
-    if spec["base_frame"] is not None and not isinstance(spec["base_frame"], str):
-        raise ProblemFormatError(f"{where}.base_frame: expected a string or null")
-    return _freeze({k: spec[k] for k in ("urdf", "end_effector", "base_frame")})
+    for key in ("base_frame", "spheres"):
+        if spec.get(key) is not None and not isinstance(spec[key], str):
+            raise ProblemFormatError(f"{where}.{key}: expected a string or null, got {spec[key]!r}")
+    folders = spec.get("package_dirs", [])
+    if not isinstance(folders, (list, tuple)) or not all(isinstance(f, str) and f for f in folders):
+        raise ProblemFormatError(f"{where}.package_dirs: expected a list of folder paths, got {folders!r}")
+    # the optional fields only when given: problems without them read and write as before
+    optional = [key for key in ("package_dirs", "spheres") if spec.get(key)]
+    return _freeze({k: spec[k] for k in ("urdf", "end_effector", "base_frame", *optional)})
 
 
 @dataclass(frozen=True)

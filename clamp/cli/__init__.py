@@ -1,5 +1,5 @@
 """The command lines: ``clamp demo`` / ``clamp plan`` (:mod:`.main`), ``clamp view``
-(:mod:`.viewer`) and ``clamp batch`` (:mod:`.batch`)."""
+(:mod:`.viewer`), ``clamp show`` (:mod:`.show`) and ``clamp batch`` (:mod:`.batch`)."""
 from clamp.cli.main import main
 
 __all__ = ["main"]

@@ -16,9 +16,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from clamp.batch.runner import (TRAJECTORY_MODES, LocalPool, ResultsFile, pending_problems, plan_many,
-                         read_results)
-from clamp.batch.report import summarize, summary_table
 from clamp.errors import InvalidParameterError
 from clamp.batch.problems import ProblemFormatError, read_problems
 from skillplan.validation import as_file
@@ -61,12 +58,16 @@ def _executor(args: argparse.Namespace) -> tuple[Any, Any]:
                 from None
         return client, client.close
     if args.workers is not None:
+        from clamp.batch.pool import LocalPool
         pool = LocalPool(args.workers)
         return pool, pool.shutdown
     return None, lambda: None
 
 
 def run_batch(args: argparse.Namespace) -> int:
+    # deferred: the runner loads the planner; building the parser (clamp --help) stays light
+    from clamp.batch.report import summarize, summary_table
+    from clamp.batch.runner import TRAJECTORY_MODES, ResultsFile, pending_problems, plan_many, read_results
     problems_path = as_file(args.problems, "problems", ProblemFormatError)
     out = Path(args.out)
     if out.exists() and out.resolve() == problems_path.resolve():

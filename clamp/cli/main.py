@@ -1,9 +1,10 @@
 """Command line of CLAMP: clamp demo (built-in synthetic skill) and clamp plan (user files).
 
 Both learn the workspace prior from demonstrations, plan on a robot (a registered name or any
-URDF arm) and write to the output folder (new or empty, or ``--force``): prior figures, plan
-figures (3-D, top view, joint angles with limits, clearance, uncertainty), plans as JSON (q,
-qdot, end-effector path, metrics), browser animations, the scene and, for a successful plan,
+URDF arm) and write to the output folder (new or empty, or ``--force``): plans as JSON (q,
+qdot, end-effector path, metrics), the scene, prior figures, plan figures (3-D, top view, joint
+angles with limits, clearance, uncertainty) and browser animations (``clamp demo`` always,
+``clamp plan`` with ``--figures``: drawing takes seconds) and, for a successful plan,
 its executable joint trajectory: retimed within the arm's velocity limits and ``--acc-limit``
 (TOPP-RA, from rest to rest; with ``--jerk-limit`` jerk-limited by ruckig) as skillplan JSON (with the verdict) and as a ROS 2
 ``trajectory_msgs/JointTrajectory`` message; a summary table is printed. Exit codes: 0 success,
@@ -23,17 +24,15 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
 from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError, PriorFileError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
-from clamp.planning.planner import plan
-from clamp.planning.reach import check_reach
-from clamp.planning.result import PlanResult
 from clamp.cli.batch import add_batch_parser
+from clamp.cli.show import add_show_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
                                  integer_at_least, number, output_directory, output_file, quiet, run,
@@ -41,13 +40,13 @@ from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, ato
 from skillplan.progress import progress
 from robots.retiming import DEFAULT_ACCELERATION_LIMIT
 from robots.errors import RetimingError, RobotError
-from robots import available_robots, resolve_robot
-from clamp.prior.learning import learn_prior
-from clamp.prior.linear_gaussian import WorkspacePrior
-from scenes import Box, Scene, load_demonstrations, make_demonstrations
-from scenes.bags import SPLITS, is_bag
 from scenes.errors import DemonstrationFileError, SceneFileError
 from skillplan.validation import as_file
+
+# The planner, learning, robots and scenes load inside the commands that use them: building the
+# parser (clamp --version, --help, a usage error) loads none of them.
+if TYPE_CHECKING:
+    from clamp.planning.result import PlanResult
 
 log = logging.getLogger(__name__)
 
@@ -131,12 +130,14 @@ def report_failures(args: argparse.Namespace, rows: Sequence[tuple[str, PlanResu
             print(f"clamp {args.command}: plan {name!r} failed: {result.reasons[0]}", file=sys.stderr)
 
 
-def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
-             plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
+def write_figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
+                  plans: Sequence[tuple[str, PlanResult, Any]]) -> None:
     """Prior figures; per plan: 3-D, top view, joint angles, clearance and uncertainty
     figures and the browser animation (HTML). ``demos`` None (a plan from a saved prior): the
     same figures, drawn from the prior alone (mean path and envelope, no demonstrations)."""
     # deferred: matplotlib and the animation writer load only when figures are written
+    import matplotlib
+    matplotlib.use("Agg")              # files only: no window, whatever the user's backend
     from clamp.viz.animation import write_animation
     from clamp.viz.plan_plots import (plot_clearance, plot_joint_angles, plot_plan_3d,
                                   plot_plan_uncertainty, plot_top_view)
@@ -278,6 +279,7 @@ def flagged(error: Exception, option: str) -> Exception:
 def load_robot_from_args(args: argparse.Namespace) -> Any:
     """The robot of ``--robot NAME`` or ``--urdf FILE --end-effector FRAME`` (the arguments
     checked here, the robot loaded by :func:`robots.resolve_robot`, as a batch problem's)."""
+    from robots import available_robots, resolve_robot
     if args.urdf is None:
         if args.end_effector is not None:
             raise InvalidParameterError("--end-effector: only with --urdf (a registered robot "
@@ -301,6 +303,7 @@ def _plan_all(prior: Any, robot: Any, start: np.ndarray,
               requests: Sequence[tuple[str, Any, PlannerConfig, dict[str, Any]]]
               ) -> list[PlanResult]:
     """plan() for each (name, scene, config, options), one progress-bar step per plan."""
+    from clamp.planning.planner import plan
     results = []
     bar = progress(requests, description="planning", unit="plan")
     for name, scene, config, options in bar:
@@ -310,16 +313,27 @@ def _plan_all(prior: Any, robot: Any, start: np.ndarray,
     return results
 
 
+def learned_prior(demos: Any) -> Any:
+    """learn_prior(demos), with a progress line on a terminal (long recordings take seconds)."""
+    from clamp.prior.learning import learn_prior
+    with progress(description=f"learning the prior from {demos.M} demonstrations", total=1,
+                  unit="prior") as bar:
+        prior = learn_prior(demos)
+        bar.update()
+    return prior
+
+
 def run_demo(args: argparse.Namespace) -> int:
     with created_output_directory(args.out, args.force) as out:
         return _demo(args, out)
 
 
 def _demo(args: argparse.Namespace, out: Path) -> int:
+    from scenes import Scene, make_demonstrations
     robot = load_robot_from_args(args)
     limits, jerk = acceleration_limits(args, robot), jerk_limits(args, robot)
     demos = make_demonstrations(args.skill, num_demos=6, num_points=args.num_points)
-    prior = learn_prior(demos)
+    prior = learned_prior(demos)
     start = prior.mean[0, :3] + DEMO_START_OFFSET
     config = _config(args)
     [empty] = _plan_all(prior, robot, start, [("empty scene", None, config, {})])
@@ -335,8 +349,8 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
                trajectory=exported["empty"])
     write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
                scene=scene.to_dict(), trajectory=exported["obstacle"])
-    _figures(out, prior, demos, robot, config,
-             [("empty", empty, None), ("obstacle", with_obstacle, scene)])
+    write_figures(out, prior, demos, robot, config,
+                  [("empty", empty, None), ("obstacle", with_obstacle, scene)])
     save_view_inputs(out, {"empty": {"scene": None, "start": start},
                            "obstacle": {"scene": scene, "start": start}}, prior, demos, robot_spec(args), config)
     if not quiet(args):
@@ -352,6 +366,7 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
 
 def check_demonstration_args(args: argparse.Namespace) -> None:
     """The --demos files (or bags) and their options, checked before any output is made."""
+    from scenes.bags import is_bag
     bags = [is_bag(d) for d in args.demos]
     bag_options = args.topic is not None or args.split is not None or args.frames is not None
     if not all(bags) and (len(args.demos) > 1 or bag_options):
@@ -371,6 +386,7 @@ def load_demonstrations_from_args(args: argparse.Namespace, robot: Any) -> Any:
     """The demonstrations of --demos (a file, or ROS 2 bags with --topic / --split / --frames),
     resampled to --num-points and moved by --translate when given. ``robot`` (None for
     ``clamp learn`` without --robot / --urdf) reads joint-space demonstrations."""
+    from scenes import load_demonstrations
     try:
         if args.topic is None:                              # a joint-space file needs the arm
             demos = load_demonstrations(args.demos[0], robot=robot)
@@ -409,7 +425,7 @@ def run_learn(args: argparse.Namespace) -> int:
         raise InvalidParameterError("--end-effector: only with --urdf (the arm of joint-space demonstrations)")
     robot = None if no_arm else load_robot_from_args(args)
     demos = load_demonstrations_from_args(args, robot)
-    prior = learn_prior(demos)
+    prior = learned_prior(demos)
     prior.save(out, overwrite=args.force)
     if not quiet(args):
         print(prior.summary())
@@ -420,6 +436,7 @@ def run_learn(args: argparse.Namespace) -> int:
 def load_prior_from_args(args: argparse.Namespace) -> Any:
     """The workspace prior of --prior FILE (``clamp learn``'s output, ``WorkspacePrior.save``);
     PriorFileError naming --prior and the file when it cannot be read."""
+    from clamp.prior.linear_gaussian import WorkspacePrior
     try:
         return WorkspacePrior.load(args.prior)
     except PriorFileError as exc:
@@ -448,6 +465,7 @@ def run_plan(args: argparse.Namespace) -> int:
 
 
 def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
+    from scenes import Scene
     robot = load_robot_from_args(args)
     limits, jerk = acceleration_limits(args, robot), jerk_limits(args, robot)
     start = _start(args, robot)
@@ -455,7 +473,8 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
         demos, prior = None, load_prior_from_args(args)
     else:
         demos = load_demonstrations_from_args(args, robot)
-        prior = learn_prior(demos)
+        prior = learned_prior(demos)
+    from clamp.planning.reach import check_reach
     check_reach(robot, np.asarray(prior.mean)[:, :3], "--prior" if args.prior is not None else "--demos")
     try:
         scene = Scene.load(args.scene) if args.scene else None
@@ -470,14 +489,15 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     write_plan(result, out / "plan.json", robot=robot.name, **source,
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
-    _figures(out, prior, demos, robot, config, [("result", result, scene)])
+    if args.figures:
+        write_figures(out, prior, demos, robot, config, [("result", result, scene)])
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
     name = Path(args.prior if args.prior is not None else args.demos[0]).stem
     if not quiet(args):
         print(summary_table([(name, result)], {name: exported["result"]}, verbose=verbose(args)))
         print(trajectory_summary(exported))
-        print(f"wrote figures and plan to {out}")
+        print(f"wrote {'figures and ' if args.figures else ''}plan to {out}")
     report_failures(args, [(name, result)])
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
 
@@ -550,6 +570,7 @@ def trajectory_summary(exported: dict[str, dict[str, Any]]) -> str:
 
 def obstacle_below_path(result: PlanResult, size: float = 0.08, overlap: float = 0.02) -> Any:
     """A cube under the middle of a plan's end-effector path, reaching ``overlap`` m above it."""
+    from scenes import Box
     middle = result.ee_path[len(result.ee_path) // 2]
     centre = middle - np.array([0.0, 0.0, 0.5 * size - overlap])
     return Box(centre, [size, size, size])
@@ -623,6 +644,7 @@ DEMOS_HELP = ("demonstrations (.mat, .npz, .csv), or ROS 2 bags (folders, .mcap,
 def demonstration_options(p: argparse.ArgumentParser) -> None:
     """How --demos are read and learned: --topic / --split / --frames (bags), --num-points,
     --translate (shared by clamp learn and clamp plan)."""
+    from scenes.bags import SPLITS
     p.add_argument("--topic", default=None,
                    help="bags: the topic to read (JointState, PoseStamped or /tf)")
     p.add_argument("--split", choices=SPLITS, default=None,
@@ -681,16 +703,19 @@ def parser() -> argparse.ArgumentParser:
     user.add_argument("--goal", type=number, nargs="+", default=None,
                       help="goal: end-effector position x y z [m] or a joint configuration")
     user.add_argument("--scene", default=None, help="scene JSON file (scenes.Scene.save)")
+    user.add_argument("--figures", action="store_true",
+                      help="also draw the figures (prior, plan 3-D, top view, joints, clearance, "
+                           "uncertainty) and the browser animation: seconds more (default: plan and "
+                           "trajectory files only; clamp show OUT draws them later)")
     user.set_defaults(run=run_plan)
     add_batch_parser(sub)
     add_view_parser(sub)
+    add_show_parser(sub)
     return main
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``clamp``; returns the exit code (0 success, 1 plan failed, 2 bad input)."""
-    import matplotlib
-    matplotlib.use("Agg")
     return run(parser(), argv)
 
 

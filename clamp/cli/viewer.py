@@ -20,14 +20,9 @@ from typing import Any
 
 from clamp.errors import InvalidParameterError
 from clamp.config import GROUPS, PlannerConfig
-from clamp.batch.problems import make_problem
+from clamp.batch.problems import Problem, make_problem
 from skillplan.command_line import atomic_write_text
-from clamp.batch.runner import resolve
-from clamp.planning.planner import plan
-from clamp.batch.problems import Problem
-from scenes import Demonstrations
 from skillplan.validation import as_path
-from clamp.viz.viewer import PlanViewer
 from skillplan.command_line import EXIT_OK, quiet
 from skillplan.command_line import integer_at_least
 
@@ -69,15 +64,29 @@ def robot_spec(args: argparse.Namespace) -> dict[str, Any]:
     """The robot of the planning command line as a problem's robot field."""
     if args.urdf is None:
         return {"name": args.robot}
-    if args.package_dir or args.spheres:
-        log.warning("view: --package-dir / --spheres are not recorded; clamp view loads the URDF without them")
-    return {"urdf": str(Path(args.urdf).resolve()), "end_effector": args.end_effector,
+    spec = {"urdf": str(Path(args.urdf).resolve()), "end_effector": args.end_effector,
             "base_frame": args.base_frame}
+    if args.package_dir:
+        spec["package_dirs"] = [str(Path(folder).resolve()) for folder in args.package_dir]
+    if args.spheres:
+        spec["spheres"] = str(Path(args.spheres).resolve())
+    return spec
 
 
 def load_view(folder: str | Path, name: str | None = None) -> tuple[Any, Any]:
     """Plan the recorded problem of ``folder`` again; returns (PlanResult, Demonstrations).
     ``name``: which plan (``problem_<name>.json``); None: the only one, or ``obstacle``."""
+    _, _, result, demos = replan_recorded(folder, name)
+    return result, demos
+
+
+def replan_recorded(folder: str | Path, name: str | None = None) -> tuple[str, dict[str, Any], Any, Any]:
+    """The recorded problem ``name`` of the output folder ``folder`` (None: the only one, or
+    ``obstacle``) planned again: (its name, the keyword arguments of :func:`clamp.plan`, the
+    PlanResult, the Demonstrations or None)."""
+    from clamp.batch.runner import resolve      # deferred: the planner loads when a plan is made
+    from clamp.planning.planner import plan
+    from scenes import Demonstrations
     folder = Path(as_path(folder, "FOLDER", InvalidParameterError))
     if not folder.is_dir():
         raise InvalidParameterError(f"FOLDER: expected the output folder of clamp plan / clamp demo, "
@@ -94,13 +103,15 @@ def load_view(folder: str | Path, name: str | None = None) -> tuple[Any, Any]:
         raise InvalidParameterError(f"--plan: no plan {name!r} in {str(folder)!r}; choose one of {found}")
     problem = Problem.from_json((folder / problem_file(name)).read_text(encoding="utf-8"),
                                 source=str(folder / problem_file(name)))
-    result = plan(**resolve(problem, folder))
+    inputs = resolve(problem, folder)
+    result = plan(**inputs)
     demos_file = problem.to_dict()["meta"].get("demonstrations")
     demos = Demonstrations.load_npz(folder / demos_file) if demos_file else None
-    return result, demos
+    return name, inputs, result, demos
 
 
 def run_view(args: argparse.Namespace) -> int:
+    from clamp.viz.viewer import PlanViewer     # deferred: viser is the optional "viewer" extra
     result, demos = load_view(args.folder, args.plan)
     with PlanViewer(result, demonstrations=demos, port=args.port) as viewer:
         if not quiet(args):

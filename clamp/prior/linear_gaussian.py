@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, ClassVar, cast
 
 import numpy as np
-from scipy import stats
+from scipy import special   # chdtrc, ndtri: scipy.stats' chi2.sf and norm.ppf, without loading scipy.stats (a second)
 
 from clamp.prior import chain
 from clamp.prior.conjugate import POSTERIOR_KEYS, ConjugatePosterior
@@ -65,7 +65,7 @@ def envelope_quantile(level: float) -> float:
     level = as_scalar(level, "level", strictly_positive=True)
     if level >= 1.0:
         raise InvalidParameterError(f"level: expected a probability in (0, 1), got {level}")
-    return float(stats.norm.ppf(0.5 + 0.5 * level))
+    return float(special.ndtri(0.5 + 0.5 * level))
 
 
 
@@ -348,7 +348,7 @@ class LinearGaussianPrior:
         """
         d2 = self.step_mahalanobis_squared(x)
         d2 = d2 if initial else d2[..., 1:]
-        out = stats.chi2.sf(d2.sum(axis=-1), df=self.degrees_of_freedom(initial))
+        out = special.chdtrc(self.degrees_of_freedom(initial), d2.sum(axis=-1))
         return float(out) if np.ndim(out) == 0 else np.asarray(out)
 
     def step_success_probabilities(self, x: np.ndarray) -> np.ndarray:
@@ -357,7 +357,7 @@ class LinearGaussianPrior:
         Entry 0 scores the initial state, entry i the transition i-1 -> i; each is uniform on
         [0, 1] under the prior, so small entries locate where a plan leaves the skill.
         """
-        return stats.chi2.sf(self.step_mahalanobis_squared(x), df=self.D)
+        return special.chdtrc(self.D, self.step_mahalanobis_squared(x))
 
     # ------------------------------------------------------------------ learning on
     @classmethod

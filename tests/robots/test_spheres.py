@@ -153,7 +153,7 @@ def test_command_line_writes_a_loadable_sphere_file(tmp_path, capsys):
     <limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
 </robot>""")
     out = tmp_path / "arm.json"
-    assert main(["--urdf", str(urdf), "--out", str(out), "--max-spheres", "8"]) == 0
+    assert main(["--urdf", str(urdf), "--end-effector", "upper", "--out", str(out), "--max-spheres", "8"]) == 0
     spheres = load_sphere_file(out)
     assert set(spheres.link_names) == {"upper"} and 1 <= spheres.count <= 8
     assert "coverage" in capsys.readouterr().out

@@ -44,8 +44,8 @@ def test_plan_from_user_files(tmp_path, capsys):
     plan = json.loads((tmp_path / "out" / "plan.json").read_text())
     assert plan["success"]
     assert np.linalg.norm(np.array(plan["ee_path"][0]) - start) <= 1e-3
-    assert (tmp_path / "out" / "plan_result.png").is_file()
-    assert "plan" in capsys.readouterr().out
+    assert not list((tmp_path / "out").glob("*.png")) and not list((tmp_path / "out").glob("*.html"))
+    assert f"wrote plan to {tmp_path / 'out'}" in capsys.readouterr().out    # figures only when asked
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -79,7 +79,7 @@ def test_plan_on_an_unregistered_urdf_arm(tmp_path, capsys):
     out = tmp_path / "out"
     code = main(["plan", "--urdf", str(urdf), "--end-effector", "tool0", "--package-dir", str(share),
                  "--demos", str(demos), "--start", *map(str, start), "--scene",
-                 str(tmp_path / "scene.json"), "--out", str(out), "-q"])
+                 str(tmp_path / "scene.json"), "--out", str(out), "-q", "--figures"])
     assert code == 0
     assert capsys.readouterr().out == ""  # -q: no summary
     trajectory = json.loads((out / "trajectory_result.json").read_text())

@@ -33,7 +33,7 @@ def learned(tmp_path_factory):
     codes = {"learn": main(["learn", "--demos", str(folder / "demos.npz"), *LEARNING,
                             "--out", str(folder / "prior.npz")])}
     common = ["--robot", "jaco", "--start", *START, "--scene", str(folder / "scene.json"), "--sigma-obs", "0.02"]
-    codes["prior"] = main(["-q", "plan", "--prior", str(folder / "prior.npz"), *common,
+    codes["prior"] = main(["-q", "plan", "--prior", str(folder / "prior.npz"), *common, "--figures",
                            "--out", str(folder / "from_prior")])
     codes["demos"] = main(["-q", "plan", "--demos", str(folder / "demos.npz"), *LEARNING, *common,
                            "--out", str(folder / "from_demos")])
