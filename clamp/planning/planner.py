@@ -99,28 +99,41 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
 def _planned_in_time(model_at: Callable[[float], Model], timing: TimeRequest, covariance: bool,
                      started: float) -> PlanResult:
     """The time stage, then the path solve (:mod:`clamp.planning.time_scale`): at the caller's
-    scale; else at the scale the free plan needs, which with obstacles is known once the model
-    is built (its free plan), and in an empty scene from the plan itself (the free plan): a
-    skill too fast for the arm is built and solved once more, slower."""
+    scale; else at the scale the free plan needs. With obstacles the free plan is solved when
+    the model is built: a skill too fast for the arm is built again at its scale (one more
+    free-plan solve). In an empty scene the plan is the free plan: the skill followed at its
+    demonstrated speed (the initial trajectory) predicts its need, and a plan still beyond the
+    limits at that scale is solved once more at its own need."""
     if timing.fixed is not None:
         k = timing.fixed
         planned = model_at(k)
         result = plan_model(planned, covariance, started=started)
         needed = k * _needed(planned, np.hstack([result.q, result.qdot]), None)
-    else:
-        planned = model_at(1.0)
-        if planned.free_plan is not None:           # obstacles: the free plan is known
-            needed = _needed(planned, planned.free_plan, planned.initialisation.q)
+        return _timed(result, k, planned, timing, needed)
+    planned = model_at(1.0)
+    if planned.free_plan is not None:                # obstacles: the free plan is known
+        needed = _needed(planned, planned.free_plan, planned.initialisation.q)
+    else:                                            # empty: the skill's own speed
+        needed = _needed(planned, planned.initialisation.theta, None)
+    k = chosen_scale(timing, needed)
+    planned = planned if k == 1.0 else model_at(k)
+    solving = time.perf_counter()
+    solution = solve(planned)
+    if planned.free_plan is None:
+        beyond = _needed(planned, solution.optimum.theta, planned.initialisation.q)
+        if beyond > 1.0 and chosen_scale(timing, k * beyond) > k:
+            needed = k * beyond
             k = chosen_scale(timing, needed)
-            result = plan_model(planned if k == 1.0 else model_at(k), covariance,
-                                started=started)
-        else:                                       # an empty scene: the plan is the free plan
-            solving = time.perf_counter()
-            solution = solve(planned)
-            needed = _needed(planned, solution.optimum.theta, planned.initialisation.q)
-            k = chosen_scale(timing, needed)
-            result = (_concluded(planned, solution, covariance, started, solving) if k == 1.0
-                      else plan_model(model_at(k), covariance, started=started))
+            return _timed(plan_model(model_at(k), covariance, started=started), k, planned,
+                          timing, needed)
+    return _timed(_concluded(planned, solution, covariance, started, solving), k, planned,
+                  timing, needed)
+
+
+def _timed(result: PlanResult, k: float, planned: Model, timing: TimeRequest,
+           needed: float) -> PlanResult:
+    """``result`` planned at time scale k, with the time stage's reasons
+    (:func:`clamp.planning.time_scale.timing_reasons`) in its verdict."""
     result.time_scale = k
     return fail(result, timing_reasons(result, planned.robot, planned.config, timing, needed))
 

@@ -236,13 +236,14 @@ def test_with_obstacles_the_scale_is_chosen_before_the_one_path_solve(jaco, fast
     _within_limits(jaco, result)
 
 
-def test_in_an_empty_scene_a_too_fast_skill_costs_one_more_solve(jaco, fast, solves):
-    """The empty scene's plan is its free plan: solved at the demonstrations' speed, then once
-    more at the scale its peaks need; the velocities are checked by the verdict alone."""
+def test_in_an_empty_scene_a_too_fast_skill_is_solved_slower_from_the_start(jaco, fast, solves):
+    """The empty scene's plan is its free plan: the skill's speed chooses k > 1 before it is
+    solved (once, or once more at its own peaks' need; never at the demonstrations' speed);
+    the velocities are checked by the verdict alone."""
     _, prior, _ = fast
     result = plan(prior, jaco, None, np.asarray(prior.mean)[0, :3], covariance=False)
-    assert solves["scales"][0] == 1.0 and len(solves["scales"]) == 2
-    assert solves["scales"][1] == pytest.approx(result.time_scale) and result.time_scale > 2.0
+    assert 1 <= len(solves["scales"]) <= 2 and min(solves["scales"]) > 1.0
+    assert solves["scales"][-1] == pytest.approx(result.time_scale) and result.time_scale > 2.0
     assert solves["velocity_checks"] == 1
     assert result.success, result.reasons
     _within_limits(jaco, result)
