@@ -6,6 +6,10 @@ planner each time. Anchor: the reference C++ CLAMP (GTSAM + GPMP2) on box_closin
 machine type: empty scene 1.68 s / 127 iterations, with the box 1.06 s / 79 iterations, about
 13 ms per iteration (the issue measured ~27 ms side by side).
 
+The header prints a machine reference (:func:`harness.machine_reference`: a fixed pure-Python
+loop and a fixed numpy workload, timed in the same run): figures from two machines compare as
+ratios to it.
+
 Tables: box_closing on the Jaco and the Sawyer (empty, box, goal); the TLGC boundary family's
 overhead; scaling with T (per-iteration time and time per state); BLAS threads unset vs 1;
 optionally (--gtsam) GTSAM's own optimizers on the same graph from the same start.
@@ -21,7 +25,7 @@ import warnings
 import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from harness import print_environment, shared_demonstrations
+from harness import print_environment, print_machine_reference, shared_demonstrations
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
 REFERENCE_BOX = [0.32, -0.32, 0.13, 0.09, 0.06, 0.28]
@@ -66,6 +70,7 @@ def main() -> None:
     parser.add_argument("--gtsam", action="store_true", help="also GTSAM's optimizers (slow)")
     args = parser.parse_args()
     print_environment()
+    print_machine_reference()
     print("# BLAS:", ", ".join(f"{i['internal_api']} {i['num_threads']} threads"
                                for i in threadpool_info() if i["user_api"] == "blas"))
     warnings.simplefilter("ignore")

@@ -73,6 +73,44 @@ def print_environment() -> None:
           + ", ".join(f"{name} {version(name)}" for name in ("numpy", "scipy", "pin", "gtsam")))
 
 
+def machine_reference() -> tuple[float, float]:
+    """Milliseconds of two fixed workloads, timed now (median of 5 after a warm-up): a pure-Python
+    loop (2e5 additions and multiplications of floats: the interpreter's speed) and a numpy
+    workload (100 products of 6 x 6 matrices batched over 250, then 50 Cholesky factorisations
+    of a 100 x 100 matrix: small-array overhead and dense kernels, one BLAS thread). Benchmark
+    figures divided by these compare across machines."""
+    from threadpoolctl import threadpool_limits
+
+    def python_loop() -> float:
+        total = 0.0
+        for k in range(200_000):
+            total += k * 1e-6
+        return total
+
+    rng = np.random.default_rng(0)
+    a, b = rng.standard_normal((250, 6, 6)), rng.standard_normal((250, 6, 6))
+    m = rng.standard_normal((100, 100))
+    spd = m @ m.T + 100 * np.eye(100)
+
+    def numpy_work() -> None:
+        for _ in range(100):
+            np.matmul(a, b)
+        for _ in range(50):
+            np.linalg.cholesky(spd)
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        return median_ms(python_loop, 5), median_ms(numpy_work, 5)
+
+
+def print_machine_reference() -> tuple[float, float]:
+    """Print the :func:`machine_reference` line (and return its two figures [ms])."""
+    python_ms, numpy_ms = machine_reference()
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"# machine reference (harness.machine_reference, same run, load {load:.1f}): "
+          f"pure-Python loop {python_ms:.1f} ms, numpy workload {numpy_ms:.1f} ms")
+    return python_ms, numpy_ms
+
+
 def shared_demonstrations(name: str):
     """The real data set ``<name>.mat`` as ``scenes.Demonstrations`` (from $SKILLPLAN_DATASETS or
     ../shared/datasets beside this checkout), or None with a printed note when it is absent."""

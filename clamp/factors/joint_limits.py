@@ -62,19 +62,29 @@ def limit_violations(robot: Any, q: np.ndarray, qdot: np.ndarray | None,
         reasons.append(f"{what}: joint {names[joint]} is {amount:.4g} rad {side} limit "
                        f"{limit:.4g} rad{where}")
     if qdot is not None:
-        vmax = np.asarray(robot.velocity_limits)
-        over = speeds(q, qdot, time) - vmax
-        fast = over > velocity_tolerance
-        worst = _worst(np.where(fast, over, 0.0))
-        if worst is not None:
-            state, joint, amount = worst
-            where, unit = ((f"at state {state}", "states") if time is None else
-                           (f"between states {state} and {state + 1}", "segments"))
-            reasons.append(f"{what}: joint {names[joint]} moves {amount:.4g} rad/s faster than "
-                           f"its limit {vmax[joint]:.4g} rad/s {where} "
-                           f"({int(np.count_nonzero(fast.any(axis=1)))} of {len(fast)} {unit} "
-                           "beyond the velocity limits)")
+        reasons += velocity_violations(robot, q, qdot, velocity_tolerance, what, time)
     return reasons
+
+
+def velocity_violations(robot: Any, q: np.ndarray, qdot: np.ndarray,
+                        velocity_tolerance: float = 0.0, what: str = "plan",
+                        time: np.ndarray | None = None) -> list[str]:
+    """The velocity part of :func:`limit_violations`: a reason (or none) for velocities qdot
+    (T, n) [rad/s] (between the states with ``time`` (T,) [s]) of positions q (T, n) beyond
+    robot.velocity_limits by more than ``velocity_tolerance``."""
+    vmax = np.asarray(robot.velocity_limits)
+    over = speeds(q, qdot, time) - vmax
+    fast = over > velocity_tolerance
+    worst = _worst(np.where(fast, over, 0.0))
+    if worst is None:
+        return []
+    state, joint, amount = worst
+    where, unit = ((f"at state {state}", "states") if time is None else
+                   (f"between states {state} and {state + 1}", "segments"))
+    return [f"{what}: joint {robot.joint_names[joint]} moves {amount:.4g} rad/s faster than "
+            f"its limit {vmax[joint]:.4g} rad/s {where} "
+            f"({int(np.count_nonzero(fast.any(axis=1)))} of {len(fast)} {unit} "
+            "beyond the velocity limits)"]
 
 
 def speeds(q: np.ndarray, qdot: np.ndarray, time: np.ndarray | None = None) -> np.ndarray:
@@ -122,17 +132,31 @@ class JointLimitFamily(Family):
     @classmethod
     def check(cls, context: CheckContext, theta: np.ndarray) -> ConstraintCheck:
         """The robot's limits with the checks' tolerances (:func:`limit_violations`); amount:
-        the largest excess over a limit [rad or rad/s]."""
+        the largest excess over a limit [rad or rad/s]. The verdict's (``context.final``)
+        checks positions and velocities; the solve's judge positions only: velocities are the
+        time stage's (:mod:`clamp.planning.time_scale`), never a constraint to repair."""
+        robot, checks = context.robot, context.config.checks
+        q = theta[:, :robot.n]
+        reasons = limit_violations(robot, q, None, checks.limit_tolerance)
+        excess = max(float(np.max(np.asarray(robot.lower_limits) - q)),
+                     float(np.max(q - np.asarray(robot.upper_limits))), 0.0)
+        record = ConstraintCheck(cls.name, bool(reasons), excess if reasons else 0.0,
+                                 tuple(reasons), reasons, listed=False)
+        return cls.for_verdict(context, theta, record) if context.final else record
+
+    @classmethod
+    def for_verdict(cls, context: CheckContext, theta: np.ndarray,
+                    record: ConstraintCheck) -> ConstraintCheck:
+        """The judge's ``record`` (positions) with the velocities between the states checked."""
         robot, checks = context.robot, context.config.checks
         q, qdot = theta[:, :robot.n], theta[:, robot.n:]
-        reasons = limit_violations(robot, q, qdot, checks.limit_tolerance,
-                                   checks.velocity_tolerance, time=context.time)
-        excess = max(float(np.max(np.asarray(robot.lower_limits) - q)),
-                     float(np.max(q - np.asarray(robot.upper_limits))),
-                     float(np.max(speeds(q, qdot, context.time)
-                                  - np.asarray(robot.velocity_limits))), 0.0)
-        return ConstraintCheck(cls.name, bool(reasons), excess if reasons else 0.0,
-                               tuple(reasons), reasons, listed=False)
+        fast = velocity_violations(robot, q, qdot, checks.velocity_tolerance, time=context.time)
+        if not fast:
+            return record
+        excess = float(np.max(speeds(q, qdot, context.time) - np.asarray(robot.velocity_limits)))
+        reasons = [*record.reasons, *fast]
+        return ConstraintCheck(cls.name, True, max(record.amount, excess), tuple(reasons),
+                               reasons, listed=False)
 
     def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
         i = window.local(self.first[rows])

@@ -12,14 +12,14 @@ on ``problem.graph()``), the posterior covariance at the optimum and the verdict
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
 from clamp.planning.assembly import ExtraFactor
 from clamp.config import PlannerConfig
-from clamp.planning.pipeline import Model, build_model, posterior, solve
+from clamp.planning.pipeline import Model, Solution, build_model, posterior, solve
 from clamp.graph.problem import PlanningProblem
 from clamp.config import as_config
 from clamp.planning.request import as_extras, as_scene, make_request
@@ -27,7 +27,9 @@ from clamp.planning.result import PlanResult
 from clamp.optim.solver import WarmStart
 from clamp.planning.targets import target_problems
 from clamp.config import as_max_duration, as_time_scale
-from clamp.planning.time_scale import plan_time_scaled
+from clamp.planning.time_scale import (TimeRequest, chosen_scale, fail, needed_scale,
+                                       time_request, time_scaled_config, time_scaled_prior,
+                                       timing_reasons)
 from clamp.validation import as_bool
 from clamp.planning.verdict import evaluate, failed_result, start_problems
 from skillplan.threads import single_blas_thread
@@ -77,6 +79,7 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
     time_scale, max_duration = as_time_scale(time_scale), as_max_duration(max_duration)
     with single_blas_thread():  # small products only: one BLAS thread (see skillplan.threads)
         request = make_request(prior, robot, start, goal, via_points, config)
+        timing = time_request(prior, config, time_scale, max_duration)
         reasons = (start_problems(robot, scene, request, config)
                    + target_problems(robot, request, config, scene))
         if reasons:
@@ -84,11 +87,61 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
             return failed_result(prior, robot, np.repeat(request.q_start[None], T, axis=0),
                                  reasons, started, request.start_ik_error, config)
 
-        def plan_at(scaled_prior: Any, scaled_config: PlannerConfig) -> PlanResult:
-            planned = build_model(scaled_prior, robot, scene, request, scaled_config,
-                                  tuple(as_extras(extra_factors)), sdf, initial)
-            return plan_model(planned, covariance, started=started)
-        return plan_time_scaled(plan_at, prior, robot, config, time_scale, max_duration)
+        extras = tuple(as_extras(extra_factors))
+
+        def model_at(k: float) -> Model:
+            """The model of the request with the skill traversed k times slower."""
+            return build_model(time_scaled_prior(prior, k), robot, scene, request,
+                               time_scaled_config(config, k), extras, sdf, initial)
+        return _planned_in_time(model_at, timing, covariance, started)
+
+
+def _planned_in_time(model_at: Callable[[float], Model], timing: TimeRequest, covariance: bool,
+                     started: float) -> PlanResult:
+    """The time stage, then the path solve (:mod:`clamp.planning.time_scale`): at the caller's
+    scale; else at the scale the free plan needs. With obstacles the free plan is solved when
+    the model is built: a skill too fast for the arm is built again at its scale (one more
+    free-plan solve). In an empty scene the plan is the free plan: the skill followed at its
+    demonstrated speed (the initial trajectory) predicts its need, and a plan still beyond the
+    limits at that scale is solved once more at its own need."""
+    if timing.fixed is not None:
+        k = timing.fixed
+        planned = model_at(k)
+        result = plan_model(planned, covariance, started=started)
+        needed = k * _needed(planned, np.hstack([result.q, result.qdot]), None)
+        return _timed(result, k, planned, timing, needed)
+    planned = model_at(1.0)
+    if planned.free_plan is not None:                # obstacles: the free plan is known
+        needed = _needed(planned, planned.free_plan, planned.initialisation.q)
+    else:                                            # empty: the skill's own speed
+        needed = _needed(planned, planned.initialisation.theta, None)
+    k = chosen_scale(timing, needed)
+    planned = planned if k == 1.0 else model_at(k)
+    solving = time.perf_counter()
+    solution = solve(planned)
+    if planned.free_plan is None:
+        beyond = _needed(planned, solution.optimum.theta, planned.initialisation.q)
+        if beyond > 1.0 and chosen_scale(timing, k * beyond) > k:
+            needed = k * beyond
+            k = chosen_scale(timing, needed)
+            return _timed(plan_model(model_at(k), covariance, started=started), k, planned,
+                          timing, needed)
+    return _timed(_concluded(planned, solution, covariance, started, solving), k, planned,
+                  timing, needed)
+
+
+def _timed(result: PlanResult, k: float, planned: Model, timing: TimeRequest,
+           needed: float) -> PlanResult:
+    """``result`` planned at time scale k, with the time stage's reasons
+    (:func:`clamp.planning.time_scale.timing_reasons`) in its verdict."""
+    result.time_scale = k
+    return fail(result, timing_reasons(result, planned.robot, planned.config, timing, needed))
+
+
+def _needed(planned: Model, theta: np.ndarray, initial_q: np.ndarray | None) -> float:
+    """:func:`clamp.planning.time_scale.needed_scale` of theta (T, 2n) in ``planned``."""
+    return needed_scale(planned.robot, theta, np.asarray(planned.prior.time, dtype=float),
+                        planned.config, initial_q)
 
 
 def plan_model(planned: Model, covariance: bool = True, warm_start: WarmStart | None = None,
@@ -98,10 +151,16 @@ def plan_model(planned: Model, covariance: bool = True, warm_start: WarmStart | 
     later stages of :func:`plan`. Timings [s]: "build" from ``started`` (``time.perf_counter()``
     before the request was made; None: now) to the solve, "optimize", "marginals", "total"."""
     started = time.perf_counter() if started is None else started
-    t_solve = time.perf_counter()
-    solution = solve(planned, warm_start)
+    solving = time.perf_counter()
+    return _concluded(planned, solve(planned, warm_start), covariance, started, solving)
+
+
+def _concluded(planned: Model, solution: Solution, covariance: bool, started: float,
+               solving: float) -> PlanResult:
+    """The posterior and verdict of ``solution`` (of ``planned``; solved from
+    ``time.perf_counter()`` ``solving`` on, the plan started at ``started``)."""
     t_posterior = time.perf_counter()
     belief = posterior(planned, solution, covariance)
-    timings = {"build": t_solve - started, "optimize": t_posterior - t_solve,
+    timings = {"build": solving - started, "optimize": t_posterior - solving,
                "marginals": time.perf_counter() - t_posterior, **solution.optimum.timings}
     return evaluate(planned, solution, belief, timings, started)

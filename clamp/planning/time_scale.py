@@ -1,5 +1,6 @@
-"""Time scaled to the arm (issue 27): a skill demonstrated faster than the arm can follow is
-planned slower, on the same geometry.
+"""Time is its own stage (issues 27, 36): a skill demonstrated faster than the arm can follow
+is planned slower, on the same geometry, at a time scale chosen before the constrained path
+solve.
 
 A uniform time scale k >= 1 reparametrises the skill: time t -> k t, workspace velocities
 v -> v / k. For the learned prior x = [p, v] this is the linear change of state x' = S x,
@@ -11,21 +12,22 @@ velocity tie's sigma / k), so the scaled problem is the original one in slower t
 for what is physical: the arm's joint velocity limits (the limit hinges and the verdict), the
 obstacles, the tolerances.
 
-:func:`plan_time_scaled` (what :func:`clamp.plan` runs) plans once at scale 1 (nothing
-changes for a skill within the limits: the plan is bit-identical), and when that plan fails
-while a joint moves faster than its velocity limit (or, with ``config.checks``'
-``acceleration_limit``, accelerates beyond it), computes the smallest scale the free
-optimum needs, k = max(peak velocity ratio, sqrt(peak acceleration ratio)) x
-:data:`MARGIN`, and plans again at k (up to :data:`MAX_RESCALES` times, the scale growing by
-the new plan's ratios). The caller may instead fix the scale (``time_scale``) or bound the
-duration (``max_duration`` [s]: k <= max_duration / the skill's duration). The scale is
+The stage (:func:`clamp.plan` runs it): the caller's scale (``time_scale``) is taken as it is;
+otherwise k is chosen from the free plan's peaks (:func:`needed_scale`: joint velocities
+between the states and accelerations against the limits, :func:`peak_ratios`), k = that need
+x :data:`MARGIN`, at most ``max_duration`` / the skill's duration. The free plan is the model's
+(with obstacles, solved when the model is built) or, in an empty scene, the plan itself: a
+skill shown too fast costs one more free-plan solve (the model built again at k), never a
+path search. The solve's judge does not check joint velocities
+(:meth:`clamp.factors.JointLimitFamily.check`); the verdict does, and :func:`timing_reasons`
+adds the accelerations and, when the scale was bounded, why. The scale is
 ``PlanResult.time_scale``; the result's time stamps, velocities and verdict are the scaled
 plan's.
 """
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -38,11 +40,9 @@ from clamp.prior.orientation_prior import OrientationPrior
 
 log = logging.getLogger(__name__)
 
-#: the scale computed from a plan's peak ratios is multiplied by this (the re-planned optimum
-#: moves a little: its peaks are not exactly the first plan's divided by k)
+#: the scale computed from the free plan's peak ratios is multiplied by this (the plan at that
+#: scale moves a little: its peaks are not exactly the free plan's divided by k)
 MARGIN = 1.05
-#: re-plans at a larger scale at most (each from the previous plan's peak ratios)
-MAX_RESCALES = 3
 
 
 def time_scaled_prior(prior: Any, k: float) -> Any:
@@ -128,45 +128,22 @@ def peak_ratios(robot: Any, q: np.ndarray, qdot: np.ndarray, time: np.ndarray,
     return velocity / vmax, (np.abs(np.diff(qdot, axis=0)) / step).max(axis=0) / acceleration_limit
 
 
-def _too_fast(result: Any, robot: Any, checks: Any) -> tuple[bool, bool, float]:
-    """Whether a plan moves beyond the arm's limits (a velocity between its states, as the
-    verdict sees it, beyond its limit by more than ``checks.velocity_tolerance``, an
-    acceleration beyond ``checks.acceleration_limit``); whether it is to be planned slower
-    (it is beyond a limit, or it failed and its initial trajectory, the skill followed at the
-    demonstrations' speed, exceeds a limit: the limit hinges may be what bent it); and the
-    scale (>= 1) the larger of the plan's and the initial trajectory's peaks need."""
-    vmax = np.asarray(robot.velocity_limits, dtype=float)
-    tolerance = checks.velocity_tolerance / vmax
-    velocity, acceleration = peak_ratios(robot, result.q, result.qdot, result.time,
-                                         checks.acceleration_limit)
-    fast = slower = bool(np.any(velocity > 1.0 + tolerance) or np.any(acceleration > 1.0))
-    needed = max(float(velocity.max()), float(np.sqrt(acceleration.max())))
-    if result.initial_q is not None:
-        initial = np.asarray(result.initial_q, dtype=float)
-        qdot = np.gradient(initial, np.asarray(result.time, dtype=float), axis=0)
-        v0, a0 = peak_ratios(robot, initial, qdot, result.time, checks.acceleration_limit)
-        skill = max(float(v0.max()), float(np.sqrt(a0.max())))
-        slower = slower or (not result.success and skill > 1.0)
-        needed = max(needed, skill)
-    return fast, slower, max(1.0, needed)
+@dataclass(frozen=True)
+class TimeRequest:
+    """What the caller asked of the plan's time: ``fixed`` the scale they gave (None:
+    automatic); ``largest`` the largest scale ``max_duration`` allows (inf: unbounded);
+    ``max_duration`` [s] or None."""
+
+    fixed: float | None
+    largest: float
+    max_duration: float | None
 
 
-def _fail(result: Any, reason: str) -> None:
-    """Add a failure reason to a verdict (never a success it has not checked)."""
-    result.success = False
-    result.reasons.append(reason)
-    if result.stop_reason == "converged":
-        result.stop_reason = "infeasible"
-
-
-def plan_time_scaled(plan_at: Callable[[Any, Any], Any], prior: Any, robot: Any, config: Any,
-                     time_scale: float | None = None, max_duration: float | None = None) -> Any:
-    """The plan of ``prior`` at the time scale the arm needs (module docstring).
-
-    plan_at(prior, config) -> PlanResult plans the request with a (scaled) prior and config;
-    time_scale / max_duration: the caller's (None: ``config.model``'s; both None: automatic,
-    unbounded). Returns the PlanResult with ``time_scale`` set; a plan still beyond the limits
-    at the largest scale allowed says so in its reasons (never a success)."""
+def time_request(prior: Any, config: Any, time_scale: float | None = None,
+                 max_duration: float | None = None) -> TimeRequest:
+    """The caller's ``time_scale`` / ``max_duration`` [s] (None: ``config.model``'s) for the
+    skill ``prior``, checked against each other and the skill's duration
+    (InvalidParameterError naming the argument)."""
     time_scale = as_time_scale(config.model.time_scale if time_scale is None else time_scale,
                                "time_scale")
     max_duration = as_max_duration(config.model.max_duration if max_duration is None
@@ -181,34 +158,78 @@ def plan_time_scaled(plan_at: Callable[[Any, Any], Any], prior: Any, robot: Any,
         raise InvalidParameterError(f"time_scale, max_duration: time_scale {time_scale:.4g} makes "
                                     f"the plan last {time_scale * duration:.4g} s, more than "
                                     f"max_duration {max_duration:.4g} s")
-    if time_scale is not None:          # the caller's scale: planned at it, never changed
-        k = largest = time_scale
-    else:
-        k = 1.0
-    result = _at(plan_at, prior, config, k)
-    for _ in range(MAX_RESCALES):
-        _, blocked, needed = _too_fast(result, robot, config.checks)
-        if not blocked or k >= largest:
-            break
-        k = min(largest, k * needed * MARGIN)
-        log.info("skill faster than the arm: planning again %.3g times slower", k)
-        result = _at(plan_at, prior, config, k)
-    fast, _, needed = _too_fast(result, robot, config.checks)
-    if fast and k != 1.0:     # at the demonstrations' speed the verdict's own limit check stands
-        velocity, acceleration = peak_ratios(robot, result.q, result.qdot, result.time,
-                                             config.checks.acceleration_limit)
-        bound = ("time_scale fixed by the caller" if time_scale is not None else
-                 f"max_duration {max_duration:.4g} s allows at most {largest:.3g}"
-                 if k >= largest else f"after {MAX_RESCALES} re-plans")
-        _fail(result, f"joint velocities up to {velocity.max():.3g} x their limits"
-                      + (f", accelerations {acceleration.max():.3g} x the limit"
-                         if config.checks.acceleration_limit is not None else "")
-                      + f" at time scale {k:.3g} (the skill needs {needed * k:.3g}; {bound})")
-    return result
+    return TimeRequest(time_scale, largest, max_duration)
 
 
-def _at(plan_at: Callable[[Any, Any], Any], prior: Any, config: Any, k: float) -> Any:
-    """plan_at with the prior and config scaled by k; ``time_scale`` set on the result."""
-    result = plan_at(time_scaled_prior(prior, k), time_scaled_config(config, k))
-    result.time_scale = k
+def needed_scale(robot: Any, theta: np.ndarray, time: np.ndarray, config: Any,
+                 initial_q: np.ndarray | None = None) -> float:
+    """The scale (>= 1) a plan theta (T, 2n) [rad, rad/s] at ``time`` (T,) [s] needs to keep
+    the arm's limits: max(peak velocity ratio, sqrt(peak acceleration ratio)) (:func:`peak_ratios`;
+    1.0 when within ``config.checks``' tolerances). Where the plan's velocities reach the
+    velocity hinges (``config.model.velocity_margin`` inside the limits: they may have bent it,
+    hiding the skill's speed), the initial trajectory ``initial_q`` (T, n) (the skill followed
+    at the demonstrations' speed) is measured too, and the larger need counts."""
+    n, checks = robot.n, config.checks
+    vmax = np.asarray(robot.velocity_limits, dtype=float)
+    q, qdot = theta[:, :n], theta[:, n:]
+
+    def need(q: np.ndarray, qdot: np.ndarray) -> float:
+        velocity, acceleration = peak_ratios(robot, q, qdot, time, checks.acceleration_limit)
+        if not (np.any(velocity > 1.0 + checks.velocity_tolerance / vmax)
+                or np.any(acceleration > 1.0)):
+            return 1.0
+        return max(1.0, float(velocity.max()), float(np.sqrt(acceleration.max())))
+
+    needed = need(q, qdot)
+    band = vmax - config.model.velocity_margin - checks.velocity_tolerance
+    if initial_q is not None and config.model.joint_limits and np.any(np.abs(qdot) > band):
+        initial = np.asarray(initial_q, dtype=float)
+        needed = max(needed, need(initial, np.gradient(initial, time, axis=0)))
+    return needed
+
+
+def chosen_scale(request: TimeRequest, needed: float) -> float:
+    """The automatic scale for a free plan that needs ``needed`` (:func:`needed_scale`): 1.0
+    when it needs none, else needed x :data:`MARGIN`, at most ``request.largest``."""
+    if needed <= 1.0:
+        return 1.0
+    k = min(request.largest, needed * MARGIN)
+    log.info("skill faster than the arm: planned %.3g times slower", k)
+    return k
+
+
+def timing_reasons(result: Any, robot: Any, config: Any, request: TimeRequest,
+                   needed: float) -> list[str]:
+    """What the time stage adds to the verdict of ``result`` (planned at ``result.time_scale``
+    for a skill that needs scale ``needed``, :func:`needed_scale` of its free plan at the
+    demonstrations' speed, or of the plan at the caller's scale times that scale):
+    accelerations beyond ``config.checks.acceleration_limit`` (the joint-limit check holds the
+    velocities), and, when the plan fails while the caller's scale or ``max_duration`` kept it
+    faster than the skill needs, that bound."""
+    reasons = []
+    limit = config.checks.acceleration_limit
+    if limit is not None:
+        _, acceleration = peak_ratios(robot, result.q, result.qdot, result.time, limit)
+        if np.any(acceleration > 1.0):
+            joint = int(np.argmax(acceleration))
+            reasons.append(f"joint {robot.joint_names[joint]} accelerates "
+                           f"{acceleration[joint]:.3g} x the limit {limit:.4g} rad/s^2 at time "
+                           f"scale {result.time_scale:.3g}")
+    k = result.time_scale
+    if (reasons or not result.success) and needed > k * (1 + 1e-9):
+        bound = ("time_scale fixed by the caller" if request.fixed is not None else
+                 f"max_duration {request.max_duration:.4g} s allows at most {request.largest:.3g}")
+        reasons.append(f"planned at time scale {k:.3g} where the skill needs {needed:.3g} "
+                       f"({bound})")
+    return reasons
+
+
+def fail(result: Any, reasons: list[str]) -> Any:
+    """``result`` with failure ``reasons`` added to its verdict (never a success it has not
+    checked); ``result`` itself when there are none."""
+    if reasons:
+        result.success = False
+        result.reasons.extend(reasons)
+        if result.stop_reason == "converged":
+            result.stop_reason = "infeasible"
     return result

@@ -184,3 +184,86 @@ def test_the_joint_space_factors_are_stated_for_a_20_s_skill(jaco, step):
     assert gap(raw, prior.dt, 1.0) < 1e-9
     slower = plan(prior, jaco, box, start, time_scale=2.0, covariance=False)
     assert gap(slower.problem, 2.0 * prior.dt, cube / 8.0) < 1e-9
+
+
+def _box_on_mean_path(prior):
+    """A 6 cm cube centred on the prior's mean path at 50 %."""
+    from scenes import Box, Scene
+    mean = np.asarray(prior.mean)[:, :3]
+    return Scene([Box(mean[len(mean) // 2], [0.06, 0.06, 0.06])])
+
+
+@pytest.fixture
+def solves(monkeypatch):
+    """The time scale of every path solve's model (clamp.planning.pipeline.solve as the planner
+    calls it) and the number of velocity checks made (any caller)."""
+    import clamp.factors.joint_limits as joint_limits
+    import clamp.planning.planner as planner
+    seen = {"scales": [], "velocity_checks": 0}
+    solve, velocities = planner.solve, joint_limits.velocity_violations
+
+    def counted_solve(model, *args, **kwargs):
+        seen["scales"].append(float((model.prior.info or {}).get("time_scale", 1.0)))
+        return solve(model, *args, **kwargs)
+
+    def counted_velocities(*args, **kwargs):
+        seen["velocity_checks"] += 1
+        return velocities(*args, **kwargs)
+    monkeypatch.setattr(planner, "solve", counted_solve)
+    monkeypatch.setattr(joint_limits, "velocity_violations", counted_velocities)
+    return seen
+
+
+def _within_limits(robot, result) -> None:
+    """Independent check: the plan's velocities and the finite differences of its positions
+    over its time stamps within the robot's velocity limits (the checks' tolerance)."""
+    vmax = np.asarray(robot.velocity_limits)
+    assert np.all(np.abs(result.qdot) <= vmax + VELOCITY_TOLERANCE)
+    assert np.all(_finite_difference_velocities(result.q, result.time) <= vmax + VELOCITY_TOLERANCE)
+    assert np.all(robot.within_limits(result.q, tolerance=PlannerConfig().checks.limit_tolerance))
+
+
+def test_with_obstacles_the_scale_is_chosen_before_the_one_path_solve(jaco, fast, solves):
+    """A skill shown 3x too fast, a box on its mean path: the free plan's peaks choose k > 1,
+    and the path is solved once, at k (velocity limits never start a path search)."""
+    _, prior, _ = fast
+    result = plan(prior, jaco, _box_on_mean_path(prior), np.asarray(prior.mean)[0, :3],
+                  covariance=False)
+    assert result.time_scale > 2.0
+    assert solves["scales"] == [pytest.approx(result.time_scale)]
+    np.testing.assert_allclose(result.time, np.asarray(prior.time) * result.time_scale)
+    assert result.success, result.reasons
+    _within_limits(jaco, result)
+
+
+def test_in_an_empty_scene_a_too_fast_skill_is_solved_slower_from_the_start(jaco, fast, solves):
+    """The empty scene's plan is its free plan: the skill's speed chooses k > 1 before it is
+    solved (once, or once more at its own peaks' need; never at the demonstrations' speed);
+    the velocities are checked by the verdict alone."""
+    _, prior, _ = fast
+    result = plan(prior, jaco, None, np.asarray(prior.mean)[0, :3], covariance=False)
+    assert 1 <= len(solves["scales"]) <= 2 and min(solves["scales"]) > 1.0
+    assert solves["scales"][-1] == pytest.approx(result.time_scale) and result.time_scale > 2.0
+    assert solves["velocity_checks"] == 1
+    assert result.success, result.reasons
+    _within_limits(jaco, result)
+
+
+def test_requested_scales_are_honoured_and_limits_checked_by_the_verdict(jaco, fast, solves):
+    """A fixed scale is planned once at it; at the demonstrations' speed the verdict says which
+    joint is too fast (no solve repairs it), at 4x it holds the limits."""
+    _, prior, _ = fast
+    start = np.asarray(prior.mean)[0, :3]
+    at_one = plan(prior, jaco, None, start, time_scale=1.0, covariance=False)
+    assert solves["scales"] == [1.0] and at_one.time_scale == 1.0
+    assert not at_one.success and any("time_scale fixed by the caller" in r
+                                      for r in at_one.reasons), at_one.reasons
+    slower = plan(prior, jaco, None, start, config=PlannerConfig(time_scale=4.0),
+                  covariance=False)
+    assert solves["scales"][1:] == [pytest.approx(4.0)] and slower.time_scale == 4.0
+    assert slower.success, slower.reasons
+    _within_limits(jaco, slower)
+    duration = float(prior.time[-1] - prior.time[0])
+    bounded = plan(prior, jaco, None, start, max_duration=5.0 * duration, covariance=False)
+    assert 2.0 < bounded.time_scale <= 5.0
+    assert bounded.time[-1] - bounded.time[0] <= 5.0 * duration * (1 + 1e-12)
