@@ -18,7 +18,7 @@ from clamp.planning.reach import check_prior_reach
 from clamp.validation import as_array, as_count
 from skillplan.validation import as_sequence
 from scenes import Scene
-from scenes.demonstrations import QUATERNION_TOLERANCE
+from scenes.quaternions import QUATERNION_TOLERANCE
 from scenes.obstacles import Obstacle
 from clamp.factors import Family
 

@@ -592,7 +592,7 @@ class WorkspacePrior(LinearGaussianPrior):
         sign-continuous: the (conditioned) orientation chain's mean rotations
         Rbar_t Exp(mean r_t). InvalidParameterError for a position-only prior."""
         from clamp.prior import so3
-        from scenes.demonstrations import continuous_quaternions
+        from scenes.quaternions import continuous_quaternions
         if self.orientation is None:
             raise InvalidParameterError("prior: learned from position-only demonstrations; it "
                                         "has no orientation (learn from demonstrations with "
