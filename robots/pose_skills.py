@@ -42,6 +42,8 @@ POSE_SKILLS: tuple[str, ...] = ("pouring", "inserting")
 
 #: largest timing warp (dimensionless) of a demonstration
 TIMING = 0.1
+#: steps of the continuation from the place to the start (_SkillFrame.start)
+CONTINUATION = 6
 #: random starts of the pose IK of a nominal keyframe
 RESTARTS = 8
 #: draws of a demonstration's variation before giving up (a draw the arm cannot reach on
@@ -145,16 +147,17 @@ class _SkillFrame:
                                              weights=[np.inf, 1.0])
         return rotation.as_matrix()
 
-    def solve(self, position: np.ndarray, rotation: np.ndarray, k: int, rng: Any,
+    def solve(self, position: np.ndarray, rotation: np.ndarray, k: int | None, rng: Any,
               what: str, seed: np.ndarray | None = None) -> np.ndarray:
         """Joint values (n,) of keyframe ``k``'s pose, from the first seed that reaches it: for a
         demonstration (``rng`` given) the nominal keyframe k, then ``seed`` (its branch); for
-        the nominal keyframes ``seed``, the position IK's solution and RESTARTS configurations
-        drawn with seed 0. RobotError naming ``what`` if none does."""
-        seeds = [] if rng is None else [self.nominal[k]]
+        the nominal keyframes ``seed`` (the neighbouring keyframe) or, for the first one solved
+        (no seed), the position IK's solution and RESTARTS configurations drawn with seed 0.
+        RobotError naming ``what`` if none does."""
+        seeds = [] if rng is None or k is None else [self.nominal[k]]
         if seed is not None:
             seeds.append(seed)
-        if rng is None:
+        if rng is None and seed is None:
             draws = np.random.default_rng(0)
             seeds.extend([self.robot.ik(position, seed=self.home).q] + [
                 self.robot.random_configuration(draws) for _ in range(RESTARTS)])
@@ -168,19 +171,22 @@ class _SkillFrame:
 
     def start(self, rotation: np.ndarray, place: np.ndarray, rng: Any,
               seed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Keyframes 0 and 1, a start and a midway configuration: 15 cm in from the place, 15 cm
-        to the side and 12 cm up (3 cm noise), the hand turned 30 degrees about the vertical
-        (10 degrees noise); midway lifted 5 cm, turned halfway."""
+        """Keyframes 0 and 1, a start and a midway configuration: the start 15 cm in from the
+        place, 15 cm to the side and 12 cm up (3 cm noise), the hand turned 30 degrees about the
+        vertical (10 degrees noise); midway halfway, lifted 5 cm. Solved by continuation from
+        ``seed`` (the configuration at the place) along CONTINUATION poses from the place to the
+        start, so the arm stays on the seed's branch (a 7-joint arm's elbow would drift)."""
         side = np.cross(self.up, self.out)
         position = place - 0.15 * self.out + 0.15 * side + 0.12 * self.up + _noise(rng, 0.03)
         turn = Rotation.from_rotvec(np.radians(30.0) * self.up + _noise(rng, np.radians(10.0)))
-        start_rotation = (turn * Rotation.from_matrix(rotation)).as_matrix()
-        q_start = self.solve(position, start_rotation, 0, rng, "start", seed)
-        ends = Rotation.from_matrix(np.stack([start_rotation, rotation]))
-        middle = (ends[0] * (ends[0].inv() * ends[1]) ** 0.5).as_matrix()
-        lifted = 0.5 * (position + place) + 0.05 * self.up
-        q_middle = self.solve(lifted, middle, 1, rng, "midway", 0.5 * (q_start + seed))
-        return q_start, q_middle
+        ends = Rotation.from_matrix(np.stack([rotation, (turn * Rotation.from_matrix(rotation)).as_matrix()]))
+        q, solved = seed, {}
+        for s in np.linspace(0.0, 1.0, CONTINUATION + 1)[1:]:
+            target = place + s * (position - place) + 0.2 * s * (1.0 - s) * self.up
+            turned = (ends[0] * (ends[0].inv() * ends[1]) ** s).as_matrix()
+            q = self.solve(target, turned, None, None, f"start ({s:.0%} of the way)", q)
+            solved[float(s)] = q
+        return solved[1.0], solved[0.5]
 
 
 def _pouring(frame: _SkillFrame, rng: Any) -> tuple[np.ndarray, np.ndarray]:
