@@ -158,6 +158,20 @@ def test_joint_csv_carries_the_forward_kinematics_rotation(tmp_path, jaco):
     assert chordal_mean_angle(loaded.orientations, pinocchio_quaternions(jaco, q)) < 0.5
 
 
+def test_joint_npz_carries_the_forward_kinematics_rotation(tmp_path, jaco):
+    rng = np.random.default_rng(8)
+    base = np.array([1.2, 2.6, 5.2, -1.1, -0.1, -1.8])
+    time = np.linspace(0.0, 3.0, 30)
+    q = np.stack([base + np.outer(time / 3.0, rng.normal(0, 0.4, 6)) for _ in range(2)])
+    np.savez(tmp_path / "joints.npz", joint_positions=q, time=time, joint_names=np.array(jaco.joint_names))
+    loaded = load_demonstrations(tmp_path / "joints.npz", robot=jaco, smoothing="none")
+    assert per_step_angle(loaded.orientations, pinocchio_quaternions(jaco, loaded.joint_positions)) < 1e-6
+    # resampled and DTW-aligned, the rotations stay those of the arm at the resampled joints
+    # (slerp against the joints' spline: within the turn of one step)
+    again = loaded.resample(45)
+    assert per_step_angle(again.orientations, pinocchio_quaternions(jaco, again.joint_positions)) < 2.0
+
+
 def test_joint_state_bag_carries_the_forward_kinematics_rotation(tmp_path, sawyer):
     """JointState bags (rosbags' writer) on the Sawyer: the rotation is pinocchio's FK."""
     rng = np.random.default_rng(5)
