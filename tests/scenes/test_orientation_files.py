@@ -197,6 +197,31 @@ def test_pose_and_tf_bags_keep_the_quaternion(tmp_path, kind):
     assert dots.min() > 0.9                      # the written sign flips made continuous
 
 
+def test_a_pose_bag_split_at_rests_keeps_each_motions_rotations(tmp_path):
+    """One PoseStamped bag: motion A, a 4 s rest, motion B; split='rest' cuts the rotations
+    with the positions: each demonstration's rotations are its own motion's."""
+    demos = turning_demonstrations(num_demos=2, num_points=120, seed=5)
+    a, b = demos.positions
+    b = b - b[0] + a[-1]
+    qa, qb = demos.orientations
+    qb = (Rotation.from_quat(qa[-1]) * Rotation.from_quat(qb[0]).inv() * Rotation.from_quat(qb)).as_quat()
+    t = demos.time
+    hold = np.arange(1, int(4.0 / demos.dt) + 1) * demos.dt
+    time = np.concatenate([t, t[-1] + hold, t[-1] + hold[-1] + demos.dt + t[1:]])
+    path = np.concatenate([a, np.repeat(a[-1:], len(hold), axis=0), b[1:]])
+    turns = np.concatenate([qa, np.repeat(qa[-1:], len(hold), axis=0), qb[1:]])
+    messages = [pose_message(int(round((100.0 + s) * 1e9)), p, o) for s, p, o in zip(time, path, turns)]
+    bag = write_bag(tmp_path / "poses", {"/hand": ("geometry_msgs/msg/PoseStamped", messages)})
+    loaded = load_demonstrations(bag, topic="/hand", split="rest")
+    assert loaded.M == 2
+    for m, written in enumerate([qa, qb]):
+        # the piece's rotations are the motion's (its slow ends go with the rests)
+        assert chordal_mean_angle(loaded.orientations[m], written) < 3.0
+        nearest = [per_step_angle(q, written[np.argmin(np.linalg.norm(
+            (a if m == 0 else b) - p, axis=1))]) for q, p in zip(loaded.orientations[m], loaded.positions[m])]
+        assert max(nearest) < 1.0
+
+
 def test_npz_recordings_with_quaternions_or_poses(tmp_path):
     demos = turning_demonstrations(num_demos=3, num_points=50)
     arrays, poses = {}, {}
