@@ -12,12 +12,14 @@ A skill is a few joint-space keyframes of the arm, found by pose inverse kinemat
 
 The place of the skill (the cup or the hole) is 45 degrees to the right of the base's x axis,
 at the first of :data:`PLACES` (distances and heights in fractions of the arm's stretched
-length) where the arm reaches the skill's nominal keyframes. Each demonstration
-perturbs the start (3 cm, 10 degrees), the place (pouring 5 mm, inserting 1 mm) and the tilt
-(pouring 90 +- 4 degrees) with seeded Gaussian noise (solved from the nominal keyframes, so all
-demonstrations are on one branch of the arm; a draw that branch cannot reach is drawn again), passes a shape-preserving cubic (PCHIP)
-through its keyframes in joint space (knots at fixed phases), and traverses it with a minimum-
-jerk timing law warped per demonstration by w = tau + a tau (1 - tau), a uniform in [-0.1, 0.1].
+length) where the arm reaches the skill's nominal keyframes; the start and midway keyframes
+are solved by continuation from the place (one branch of the arm). Each demonstration perturbs
+the start (3 cm, 10 degrees), the place (pouring 5 mm, inserting 1 mm) and the tilt (pouring
+90 +- 4 degrees) with seeded Gaussian noise, solved from the nominal keyframes (a draw that
+branch cannot reach is drawn again), passes a shape-preserving cubic (PCHIP) through its
+keyframes in joint space (knots at fixed phases) and traverses it with the minimum-jerk timing
+of :func:`scenes.synthetic.minimum_jerk_phase`, warped per demonstration (warp uniform in
+[-0.1, 0.1]).
 The hand's positions, velocities and rotations are the arm's forward kinematics of that joint
 motion (velocities J(q) qdot, exact).
 """
@@ -31,6 +33,7 @@ from scipy.spatial.transform import Rotation
 
 from scenes import Demonstrations, UnknownSkillError
 from scenes.quaternions import quaternions_from_matrices
+from scenes.synthetic import minimum_jerk_phase
 from skillplan.validation import as_count, as_positive, as_seed
 
 from .errors import RobotError
@@ -87,13 +90,9 @@ def make_pose_demonstrations(robot: Robot, skill: str, num_demos: int = 6, num_p
             raise RobotError(f"{robot.name} {skill}: demonstration {m}: {REDRAWS} draws out of "
                              f"reach; the last: {problem}")
         path = PchipInterpolator(knots, keyframes, axis=0)
-        a = rng.uniform(-TIMING, TIMING)
-        w = tau + a * tau * (1.0 - tau)                      # monotone warp of [0, 1]
-        dw = 1.0 + a * (1.0 - 2.0 * tau)
-        s = w**3 * (10.0 - 15.0 * w + 6.0 * w**2)            # minimum-jerk phase, rest to rest
-        ds = 30.0 * w**2 * (1.0 - w) ** 2
+        s, ds = minimum_jerk_phase(tau, rng.uniform(-TIMING, TIMING))
         q[m] = path(s)
-        qdot[m] = path(s, 1) * (ds * dw / duration)[:, None]
+        qdot[m] = path(s, 1) * (ds / duration)[:, None]
     kinematics = robot.ee_kinematics(q, qdot, jacobians=False)
     rotations, _ = robot.ee_rotation(q)
     return Demonstrations(kinematics.position, kinematics.velocity, tau * duration, None,
