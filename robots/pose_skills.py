@@ -12,12 +12,14 @@ A skill is a few joint-space keyframes of the arm, found by pose inverse kinemat
 
 The place of the skill (the cup or the hole) is 45 degrees to the right of the base's x axis,
 at the first of :data:`PLACES` (distances and heights in fractions of the arm's stretched
-length) where the arm reaches the skill's nominal keyframes. Each demonstration
-perturbs the start (3 cm, 10 degrees), the place (pouring 5 mm, inserting 1 mm) and the tilt
-(pouring 90 +- 4 degrees) with seeded Gaussian noise (solved from the nominal keyframes, so all
-demonstrations are on one branch of the arm; a draw that branch cannot reach is drawn again), passes a shape-preserving cubic (PCHIP)
-through its keyframes in joint space (knots at fixed phases), and traverses it with a minimum-
-jerk timing law warped per demonstration by w = tau + a tau (1 - tau), a uniform in [-0.1, 0.1].
+length) where the arm reaches the skill's nominal keyframes; the start and midway keyframes
+are solved by continuation from the place (one branch of the arm). Each demonstration perturbs
+the start (3 cm, 10 degrees), the place (pouring 5 mm, inserting 1 mm) and the tilt (pouring
+90 +- 4 degrees) with seeded Gaussian noise, solved from the nominal keyframes (a draw that
+branch cannot reach is drawn again), passes a shape-preserving cubic (PCHIP) through its
+keyframes in joint space (knots at fixed phases) and traverses it with the minimum-jerk timing
+of :func:`scenes.synthetic.minimum_jerk_phase`, warped per demonstration (warp uniform in
+[-0.1, 0.1]).
 The hand's positions, velocities and rotations are the arm's forward kinematics of that joint
 motion (velocities J(q) qdot, exact).
 """
@@ -31,6 +33,7 @@ from scipy.spatial.transform import Rotation
 
 from scenes import Demonstrations, UnknownSkillError
 from scenes.quaternions import quaternions_from_matrices
+from scenes.synthetic import minimum_jerk_phase
 from skillplan.validation import as_count, as_positive, as_seed
 
 from .errors import RobotError
@@ -42,6 +45,8 @@ POSE_SKILLS: tuple[str, ...] = ("pouring", "inserting")
 
 #: largest timing warp (dimensionless) of a demonstration
 TIMING = 0.1
+#: steps of the continuation from the place to the start (_SkillFrame.start)
+CONTINUATION = 6
 #: random starts of the pose IK of a nominal keyframe
 RESTARTS = 8
 #: draws of a demonstration's variation before giving up (a draw the arm cannot reach on
@@ -85,13 +90,9 @@ def make_pose_demonstrations(robot: Robot, skill: str, num_demos: int = 6, num_p
             raise RobotError(f"{robot.name} {skill}: demonstration {m}: {REDRAWS} draws out of "
                              f"reach; the last: {problem}")
         path = PchipInterpolator(knots, keyframes, axis=0)
-        a = rng.uniform(-TIMING, TIMING)
-        w = tau + a * tau * (1.0 - tau)                      # monotone warp of [0, 1]
-        dw = 1.0 + a * (1.0 - 2.0 * tau)
-        s = w**3 * (10.0 - 15.0 * w + 6.0 * w**2)            # minimum-jerk phase, rest to rest
-        ds = 30.0 * w**2 * (1.0 - w) ** 2
+        s, ds = minimum_jerk_phase(tau, rng.uniform(-TIMING, TIMING))
         q[m] = path(s)
-        qdot[m] = path(s, 1) * (ds * dw / duration)[:, None]
+        qdot[m] = path(s, 1) * (ds / duration)[:, None]
     kinematics = robot.ee_kinematics(q, qdot, jacobians=False)
     rotations, _ = robot.ee_rotation(q)
     return Demonstrations(kinematics.position, kinematics.velocity, tau * duration, None,
@@ -145,16 +146,17 @@ class _SkillFrame:
                                              weights=[np.inf, 1.0])
         return rotation.as_matrix()
 
-    def solve(self, position: np.ndarray, rotation: np.ndarray, k: int, rng: Any,
+    def solve(self, position: np.ndarray, rotation: np.ndarray, k: int | None, rng: Any,
               what: str, seed: np.ndarray | None = None) -> np.ndarray:
         """Joint values (n,) of keyframe ``k``'s pose, from the first seed that reaches it: for a
         demonstration (``rng`` given) the nominal keyframe k, then ``seed`` (its branch); for
-        the nominal keyframes ``seed``, the position IK's solution and RESTARTS configurations
-        drawn with seed 0. RobotError naming ``what`` if none does."""
-        seeds = [] if rng is None else [self.nominal[k]]
+        the nominal keyframes ``seed`` (the neighbouring keyframe) or, for the first one solved
+        (no seed), the position IK's solution and RESTARTS configurations drawn with seed 0.
+        RobotError naming ``what`` if none does."""
+        seeds = [] if rng is None or k is None else [self.nominal[k]]
         if seed is not None:
             seeds.append(seed)
-        if rng is None:
+        if rng is None and seed is None:
             draws = np.random.default_rng(0)
             seeds.extend([self.robot.ik(position, seed=self.home).q] + [
                 self.robot.random_configuration(draws) for _ in range(RESTARTS)])
@@ -168,19 +170,22 @@ class _SkillFrame:
 
     def start(self, rotation: np.ndarray, place: np.ndarray, rng: Any,
               seed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Keyframes 0 and 1, a start and a midway configuration: 15 cm in from the place, 15 cm
-        to the side and 12 cm up (3 cm noise), the hand turned 30 degrees about the vertical
-        (10 degrees noise); midway lifted 5 cm, turned halfway."""
+        """Keyframes 0 and 1, a start and a midway configuration: the start 15 cm in from the
+        place, 15 cm to the side and 12 cm up (3 cm noise), the hand turned 30 degrees about the
+        vertical (10 degrees noise); midway halfway, lifted 5 cm. Solved by continuation from
+        ``seed`` (the configuration at the place) along CONTINUATION poses from the place to the
+        start, so the arm stays on the seed's branch (a 7-joint arm's elbow would drift)."""
         side = np.cross(self.up, self.out)
         position = place - 0.15 * self.out + 0.15 * side + 0.12 * self.up + _noise(rng, 0.03)
         turn = Rotation.from_rotvec(np.radians(30.0) * self.up + _noise(rng, np.radians(10.0)))
-        start_rotation = (turn * Rotation.from_matrix(rotation)).as_matrix()
-        q_start = self.solve(position, start_rotation, 0, rng, "start", seed)
-        ends = Rotation.from_matrix(np.stack([start_rotation, rotation]))
-        middle = (ends[0] * (ends[0].inv() * ends[1]) ** 0.5).as_matrix()
-        lifted = 0.5 * (position + place) + 0.05 * self.up
-        q_middle = self.solve(lifted, middle, 1, rng, "midway", 0.5 * (q_start + seed))
-        return q_start, q_middle
+        ends = Rotation.from_matrix(np.stack([rotation, (turn * Rotation.from_matrix(rotation)).as_matrix()]))
+        q, solved = seed, {}
+        for s in np.linspace(0.0, 1.0, CONTINUATION + 1)[1:]:
+            target = place + s * (position - place) + 0.2 * s * (1.0 - s) * self.up
+            turned = (ends[0] * (ends[0].inv() * ends[1]) ** s).as_matrix()
+            q = self.solve(target, turned, None, None, f"start ({s:.0%} of the way)", q)
+            solved[float(s)] = q
+        return solved[1.0], solved[0.5]
 
 
 def _pouring(frame: _SkillFrame, rng: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -15,8 +15,9 @@ from .alignment import dtw_warp
 from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrationsError,
                      InvalidObstacleError)
 from .obstacles import Obstacle, obstacle_from_dict
-from .quaternions import (checked_quaternions, continuous_quaternions, quaternions_from_matrices,
-                          slerp_quaternions, unit_quaternions)
+from .quaternions import (QUATERNION_TOLERANCE, checked_quaternions, continuous_quaternions,  # noqa: F401
+                          quaternions_from_matrices, slerp_quaternions, unit_quaternions)
+# QUATERNION_TOLERANCE, continuous_quaternions, slerp_quaternions: still importable from here
 from skillplan.validation import (MAX_COORDINATE, as_array, as_count, as_file, as_path, as_positive, as_sequence,
                          as_time, as_vector)
 

@@ -61,8 +61,8 @@ from .errors import (ScenesTypeError, DemonstrationFileError, InvalidDemonstrati
                      InvalidObstacleError)
 from .joint_demonstrations import check_robot, column_order, from_joint_trajectories
 from .obstacles import Box
-from .quaternions import (QUATERNION_TOLERANCE, checked_quaternions, quaternions_from_matrices,
-                          unit_quaternions)
+from .quaternions import (QUATERNION_TOLERANCE, checked_quaternions, off_unit,
+                          quaternions_from_matrices, unit_quaternions)
 from .scene import Scene
 from .smoothing import as_smoothing, smooth_trajectory
 from skillplan.validation import MAX_COORDINATE, as_array, as_file, as_instance, as_path, as_sequence, as_time
@@ -200,7 +200,7 @@ def _from_clamp(path: Path, data: dict[str, Any], smoothing: str) -> Demonstrati
         where = f"dataset({m + 1})"
         pose = _field(path, item, m, "pose", required=False)
         if pose is not None:
-            if hasattr(item, "pos"):
+            if _field(path, item, m, "pos", required=False) is not None:
                 raise DemonstrationFileError(f"{path}: {where}: expected either 'pos' (with an "
                                              "optional 'quat_xyzw') or 'pose', got both")
             transforms = _numbers(path, pose, f"{where}.pose")
@@ -479,10 +479,9 @@ def _load_csv(path: Path, robot: Any, smoothing: str) -> Demonstrations:
     velocities = [g[:, 5:8] if CSV_VELOCITY_COLUMNS[0] in header else None for g in groups]
     rotations = None
     if CSV_ORIENTATION_COLUMNS[0] in header:
-        length = np.linalg.norm(table[:, -4:], axis=1)
-        bad = np.flatnonzero(np.abs(length - 1.0) > QUATERNION_TOLERANCE)
-        if bad.size:
-            row = int(bad[0])
+        length, bad = off_unit(table[:, -4:])
+        if bad.any():
+            row = int(np.argmax(bad))
             raise DemonstrationFileError(
                 f"{path}: line {row + 2} (demo {table[row, 0]:.0f}, t = {table[row, 1]:g} s): "
                 f"{','.join(CSV_ORIENTATION_COLUMNS)}: expected a unit quaternion within "

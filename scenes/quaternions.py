@@ -53,6 +53,13 @@ def slerp_quaternions(time: np.ndarray, quaternions: np.ndarray,
     return continuous_quaternions(Slerp(time, Rotation.from_quat(quaternions))(at).as_quat())
 
 
+def off_unit(quaternions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lengths (...) of quaternions (..., 4) and whether each is off unit length by more than
+    QUATERNION_TOLERANCE (bool (...))."""
+    norm = np.linalg.norm(quaternions, axis=-1)
+    return norm, np.abs(norm - 1.0) > QUATERNION_TOLERANCE
+
+
 def unit_quaternions(values: Any, name: str, error: type[ValueError]) -> np.ndarray:
     """(..., 4) ``values`` as unit quaternions (x, y, z, w), normalised; ``error`` naming
     ``name[index]`` (the first sample that is not unit within QUATERNION_TOLERANCE) otherwise."""
@@ -60,8 +67,7 @@ def unit_quaternions(values: Any, name: str, error: type[ValueError]) -> np.ndar
     if q.ndim < 1 or q.shape[-1] != 4:
         raise error(f"{name}: expected quaternions (x, y, z, w) in the last dimension (..., 4), "
                     f"got shape {q.shape}")
-    norm = np.linalg.norm(q, axis=-1)
-    bad = np.abs(norm - 1.0) > QUATERNION_TOLERANCE
+    norm, bad = off_unit(q)
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         raise error(f"{_at(name, index)}: expected a unit quaternion (x, y, z, w) "

@@ -87,6 +87,17 @@ def skill_spec(skill: str) -> SkillSpec:
     return _SPECS[skill]
 
 
+def minimum_jerk_phase(tau: np.ndarray, warp: float) -> tuple[np.ndarray, np.ndarray]:
+    """Phase s (T,) of a minimum-jerk motion from rest to rest at normalised times tau (T,) in
+    [0, 1], warped by w = tau + warp tau (1 - tau) (|warp| < 1 keeps it monotone), and its
+    derivative ds / dtau (T,)."""
+    w = tau + warp * tau * (1.0 - tau)
+    dw = 1.0 + warp * (1.0 - 2.0 * tau)
+    s = w**3 * (10.0 - 15.0 * w + 6.0 * w**2)
+    ds = 30.0 * w**2 * (1.0 - w) ** 2
+    return s, ds * dw
+
+
 def _skill_paths(spec: SkillSpec, M: int, T: int, step: float,
                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions, velocities (M, T, 3) and phase tau (T,) of M demonstrations of ``spec``."""
@@ -99,13 +110,9 @@ def _skill_paths(spec: SkillSpec, M: int, T: int, step: float,
     for m in range(M):
         points = spec.waypoints + rng.normal(size=spec.waypoints.shape) * spec.spread[:, None]
         path = CubicSpline(knots, points, axis=0, bc_type="natural")
-        a = rng.uniform(-spec.timing, spec.timing)
-        w = tau + a * tau * (1.0 - tau)              # monotone warp of [0,1]
-        dw = 1.0 + a * (1.0 - 2.0 * tau)
-        s = w**3 * (10.0 - 15.0 * w + 6.0 * w**2)    # minimum-jerk phase, rest to rest
-        ds = 30.0 * w**2 * (1.0 - w) ** 2
+        s, ds = minimum_jerk_phase(tau, rng.uniform(-spec.timing, spec.timing))
         positions[m] = path(s)
-        velocities[m] = path(s, 1) * (ds * dw / duration)[:, None]
+        velocities[m] = path(s, 1) * (ds / duration)[:, None]
     return positions, velocities, tau
 
 

@@ -87,18 +87,21 @@ def check_forward_kinematics(robot, demos):
             angle = (Rotation.from_quat(demos.orientations[m, t]).inv() * Rotation.from_matrix(R)).magnitude()
             assert angle < 1e-9
     assert robot.within_limits(demos.joint_positions).all()
+    # one branch of the arm: no joint swings round (10 s skills, slowest joint speeds < 0.9 rad/s)
+    speed = np.abs(np.diff(demos.joint_positions, axis=1)).max() / demos.dt
+    assert speed < 1.2, speed
 
 
 def test_pouring_tilts_the_wrist_90_degrees_at_the_end(arm):
-    demos = make_pose_demonstrations(arm, "pouring", num_demos=4, num_points=120, seed=1)
-    assert demos.orientations.shape == (4, 120, 4) and demos.joint_names == arm.joint_names
+    demos = make_pose_demonstrations(arm, "pouring", num_demos=4, num_points=200, seed=1)
+    assert demos.orientations.shape == (4, 200, 4) and demos.joint_names == arm.joint_names
     check_forward_kinematics(arm, demos)
     for m in range(4):
         q = demos.joint_positions[m]
         # the pour: the samples where only the last joint still moves
         still = np.all(np.abs(q[:, :-1] - q[-1, :-1]) < 1e-9, axis=1)
         first = int(np.argmax(still))
-        assert still[first:].all() and first < 110
+        assert still[first:].all() and first < 190
         turn = Rotation.from_quat(demos.orientations[m, first]).inv() * Rotation.from_quat(demos.orientations[m, -1])
         _, R_end = pinocchio_pose(arm, q[-1])
         axis = R_end @ turn.as_rotvec() / turn.magnitude()           # in the base frame
@@ -111,7 +114,7 @@ def test_pouring_tilts_the_wrist_90_degrees_at_the_end(arm):
 
 
 def test_inserting_moves_along_the_fixed_tool_axis(arm):
-    demos = make_pose_demonstrations(arm, "inserting", num_demos=4, num_points=120, seed=2)
+    demos = make_pose_demonstrations(arm, "inserting", num_demos=4, num_points=200, seed=2)
     check_forward_kinematics(arm, demos)
     for m in range(4):
         tail = slice(int(0.75 * demos.T), None)                     # inside the insertion

@@ -158,6 +158,20 @@ def test_joint_csv_carries_the_forward_kinematics_rotation(tmp_path, jaco):
     assert chordal_mean_angle(loaded.orientations, pinocchio_quaternions(jaco, q)) < 0.5
 
 
+def test_joint_npz_carries_the_forward_kinematics_rotation(tmp_path, jaco):
+    rng = np.random.default_rng(8)
+    base = np.array([1.2, 2.6, 5.2, -1.1, -0.1, -1.8])
+    time = np.linspace(0.0, 3.0, 30)
+    q = np.stack([base + np.outer(time / 3.0, rng.normal(0, 0.4, 6)) for _ in range(2)])
+    np.savez(tmp_path / "joints.npz", joint_positions=q, time=time, joint_names=np.array(jaco.joint_names))
+    loaded = load_demonstrations(tmp_path / "joints.npz", robot=jaco, smoothing="none")
+    assert per_step_angle(loaded.orientations, pinocchio_quaternions(jaco, loaded.joint_positions)) < 1e-6
+    # resampled and DTW-aligned, the rotations stay those of the arm at the resampled joints
+    # (slerp against the joints' spline: within the turn of one step)
+    again = loaded.resample(45)
+    assert per_step_angle(again.orientations, pinocchio_quaternions(jaco, again.joint_positions)) < 2.0
+
+
 def test_joint_state_bag_carries_the_forward_kinematics_rotation(tmp_path, sawyer):
     """JointState bags (rosbags' writer) on the Sawyer: the rotation is pinocchio's FK."""
     rng = np.random.default_rng(5)
@@ -181,6 +195,31 @@ def test_pose_and_tf_bags_keep_the_quaternion(tmp_path, kind):
     assert chordal_mean_angle(loaded.orientations, demos.orientations) < 0.5
     dots = np.einsum("mti,mti->mt", loaded.orientations[:, 1:], loaded.orientations[:, :-1])
     assert dots.min() > 0.9                      # the written sign flips made continuous
+
+
+def test_a_pose_bag_split_at_rests_keeps_each_motions_rotations(tmp_path):
+    """One PoseStamped bag: motion A, a 4 s rest, motion B; split='rest' cuts the rotations
+    with the positions: each demonstration's rotations are its own motion's."""
+    demos = turning_demonstrations(num_demos=2, num_points=120, seed=5)
+    a, b = demos.positions
+    b = b - b[0] + a[-1]
+    qa, qb = demos.orientations
+    qb = (Rotation.from_quat(qa[-1]) * Rotation.from_quat(qb[0]).inv() * Rotation.from_quat(qb)).as_quat()
+    t = demos.time
+    hold = np.arange(1, int(4.0 / demos.dt) + 1) * demos.dt
+    time = np.concatenate([t, t[-1] + hold, t[-1] + hold[-1] + demos.dt + t[1:]])
+    path = np.concatenate([a, np.repeat(a[-1:], len(hold), axis=0), b[1:]])
+    turns = np.concatenate([qa, np.repeat(qa[-1:], len(hold), axis=0), qb[1:]])
+    messages = [pose_message(int(round((100.0 + s) * 1e9)), p, o) for s, p, o in zip(time, path, turns)]
+    bag = write_bag(tmp_path / "poses", {"/hand": ("geometry_msgs/msg/PoseStamped", messages)})
+    loaded = load_demonstrations(bag, topic="/hand", split="rest")
+    assert loaded.M == 2
+    for m, written in enumerate([qa, qb]):
+        # the piece's rotations are the motion's (its slow ends go with the rests)
+        assert chordal_mean_angle(loaded.orientations[m], written) < 3.0
+        nearest = [per_step_angle(q, written[np.argmin(np.linalg.norm(
+            (a if m == 0 else b) - p, axis=1))]) for q, p in zip(loaded.orientations[m], loaded.positions[m])]
+        assert max(nearest) < 1.0
 
 
 def test_npz_recordings_with_quaternions_or_poses(tmp_path):
