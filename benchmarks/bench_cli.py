@@ -20,8 +20,11 @@ No figures are asked for (``--figures`` is off by default). Medians over ``--rep
 (each first plan gets its own empty cache folder), printed beside the targets of issue 38
 (``--version`` <= 0.5 s, second plan <= 3 s, first plan <= 8 s) and the machine's load average.
 Anchors, timed in the same rounds: the interpreter alone (``python -c pass``) and NumPy's import
-(``python -c 'import numpy'``, which ``clamp --version`` needs): on a loaded machine every
-figure grows with them, so compare the ratios.
+(``python -c 'import numpy'``, which ``clamp --version`` needs). Each command's wall time and its
+CPU time (user + system, of the process and its children): on a shared machine the wall time
+grows with the load, the CPU time is what the command itself needs, the wall time it would take
+on a quiet machine (a conservative one where BLAS uses both cores); the targets are read
+against it.
 The first plan's q and the second's are compared: they must be identical (the cache stores the
 spheres exactly).
 """
@@ -30,6 +33,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -73,33 +77,38 @@ def panda_files(folder: Path) -> dict[str, str]:
             "start": " ".join(f"{x:.4f}" for x in mean[0])}
 
 
-def timed(command: list[str], env: dict[str, str]) -> tuple[float, subprocess.CompletedProcess]:
-    """Wall time [s] of one process running ``command``, and its outcome (stopped on failure)."""
+def timed(command: list[str], env: dict[str, str], cwd: Path) -> tuple[float, float]:
+    """Wall time and CPU time (user + system) [s] of one process running ``command`` in ``cwd``
+    (stopped on failure). On a quiet machine the two agree; under load the CPU time is what the
+    process itself needed."""
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
     begin = time.perf_counter()
-    done = subprocess.run(command, env=env, capture_output=True, text=True, check=False)
-    seconds = time.perf_counter() - begin
+    done = subprocess.run(command, env=env, cwd=cwd, capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - begin
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
         sys.exit(f"bench_cli: {' '.join(command[2:])} exited {done.returncode}: {done.stderr.strip()}")
-    return seconds, done
+    return wall, (after.ru_utime - used.ru_utime) + (after.ru_stime - used.ru_stime)
 
 
-def one_round(checkout: Path, folder: Path, files: dict[str, str], k: int) -> dict[str, float]:
-    """Wall time [s] of each timed command of round ``k`` with the project of ``checkout``."""
+def one_round(checkout: Path, folder: Path, files: dict[str, str], k: int) -> dict[str, tuple[float, float]]:
+    """Wall and CPU time [s] of each timed command of round ``k`` with the project of ``checkout``
+    (run in a fresh folder: ``python -m`` puts the working folder first on the path)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(checkout), os.environ.get("PYTHONPATH")])))
     clamp = [sys.executable, "-m", "clamp"]
     arm = ["--urdf", files["urdf"], "--end-effector", "panda_hand", "--package-dir", files["share"]]
     work = Path(tempfile.mkdtemp(prefix="round_", dir=folder))
-    times = {"anchor: python -c pass": timed([sys.executable, "-c", "pass"], env)[0],
-             "anchor: python -c 'import numpy'": timed([sys.executable, "-c", "import numpy"], env)[0],
-             "clamp --version": timed([*clamp, "--version"], env)[0]}
+    times = {"anchor: python -c pass": timed([sys.executable, "-c", "pass"], env, work),
+             "anchor: python -c 'import numpy'": timed([sys.executable, "-c", "import numpy"], env, work),
+             "clamp --version": timed([*clamp, "--version"], env, work)}
     times["clamp learn"] = timed([*clamp, "learn", "-q", "--demos", files["csv"], *arm,
-                                  "--out", str(work / "prior.npz")], env)[0]
+                                  "--out", str(work / "prior.npz")], env, work)
     run_env = dict(env, SKILLPLAN_CACHE_DIR=str(work / "cache"))     # a fresh, empty sphere cache
     plans = []
     for name in ("first clamp plan (cold cache)", "second clamp plan (cached spheres)"):
         out = work / f"out{len(plans)}"
         times[name] = timed([*clamp, "plan", "-q", *arm, "--prior", str(work / "prior.npz"), "--scene",
-                             files["scene"], "--start", *files["start"].split(), "--out", str(out)], run_env)[0]
+                             files["scene"], "--start", *files["start"].split(), "--out", str(out)], run_env, work)
         plans.append(json.loads((out / "plan.json").read_text(encoding="utf-8")))
     same = np.array_equal(np.array(plans[0]["q"]), np.array(plans[1]["q"]))
     print(f"{checkout} round {k}: first and second plan q identical: {same}; success "
@@ -115,27 +124,30 @@ def main() -> None:
     given = options.parse_args()
     checkouts = [ROOT] + ([given.anchor.resolve()] if given.anchor else [])
     print_environment()
-    times = {checkout: {name: [] for name in TARGETS} for checkout in checkouts}
+    times: dict[Path, dict[str, list[tuple[float, float]]]] = {
+        checkout: {name: [] for name in TARGETS} for checkout in checkouts}
     with tempfile.TemporaryDirectory(prefix="bench_cli_") as tmp:
         folder = Path(tmp)
         files = panda_files(folder)
         for k in range(given.repeats):
             for checkout in checkouts:                   # interleaved: a drifting load hits both
-                for name, seconds in one_round(checkout, folder, files, k).items():
-                    times[checkout][name].append(seconds)
+                for name, measured in one_round(checkout, folder, files, k).items():
+                    times[checkout][name].append(measured)
     load = os.getloadavg()
     print(f"\nload average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs "
           f"(medians of {given.repeats} runs, each a fresh process)")
+    print("wall: median wall time; cpu: median CPU time (user + system) of the process, what it "
+          "takes on a quiet machine; the targets are read against it")
     for checkout in checkouts:
-        numpy_s = float(np.median(times[checkout]["anchor: python -c 'import numpy'"]))
-        print(f"\n{checkout}\n{'command':38s} {'median s':>9s} {'/ numpy':>8s} "
-              f"{'/ anchor':>9s} {'target s':>9s}")
-        for name, seconds in times[checkout].items():
-            target, median = TARGETS[name], float(np.median(seconds))
-            verdict = "" if target is None else ("  met" if median <= target else "  MISSED")
-            versus = (f"{median / float(np.median(times[checkouts[-1]][name])):9.2f}"
-                      if len(checkouts) > 1 else f"{'-':>9s}")
-            print(f"{name:38s} {median:9.2f} {median / numpy_s:8.1f} {versus} "
+        print(f"\n{checkout}\n{'command':38s} {'wall s':>8s} {'cpu s':>8s} "
+              f"{'cpu / anchor':>13s} {'target s':>9s}")
+        for name, runs in times[checkout].items():
+            target = TARGETS[name]
+            wall, cpu = (float(np.median([run[i] for run in runs])) for i in (0, 1))
+            verdict = "" if target is None else ("  met" if cpu <= target else "  MISSED")
+            anchor = float(np.median([run[1] for run in times[checkouts[-1]][name]]))
+            versus = f"{cpu / anchor:13.2f}" if len(checkouts) > 1 else f"{'-':>13s}"
+            print(f"{name:38s} {wall:8.2f} {cpu:8.2f} {versus} "
                   f"{'-' if target is None else f'{target:.1f}':>9s}{verdict}")
 
 

@@ -12,7 +12,6 @@ goal in the page replans. Folders written before these files existed cannot be v
 from __future__ import annotations
 
 import argparse
-import logging
 import time
 from dataclasses import fields
 from pathlib import Path
@@ -25,8 +24,6 @@ from skillplan.command_line import atomic_write_text
 from skillplan.validation import as_path
 from skillplan.command_line import EXIT_OK, quiet
 from skillplan.command_line import integer_at_least
-
-log = logging.getLogger(__name__)
 
 PRIOR_FILE = "prior.npz"
 DEMOS_FILE = "demos.npz"
