@@ -88,13 +88,12 @@ from .joint_demonstrations import check_robot, from_joint_trajectories
 from .quaternions import unit_quaternions
 from .smoothing import as_smoothing, smooth_trajectory
 from skillplan.validation import MAX_COORDINATE, as_array, as_path, as_positive, as_sequence
+from .bag_split import SPLITS
 
 log = logging.getLogger(__name__)
 
 #: storage files rosbags reads without their metadata.yaml
 BAG_SUFFIXES = (".mcap", ".db3")
-#: the ``split`` choices (module docstring)
-SPLITS = ("auto", "bag", "rest")
 #: split "auto": a rest is slower than this fraction of the recording's 95th-percentile speed
 AUTO_REST_FRACTION = 0.002
 #: split "auto": ... and lasts at least this share of the median motion between slow runs

@@ -644,7 +644,7 @@ DEMOS_HELP = ("demonstrations (.mat, .npz, .csv), or ROS 2 bags (folders, .mcap,
 def demonstration_options(p: argparse.ArgumentParser) -> None:
     """How --demos are read and learned: --topic / --split / --frames (bags), --num-points,
     --translate (shared by clamp learn and clamp plan)."""
-    from scenes.bags import SPLITS
+    from scenes.bag_split import SPLITS
     p.add_argument("--topic", default=None,
                    help="bags: the topic to read (JointState, PoseStamped or /tf)")
     p.add_argument("--split", choices=SPLITS, default=None,
