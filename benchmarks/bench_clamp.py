@@ -14,7 +14,10 @@ Tables: box_closing on the Jaco and the Sawyer (empty, box, goal); the TLGC boun
 overhead; scaling with T (per-iteration time and time per state); BLAS threads unset vs 1;
 optionally (--gtsam) GTSAM's own optimizers on the same graph from the same start.
 
-    python benchmarks/bench_clamp.py [--repeats 5] [--quick] [--gtsam]
+    python benchmarks/bench_clamp.py [--repeats 5] [--quick] [--gtsam] [--pose]
+
+The pose table (a pose prior against the position-only prior of the same demonstrations) runs
+first; ``--pose`` runs it alone.
 """
 from __future__ import annotations
 
@@ -63,17 +66,58 @@ def row(label: str, r, t: dict, cpp: tuple[float, int] | None = None) -> str:
             f"{clearance:>8}  {phases}")
 
 
+def pose_table(repeats: int) -> None:
+    """Whole plan() calls with a pose prior against the position-only prior of the same
+    demonstrations (anchor: the position-only call, same skill, same start, same run): a
+    synthetic pour through joint keyframes on each arm (tests/pose_demos.py, 6 demonstrations,
+    60 states over 5 s, the wrist tilted 0.8 rad at the end), from the second demonstration's
+    start configuration turned by 0.03 rad per joint, empty scene and a goal pose."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from clamp import learn_prior, plan
+    from clamp.prior import so3
+    from robots import load_robot
+    from scenes import Demonstrations
+    from tests.pose_demos import pose_demonstrations
+
+    print(f"\nPose prior vs position-only prior (synthetic pour, medians of {repeats}); "
+          "x pos = pose total / position-only total")
+    print(HEADER + "  x pos")
+    for arm in ("jaco", "sawyer"):
+        robot = load_robot(arm)
+        demos = pose_demonstrations(robot, duration=5.0)
+        pose = learn_prior(demos)
+        position = learn_prior(Demonstrations(demos.positions, demos.velocities, demos.time))
+        start = demos.joint_positions[1, 0] + 0.03
+        end = np.eye(4)
+        end[:3, :3] = so3.from_quaternions(pose.mean_quaternions()[-1]) @ so3.exp_map(
+            [0.0, 0.1, 0.1])
+        end[:3, 3] = pose.mean[-1, :3] + 0.02
+        for case, goal, position_goal in (("empty", None, None), ("goal pose", end, end[:3, 3])):
+            base, tb = median_plan(lambda: lambda: plan(position, robot, None, start,
+                                                        goal=position_goal), repeats)
+            print(row(f"{arm} {case} position-only", base, tb))
+            r, t = median_plan(lambda: lambda: plan(pose, robot, None, start, goal=goal), repeats)
+            print(row(f"{arm} {case} pose", r, t) + f"  {t['total'] / tb['total']:.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--quick", action="store_true", help="fewer scaling points")
     parser.add_argument("--gtsam", action="store_true", help="also GTSAM's optimizers (slow)")
+    parser.add_argument("--pose", action="store_true",
+                        help="only the pose prior's table (pose vs position-only prior)")
     args = parser.parse_args()
     print_environment()
     print_machine_reference()
     print("# BLAS:", ", ".join(f"{i['internal_api']} {i['num_threads']} threads"
                                for i in threadpool_info() if i["user_api"] == "blas"))
     warnings.simplefilter("ignore")
+    pose_table(args.repeats)
+    if args.pose:
+        return
     from clamp import PlannerConfig, learn_prior, plan
     from robots import load_robot
     from scenes import Box, Scene, make_demonstrations

@@ -140,11 +140,16 @@ def write_figures(out: Path, prior: Any, demos: Any, robot: Any, config: Planner
     matplotlib.use("Agg")              # files only: no window, whatever the user's backend
     from clamp.viz.animation import write_animation
     from clamp.viz.plan_plots import (plot_clearance, plot_joint_angles, plot_plan_3d,
-                                  plot_plan_uncertainty, plot_top_view)
-    from clamp.viz.prior_plots import plot_prior_3d, plot_prior_time
+                                  plot_plan_uncertainty, plot_skill_orientation, plot_top_view)
+    from clamp.viz.prior_plots import plot_prior_3d, plot_prior_orientation, plot_prior_time
     save_figure(plot_prior_3d(prior, demos), out / "prior_3d.png")
     save_figure(plot_prior_time(prior, demos), out / "prior_time.png")
+    pose = getattr(prior, "orientation", None) is not None
+    if pose:
+        save_figure(plot_prior_orientation(prior, demos), out / "prior_orientation.png")
     for name, result, scene in progress(plans, description="figures and animations", unit="plan"):
+        if pose:
+            save_figure(plot_skill_orientation(result, robot), out / f"plan_{name}_orientation.png")
         save_figure(plot_plan_3d(result, robot, scene, prior=prior, demos=demos),
                     out / f"plan_{name}.png")
         save_figure(plot_top_view(result, robot, scene, prior=prior, demos=demos),

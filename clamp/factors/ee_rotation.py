@@ -31,7 +31,7 @@ class EERotationFamily(Family):
         super().__init__(indices[order], 3, sigma=sigmas[order])
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
-        R, W, _, _ = window.rotation()
+        R, W, _, _ = window.rotation(False)
         i = window.local(self.first[rows])
         error = so3.log_map(np.swapaxes(self.targets[rows], -1, -2) @ R[i])
         if not jacobians:

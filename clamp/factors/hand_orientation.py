@@ -22,7 +22,7 @@ def orientation_state(window: StateWindow, rows: np.ndarray, mean_rotations: np.
                       jacobians: bool) -> tuple[np.ndarray, np.ndarray | None]:
     """y (K, 6) of the window rows ``rows`` (K,) at mean rotations (K, 3, 3), and d y / d theta
     (K, 6, 2n) of each row's own state (None unless ``jacobians``)."""
-    R, W, omega, domega = window.rotation()
+    R, W, omega, domega = window.rotation(jacobians)
     R, W = R[rows], W[rows]
     Rbar_T = np.swapaxes(mean_rotations, -1, -2)
     r = so3.log_map(Rbar_T @ R)

@@ -86,7 +86,7 @@ class SkillOrientationFamily(Family):
         return cls(reference.mean_rotations, TUBE_RATIO * angle_spread(orientation))
 
     def constraint(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Constraint:
-        R, W, _, _ = window.rotation()
+        R, W, _, _ = window.rotation(False)
         i = window.local(self.first[rows])
         r = so3.log_map(np.swapaxes(self.reference[self.first[rows]], -1, -2) @ R[i])
         angle = np.linalg.norm(r, axis=1)

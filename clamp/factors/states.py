@@ -64,15 +64,19 @@ class StateWindow:
             self._workspace = (x, jac)
         return self._workspace
 
-    def rotation(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def rotation(self, jacobians: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """The hand's rotation R (K, 3, 3), its angular Jacobian W (K, 3, n) (base-frame angular
-        velocity omega = W qdot), omega (K, 3) [rad/s] and d omega / d q (K, 3, n), computed
-        once. Column k of d omega / d q is w_k x sum_{i > k} w_i qdot_i (joint i's axis turns
-        with every revolute joint k upstream of it)."""
+        velocity omega = W qdot), omega (K, 3) [rad/s] and, if ``jacobians``, d omega / d q
+        (K, 3, n) (else None), each computed once. Column k of d omega / d q is
+        w_k x sum_{i > k} w_i qdot_i (joint i's axis turns with every revolute joint k upstream
+        of it)."""
         if self._rotation is None:
             R, W = self.robot.ee_rotation(self.q, jacobians=True)
+            self._rotation = (R, W, np.einsum("kjn,kn->kj", W, self.qdot), None)
+        R, W, omega, domega = self._rotation
+        if jacobians and domega is None:
             spin = W * self.qdot[:, None, :]                               # (K, 3, n)
-            omega = spin.sum(axis=2)
             after = omega[:, :, None] - np.cumsum(spin, axis=2)            # sum over i > k
             domega = np.stack([W[:, 1] * after[:, 2] - W[:, 2] * after[:, 1],     # W x after
                                W[:, 2] * after[:, 0] - W[:, 0] * after[:, 2],

@@ -129,17 +129,18 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
 
 def orientation_families(prior: Any, robot: Any, request: Request,
                          config: PlannerConfig) -> list[Family]:
-    """A pose prior's families (none for a position-only prior): its orientation chain through
-    the arm (:class:`~clamp.factors.OrientationGPFamily`), its start at the arm's start rotation
-    (:class:`~clamp.factors.OrientationStartFamily`, with the workspace start) and the goal and
-    via rotations (:class:`~clamp.factors.EERotationFamily`, noise ``goal_sigma`` /
-    ``via_sigma`` read in radians)."""
+    """A pose prior's families: its orientation chain through the arm
+    (:class:`~clamp.factors.OrientationGPFamily`) and its start at the arm's start rotation
+    (:class:`~clamp.factors.OrientationStartFamily`, with the workspace start); for any prior
+    the goal and via poses' rotations (:class:`~clamp.factors.EERotationFamily`, noise
+    ``goal_sigma`` / ``via_sigma`` read in radians). None for a position-only prior without
+    poses."""
     orientation = getattr(prior, "orientation", None)
-    if orientation is None:
-        return []
-    model, T = config.model, orientation.T
-    families: list[Family] = [OrientationGPFamily.of(orientation)]
-    if model.workspace_start:
+    model, T = config.model, prior.Phi.shape[0] + 1
+    families: list[Family] = []
+    if orientation is not None:
+        families.append(OrientationGPFamily.of(orientation))
+    if orientation is not None and model.workspace_start:
         start = so3.log_map(orientation.rotations[0].T @ robot.ee_rotation(request.q_start)[0])
         families.append(OrientationStartFamily(
             orientation.rotations[0], shifted_start_mean(orientation.mean0, orientation.cov0, start),

@@ -43,8 +43,10 @@ def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: An
 
     prior: clamp.WorkspacePrior (T support states, step dt); robot: robots.Robot (n joints);
     scene: scenes.Scene, obstacle(s), a scene file or None; start: joint configuration (n,)
-    [rad] or end-effector position (3,) [m]; goal: the same kinds, or None; via_points:
-    (index, position (3,) or configuration (n,)); extra_factors: see :data:`ExtraFactor`;
+    [rad] or end-effector position (3,) [m]; goal: the same kinds, a pose (a transform
+    (4, 4), or (position (3,), quaternion (4,) x, y, z, w): its rotation is met too, for a
+    pose prior through its orientation chain), or None; via_points: (index, position (3,),
+    configuration (n,) or pose); extra_factors: see :data:`ExtraFactor`;
     sdf: a precomputed scenes.SignedDistanceField to use instead of the scene's own distance;
     initial: a warm start, joint positions (T, n) or joint states (T, 2n) (e.g. a previous
     plan), replacing the configured initialisation. ``problem.graph()`` and

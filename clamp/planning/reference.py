@@ -161,6 +161,12 @@ class ReferenceUnderFamilies:
         return self.base.cov
 
     @property
+    def orientation(self) -> Any:
+        """The base's orientation chain (a pose prior's; the caller's families act on the
+        hand's path, not on its rotation)."""
+        return getattr(self.base, "orientation", None)
+
+    @property
     def std(self) -> np.ndarray:
         return self.base.std
 

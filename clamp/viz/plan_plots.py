@@ -293,3 +293,40 @@ def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
     ax.legend(loc="best", fontsize=7)
     fig.tight_layout()
     return fig
+
+
+def plot_skill_orientation(result: Any, robot: Any,
+                           path: str | os.PathLike[str] | None = None, title: str | None = None,
+                           dpi: int = 120) -> Figure:
+    """A plan of a pose prior against the skill's orientation: the angle [deg] of the hand from
+    where the skill turns it (the orientation chain conditioned on the plan's start, goal and
+    via rotations) at every state, and the verdict's limit (TUBE_RATIO x the demonstrations'
+    floored orientation spread, :mod:`clamp.prior.orientation_skill`); writes a PNG to
+    ``path``. InvalidParameterError for a plan of a position-only prior."""
+    from clamp.prior import so3
+    from clamp.prior.orientation_skill import angle_spread
+    from clamp.prior.skill import TUBE_RATIO
+    _check_inputs(result, robot)
+    reference = getattr(result.inputs.model_prior, "orientation", None)
+    learned = getattr(result.inputs.prior, "orientation", None)
+    if reference is None or learned is None:
+        raise InvalidParameterError("result: expected a plan of a pose prior (learned from "
+                                    "demonstrations with orientations)")
+    rotations, _ = robot.ee_rotation(result.q)
+    angle = np.degrees(so3.angle_between(reference.mean_rotations, rotations))
+    limit = np.degrees(TUBE_RATIO * angle_spread(learned))
+    fig = Figure(figsize=(7.5, 3.6))
+    ax = fig.add_subplot()
+    ax.fill_between(result.time, 0.0, limit, color="tab:green", alpha=0.12,
+                    label=f"the skill ({TUBE_RATIO:g} x the orientation spread)")
+    ax.plot(result.time, angle, color="tab:blue", lw=1.5, label="the hand's angle from the skill")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("angle [deg]")
+    worst = int(np.argmax(angle / limit))
+    ax.set_title(title or f"orientation against the skill (worst {angle[worst]:.1f} deg at state "
+                 f"{worst}, limit {limit[worst]:.1f} deg)", fontsize=9)
+    ax.legend(loc="best", fontsize=7)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=dpi)
+    return fig

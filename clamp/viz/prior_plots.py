@@ -211,3 +211,43 @@ def plot_prior_time(prior: LinearGaussianPrior, demos: object = None, *, level: 
     axes[0, 0].legend(fontsize=7, loc="best")
     fig.suptitle(title or f"{prior.kind} prior against time")
     return _finish(fig, path, dpi)
+
+
+def plot_prior_orientation(prior: LinearGaussianPrior, demos: object = None, *,
+                           level: float = 0.95, samples: int = 400,
+                           path: str | os.PathLike[str] | None = None, title: str | None = None,
+                           dpi: int = 120) -> Figure:
+    """A pose prior's orientation against time: the angle [deg] of the hand from the prior's
+    mean rotation, with the band holding ``level`` of the chain's rotations at every step
+    (quantiles of ``samples`` seeded draws of its orientation chain), the demonstrations'
+    angles from it (optional: a Demonstrations with ``orientations``) and their spread (the
+    largest angle, :attr:`~clamp.prior.orientation_prior.OrientationPrior.angle_radius`).
+    Writes a PNG to ``path`` if given; InvalidParameterError for a position-only prior."""
+    from clamp.errors import InvalidParameterError
+    from clamp.prior import so3
+    orientation = getattr(check_prior(prior), "orientation", None)
+    if orientation is None:
+        raise InvalidParameterError("prior: expected a pose prior (learned from demonstrations "
+                                    "with orientations), got a position-only prior")
+    mean = orientation.mean_rotations
+    drawn = orientation.sample(as_count(samples, "samples"), 20261129)[..., :3]
+    angle = np.degrees(so3.angle_between(mean, orientation.rotations @ so3.exp_map(drawn)))
+    band = np.quantile(angle, level, axis=0)
+    fig = Figure(figsize=(7.5, 3.6))
+    ax = fig.add_subplot()
+    ax.fill_between(prior.time, 0.0, band, color="tab:blue", alpha=0.2, lw=0,
+                    label=f"{100 * level:.0f} % of the prior's rotations")
+    ax.plot(prior.time, np.degrees(orientation.angle_radius), color="tab:orange", lw=1.2,
+            ls="--", label="demonstrations' spread (largest angle)")
+    quaternions = getattr(demos, "orientations", None)
+    if quaternions is not None:
+        rotations = so3.from_quaternions(as_array(quaternions, "demos.orientations",
+                                                  (None, prior.T, 4)))
+        for m, demo in enumerate(np.degrees(so3.angle_between(mean, rotations))):
+            ax.plot(prior.time, demo, color="0.4", lw=0.7,
+                    label="demonstrations" if m == 0 else None)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("angle from the mean rotation [deg]")
+    ax.legend(fontsize=7, loc="best")
+    ax.set_title(title or "orientation prior against time", fontsize=9)
+    return _finish(fig, path, dpi)

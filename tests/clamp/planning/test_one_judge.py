@@ -22,7 +22,8 @@ import clamp.planning.pipeline as pipeline
 import clamp.prior.skill as skill
 from clamp import PlannerConfig, plan
 from clamp.factors import (JointLimitFamily, ObstacleFamily, OrientationFamily,
-                           SelfCollisionFamily, SkillTubeFamily, lazy_families)
+                           SelfCollisionFamily, SkillOrientationFamily, SkillTubeFamily,
+                           lazy_families)
 from scenes import Box, Scene
 
 START = [0.2054, -0.4722, 0.2625]
@@ -109,10 +110,12 @@ def test_each_check_runs_once_without_obstacles(prior, sawyer, counted):
 def test_the_declared_checks():
     """The lazy families are found in the package without a list; the checks' order (the
     verdict's reasons) and gates are declared by the families."""
-    assert lazy_families() == (SelfCollisionFamily, SkillTubeFamily)
-    order = sorted([SkillTubeFamily, OrientationFamily, JointLimitFamily, SelfCollisionFamily,
-                    ObstacleFamily], key=lambda cls: cls.check_rank)
+    assert lazy_families() == (SelfCollisionFamily, SkillTubeFamily, SkillOrientationFamily)
+    order = sorted([SkillOrientationFamily, SkillTubeFamily, OrientationFamily,
+                    JointLimitFamily, SelfCollisionFamily, ObstacleFamily],
+                   key=lambda cls: cls.check_rank)
     assert order == [ObstacleFamily, SelfCollisionFamily, JointLimitFamily, OrientationFamily,
-                     SkillTubeFamily]
+                     SkillTubeFamily, SkillOrientationFamily]
     assert ObstacleFamily.decisive and SkillTubeFamily.only_if_clear
+    assert SkillOrientationFamily.only_if_clear
     assert ObstacleFamily.always_checked and JointLimitFamily.always_checked

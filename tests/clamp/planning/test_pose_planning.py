@@ -67,6 +67,18 @@ def test_a_hand_turned_60_degrees_mid_skill_fails_the_orientation_check(sawyer):
     assert not any(r.startswith("left the skill") for r in result.reasons)
 
 
+def test_a_position_prior_meets_a_goal_pose(sawyer):
+    """A goal pose with a position-only prior: the rotation target holds the hand's rotation."""
+    demos = pose_demonstrations(sawyer)
+    prior = learn_prior(demos.__class__(demos.positions, demos.velocities, demos.time))
+    rotation = so3.from_quaternions(demos.orientations[0, -1])
+    result = plan(prior, sawyer, None, demos.joint_positions[1, 0],
+                  goal=(prior.mean[-1, :3], so3.to_quaternions(rotation)), covariance=False)
+    assert result.success, result.reasons
+    assert hand_angle(sawyer, result.q[-1], rotation) <= 1.0
+    assert np.linalg.norm(sawyer.fk(result.q[-1]) - prior.mean[-1, :3]) <= 1e-3
+
+
 def test_bad_pose_targets_are_named(sawyer):
     demos = pose_demonstrations(sawyer, T=20)
     prior = learn_prior(demos)
