@@ -22,7 +22,7 @@ FIGURE_NAMES = {"plan": "result"}
 
 
 def run_show(args: argparse.Namespace) -> int:
-    from clamp.cli.main import write_figures
+    from clamp.cli.figures import write_figures
     folder = Path(args.folder)
     name, inputs, result, demos = replan_recorded(folder, args.plan)
     figure = FIGURE_NAMES.get(name, name)
