@@ -572,9 +572,11 @@ def planning_options(p: argparse.ArgumentParser, out_default: str | None = "clam
                         f"obstacles where the skill allows; not a guarantee (default "
                         f"{defaults.model.epsilon}; see --min-clearance)")
     p.add_argument("--min-clearance", type=number, default=None, metavar="M",
-                   help=f"required clearance [m]: a plan whose collision geometry comes closer than "
-                        f"this to an obstacle (at or between states) fails, exit 1, and gets no "
-                        f"trajectory (default {defaults.checks.min_clearance}: only a collision fails)")
+                   help=f"required clearance [m]: a successful plan keeps the arm's collision geometry "
+                        f"at least this far from every obstacle, at and between states (the planner "
+                        f"holds it as a constraint; a plan that cannot fails, exit 1, no trajectory; a "
+                        f"start closer is refused, exit 2; default {defaults.checks.min_clearance}: "
+                        f"only a collision fails)")
     p.add_argument("--init", choices=INITIALISATIONS, default=None,
                    help=f"initialisation (default {defaults.optimizer.initialisation})")
     p.add_argument("--optimizer", choices=OPTIMIZERS, default=None,
