@@ -123,12 +123,17 @@ def _goal(result: PlanResult) -> str:
     return _mm(result.goal_error) if np.size(goal) == 3 else f"{result.goal_error:.4f}r"
 
 
-def report_failures(args: argparse.Namespace, rows: Sequence[tuple[str, PlanResult]]) -> None:
-    """The first reason of every plan that failed its verdict, one line each on stderr (also
-    under -q: exit code 1 says a plan failed, this says why)."""
+def report_failures(args: argparse.Namespace, rows: Sequence[tuple[str, PlanResult]],
+                    exported: dict[str, dict[str, Any]]) -> None:
+    """One line each on stderr (also under -q: exit code 1 says a plan failed, this says why)
+    for every plan that failed its verdict (its first reason) and every passing plan that got
+    no trajectory (``exported[name]["error"]``, e.g. the retiming failed)."""
     for name, result in rows:
         if not result.success and result.reasons:
             print(f"clamp {args.command}: plan {name!r} failed: {result.reasons[0]}", file=sys.stderr)
+        elif result.success and not exported[name]["files"]:
+            print(f"clamp {args.command}: plan {name!r}: no trajectory: {exported[name]['error']}",
+                  file=sys.stderr)
 
 
 def _figures(out: Path, prior: Any, demos: Any, robot: Any, config: PlannerConfig,
@@ -346,7 +351,7 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
                             verbose=verbose(args)))
         print(trajectory_summary(exported))
         print(f"wrote figures and plans to {out}")
-    report_failures(args, rows[:2])
+    report_failures(args, rows[:2], {"empty scene": exported["empty"], "obstacle": exported["obstacle"]})
     return EXIT_OK if all(record["files"] for record in exported.values()) else EXIT_FAILED
 
 
@@ -478,7 +483,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
         print(summary_table([(name, result)], {name: exported["result"]}, verbose=verbose(args)))
         print(trajectory_summary(exported))
         print(f"wrote figures and plan to {out}")
-    report_failures(args, [(name, result)])
+    report_failures(args, [(name, result)], {name: exported["result"]})
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
 
 
