@@ -542,10 +542,12 @@ def _split_auto(recording: _Recording) -> list[_Recording]:
 def _warn_long(pieces: list[_Recording]) -> None:
     """Warn about a demonstration lasting over :data:`LONG_DEMONSTRATION` times the median of
     the others, with the cut :func:`auto_rests` suggests."""
+    if len(pieces) < 2:
+        return
     durations = np.array([p.stamps[-1] - p.stamps[0] for p in pieces])
     for m, piece in enumerate(pieces):
         others = np.median(np.delete(durations, m))
-        if len(pieces) < 2 or durations[m] <= LONG_DEMONSTRATION * others:
+        if durations[m] <= LONG_DEMONSTRATION * others:
             continue
         found = auto_rests(piece.stamps, piece.positions)
         t = piece.stamps

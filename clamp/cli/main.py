@@ -122,12 +122,17 @@ def _goal(result: PlanResult) -> str:
     return _mm(result.goal_error) if np.size(goal) == 3 else f"{result.goal_error:.4f}r"
 
 
-def report_failures(args: argparse.Namespace, rows: Sequence[tuple[str, PlanResult]]) -> None:
-    """The first reason of every plan that failed its verdict, one line each on stderr (also
-    under -q: exit code 1 says a plan failed, this says why)."""
+def report_failures(args: argparse.Namespace, rows: Sequence[tuple[str, PlanResult]],
+                    exported: dict[str, dict[str, Any]]) -> None:
+    """One line each on stderr (also under -q: exit code 1 says a plan failed, this says why)
+    for every plan that failed its verdict (its first reason) and every passing plan that got
+    no trajectory (``exported[name]["error"]``, e.g. the retiming failed)."""
     for name, result in rows:
         if not result.success and result.reasons:
             print(f"clamp {args.command}: plan {name!r} failed: {result.reasons[0]}", file=sys.stderr)
+        elif result.success and not exported[name]["files"]:
+            print(f"clamp {args.command}: plan {name!r}: no trajectory: {exported[name]['error']}",
+                  file=sys.stderr)
 
 
 @contextmanager
@@ -329,7 +334,7 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
                             verbose=verbose(args)))
         print(trajectory_summary(exported))
         print(f"wrote figures and plans to {out}")
-    report_failures(args, rows[:2])
+    report_failures(args, rows[:2], {"empty scene": exported["empty"], "obstacle": exported["obstacle"]})
     return EXIT_OK if all(record["files"] for record in exported.values()) else EXIT_FAILED
 
 
@@ -467,7 +472,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
         print(summary_table([(name, result)], {name: exported["result"]}, verbose=verbose(args)))
         print(trajectory_summary(exported))
         print(f"wrote {'figures and ' if args.figures else ''}plan to {out}")
-    report_failures(args, [(name, result)])
+    report_failures(args, [(name, result)], {name: exported["result"]})
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
 
 
@@ -562,9 +567,11 @@ def planning_options(p: argparse.ArgumentParser, out_default: str | None = "clam
                         f"obstacles where the skill allows; not a guarantee (default "
                         f"{defaults.model.epsilon}; see --min-clearance)")
     p.add_argument("--min-clearance", type=number, default=None, metavar="M",
-                   help=f"required clearance [m]: a plan whose collision geometry comes closer than "
-                        f"this to an obstacle (at or between states) fails, exit 1, and gets no "
-                        f"trajectory (default {defaults.checks.min_clearance}: only a collision fails)")
+                   help=f"required clearance [m]: a successful plan keeps the arm's collision geometry "
+                        f"at least this far from every obstacle, at and between states (the planner "
+                        f"holds it as a constraint; a plan that cannot fails, exit 1, no trajectory; a "
+                        f"start closer is refused, exit 2; default {defaults.checks.min_clearance}: "
+                        f"only a collision fails)")
     p.add_argument("--init", choices=INITIALISATIONS, default=None,
                    help=f"initialisation (default {defaults.optimizer.initialisation})")
     p.add_argument("--optimizer", choices=OPTIMIZERS, default=None,

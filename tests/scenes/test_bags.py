@@ -358,7 +358,8 @@ def _chained_bag(path: Path, robot, q, dt: float, rest: float) -> Path:
     return joint_bag(path, robot, np.arange(len(joints)) * dt, joints, seed=7)
 
 
-def test_auto_split_finds_the_demonstrations_of_a_bag_separated_by_short_rests(jaco, tmp_path, caplog):
+def test_auto_split_finds_the_demonstrations_of_a_bag_separated_by_short_rests(jaco, tmp_path, caplog,
+                                                                               capsys):
     """Acceptance (issue 38): a bag of 5 demonstrations separated by 1.5 s rests at 46 Hz plus 5
     single-demonstration bags: the default split finds 10 demonstrations, and the prior is the
     one learned from the same data as 10 arrays (mean within 1 mm)."""
@@ -378,6 +379,14 @@ def test_auto_split_finds_the_demonstrations_of_a_bag_separated_by_short_rests(j
     arrays = from_joint_trajectories(jaco, list(q), [demos.time] * 10)
     gap = prior_gap(learn_prior(loaded.resample(demos.T)), learn_prior(arrays))
     assert gap < 1e-3, gap
+    # the default command: clamp learn on the same bags says the split and learns that prior
+    from clamp import WorkspacePrior
+    from clamp.cli.main import main
+    capsys.readouterr()
+    assert main(["learn", "--demos", *map(str, bags), "--topic", "/joint_states", "--robot", "jaco",
+                 "--num-points", str(demos.T), "--out", str(tmp_path / "prior.npz")]) == 0
+    assert "--demos: 10 demonstration(s) (split 'auto')" in capsys.readouterr().out
+    assert prior_gap(WorkspacePrior.load(tmp_path / "prior.npz"), learn_prior(arrays)) < 1e-3
 
 
 def test_auto_split_keeps_a_demonstration_with_a_pause_whole(jaco, tmp_path):
