@@ -110,6 +110,7 @@ import robots
 import scenes
 from harness import exit_with_parent, print_environment, shared_demonstrations
 from lfd_metrics import dtw_mean, geodesic_angle, orientation_error, swept_area
+from scenes.demonstrations import continuous_quaternions, slerp_quaternions
 from skillplan.threads import single_blas_thread
 
 METHODS = ("CLAMP arm", "CLAMP mean", "TLGC", "ProMP", "DMP", "GMR")
@@ -131,6 +132,7 @@ WIPING_CENTRE = np.array([0.35, -0.30, 0.30])            # [m] the placed set's 
 POSE_SKILLS_SOURCE = ("robots", "make_pose_demonstrations")
 POSE_SKILLS = ("pouring", "inserting")
 DTW_TOLERANCE = 0.02                                     # target: arm DTW <= 1.02 x anchor
+POSE_IK_SEEDS = 4                                        # position IK answers pose_ik starts from
 
 
 @dataclass
@@ -210,7 +212,7 @@ def wiping_rim() -> scenes.Demonstrations | None:
         spline = CubicSpline(s, p, axis=0)
         pos.append(spline(phase))
         vel.append(spline(phase, 1) / duration)
-        turns.append(scenes.demonstrations.slerp_quaternions(
+        turns.append(slerp_quaternions(
             s, (WIPING_TURN * Rotation.from_quat(q)).as_quat(), phase))
     return scenes.Demonstrations(np.array(pos), np.array(vel), time_, name="wiping_rim",
                                  orientations=np.array(turns))
@@ -268,46 +270,94 @@ def subset(demos: scenes.Demonstrations, keep: np.ndarray) -> scenes.Demonstrati
 
 
 # ---------------------------------------------------------------------------- CLAMP
+def is_pose_prior(prior) -> bool:
+    """Whether the installed clamp learned ``prior`` with the hand's orientation (a pose
+    prior: an orientation chain beside the positions' and ``mean_quaternions()``)."""
+    return (getattr(prior, "orientation", None) is not None
+            and hasattr(prior, "mean_quaternions"))
+
+
+def pose_ik(robot, pose: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """A configuration (n,) [rad] of ``robot`` whose hand is at ``pose`` (7,) (position [m],
+    quaternion x, y, z, w), by least squares (1 mm weighs as 1 deg) within the joint limits
+    from up to POSE_IK_SEEDS position IK answers; with its position [m] and rotation [rad]
+    errors."""
+    from scipy.optimize import least_squares
+    target, turn = pose[:3], Rotation.from_quat(pose[3:])
+    millimetre, degree = 1e-3, np.radians(1.0)
+
+    def residual(q: np.ndarray) -> np.ndarray:
+        rotation, _ = robot.ee_rotation(q)
+        angle = (turn.inv() * Rotation.from_matrix(rotation)).as_rotvec()
+        return np.concatenate([(robot.fk(q) - target) / millimetre, angle / degree])
+    best = None
+    for attempt in range(POSE_IK_SEEDS):
+        seed = np.clip(np.asarray(robot.ik(target, rng=attempt).q, float), robot.lower_limits,
+                       robot.upper_limits)
+        fit = least_squares(residual, seed, bounds=(robot.lower_limits, robot.upper_limits))
+        if best is None or fit.cost < best.cost:
+            best = fit
+        if best.cost < 1e-6:                         # within ~1 um and ~1e-3 deg
+            break
+    r = residual(best.x)
+    return best.x, float(np.linalg.norm(r[:3]) * millimetre), \
+        float(np.linalg.norm(r[3:]) * degree)
+
+
 def clamp_methods(train: scenes.Demonstrations, start: np.ndarray, goal: np.ndarray | None,
                   robot) -> tuple[dict[str, np.ndarray], bool, float, list[str]]:
-    """(reproductions of "CLAMP arm" and "CLAMP mean": (T, 3), or (T, 7) poses where the
-    prior gives rotations; the plan's success; planning seconds; notes of cells n/a)."""
+    """(reproductions of "CLAMP arm" and "CLAMP mean": (T, 3), or (T, 7) poses from a pose
+    prior; the plan's success; planning seconds; notes: a start out of reach, a failed plan's
+    reasons).
+
+    From a pose prior the arm starts at the start pose (its configuration by pose_ik: the
+    start pose is the arm's) and plans to the goal pose; the mean's orientation chain is
+    conditioned on the start (and goal) rotation."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", clamp.ClampWarning)   # 2-demo training sets warn
         prior = clamp.learn_prior(train)
     T = prior.T
     observations = [(0, start[:3])] + ([] if goal is None else [(T - 1, goal[:3])])
-    mean = np.asarray(clamp.condition_prior(prior, observations).mean)[:, :3]
-    began = time.perf_counter()
-    result = clamp.plan(prior, robot, None, start[:3], goal=None if goal is None else goal[:3])
-    seconds = time.perf_counter() - began
-    out = {"CLAMP arm": np.asarray(result.ee_path), "CLAMP mean": mean}
+    conditioned = clamp.condition_prior(prior, observations)
+    mean = np.asarray(conditioned.mean)[:, :3]
     notes: list[str] = []
-    if len(start) == 7:
-        notes = _clamp_rotations(out, prior, robot, np.asarray(result.q), start, goal)
+    pose = len(start) == 7 and is_pose_prior(prior)
+    arm_start, arm_goal = start[:3], None if goal is None else goal[:3]
+    if pose:
+        arm_start, position_error, angle_error = pose_ik(robot, start)
+        if position_error > 1e-3 or angle_error > np.radians(1.0):
+            notes.append(f"CLAMP arm start pose out of reach: pose IK {1e3 * position_error:.1f}"
+                         f" mm, {np.degrees(angle_error):.1f} deg off")
+        arm_goal = None if goal is None else (goal[:3], goal[3:])
+    began = time.perf_counter()
+    result = clamp.plan(prior, robot, None, arm_start, goal=arm_goal)
+    seconds = time.perf_counter() - began
+    if not result.success:
+        notes.append("CLAMP arm unsuccessful: " + "; ".join(result.reasons)[:160])
+    out = {"CLAMP arm": np.asarray(result.ee_path), "CLAMP mean": mean}
+    if pose:
+        rotations, _ = robot.ee_rotation(np.asarray(result.q))
+        out["CLAMP arm"] = np.column_stack([out["CLAMP arm"], continuous_quaternions(
+            Rotation.from_matrix(rotations).as_quat())])
+        out["CLAMP mean"] = np.column_stack([mean, _mean_quaternions(conditioned, prior,
+                                                                     start, goal)])
     return out, bool(result.success), seconds, notes
 
 
-def _clamp_rotations(out: dict[str, np.ndarray], prior, robot, q: np.ndarray,
-                     start: np.ndarray, goal: np.ndarray | None) -> list[str]:
-    """Add CLAMP's rotations to ``out`` where the installed clamp learns a pose prior: the
-    arm's by forward kinematics of its plan q (T, n), the mean's ``mean_quaternions()`` of the
-    prior conditioned on the start (and goal) pose (index, pose (7,)). Returns notes on what
-    is n/a and why."""
-    if not hasattr(prior, "mean_quaternions"):
-        return ["CLAMP orientation n/a: the installed clamp learns no pose prior"]
-    rotations, _ = robot.ee_rotation(q)
-    arm = scenes.demonstrations.continuous_quaternions(Rotation.from_matrix(rotations).as_quat())
-    out["CLAMP arm"] = np.column_stack([out["CLAMP arm"], arm])
+def _mean_quaternions(conditioned, prior, start: np.ndarray,
+                      goal: np.ndarray | None) -> np.ndarray:
+    """(T, 4) ``mean_quaternions()`` of ``conditioned`` (a pose prior conditioned on positions)
+    with ``prior``'s orientation chain conditioned on the start (and goal) rotation, as the
+    planner conditions it (clamp.prior.conditioning.conditioned_orientation, the planner's
+    conditioning sigma)."""
+    from clamp.prior.conditioning import conditioned_orientation
     T = prior.T
-    poses = [(0, start)] + ([] if goal is None else [(T - 1, goal)])
-    try:
-        conditioned = clamp.condition_prior(prior, poses)
-        quaternions = np.asarray(conditioned.mean_quaternions())
-    except Exception as exc:                         # noqa: BLE001 - reported, not hidden
-        return [f"CLAMP mean orientation n/a: conditioning on poses failed: {exc!r:.100}"]
-    out["CLAMP mean"] = np.column_stack([np.asarray(conditioned.mean)[:, :3], quaternions])
-    return []
+    rotations = [(0, Rotation.from_quat(start[3:]).as_matrix())]
+    if goal is not None:
+        rotations.append((T - 1, Rotation.from_quat(goal[3:]).as_matrix()))
+    chain = conditioned_orientation(prior.orientation, rotations,
+                                    clamp.PlannerConfig().model.conditioning_sigma)
+    return np.asarray(conditioned.with_orientation(chain).mean_quaternions())
 
 
 # ---------------------------------------------------------------------------- metrics
@@ -348,7 +398,7 @@ def run_fold(task: tuple[DataSet, int]) -> dict:
             paths.update(clamp_paths)
             out["failures"][setting] += not success
             out["plan_seconds"] += seconds
-            out["errors"].extend(f"{data.name} {setting}: {note}" for note in notes)
+            out["errors"].extend(f"{data.name} fold {k} {setting}: {note}" for note in notes)
         except Exception as exc:                     # noqa: BLE001 - reported, not hidden
             out["errors"].append(f"{data.name} fold {k} {setting} CLAMP: {exc!r:.120}")
             out["failures"][setting] += 1
@@ -414,7 +464,9 @@ def print_set(data: DataSet, folds: list[dict]) -> dict[str, dict]:
                                                  if mean_best else ""))
         if data.pose:
             print(f"  {setting:<6} lowest orientation error: "
-                  f"{winner(table, 'ori', ('CLAMP arm', 'CLAMP mean', *PEERS))}")
+                  f"{winner(table, 'ori', ('CLAMP arm', 'CLAMP mean', *PEERS))}"
+                  + ("   (CLAMP's n/a: the installed clamp learned no pose prior)"
+                     if "CLAMP arm" in table and np.isnan(table["CLAMP arm"]["ori"]) else ""))
         summary[setting] = {"table": table, "best": best, "fails": fails}
     for line in sorted({e for f in folds for e in f["errors"]}):
         print(f"  ! {line}")
