@@ -33,9 +33,10 @@ Data (every set expressed in the Jaco2's workspace, metres; figures in that fram
                        cubic spline, rotations by slerp), the mean duration; placed by a
                        rigid transform (180 deg about z, the bounding box centred on
                        (0.35, -0.30, 0.30)): every sampled position is in the Jaco's reach;
-  pose skills          synthetic skills with orientation (pouring, inserting) from
-                       POSE_SKILLS_SOURCE where the installed scenes / robots provide it
-                       (a note otherwise); any Demonstrations with orientations fit.
+  pose skills          synthetic skills with orientation (pouring, inserting) demonstrated
+                       on the Jaco, robots.pose_skills.make_pose_demonstrations(jaco, skill,
+                       6 demos, seed 0) where the installed robots has it (a note otherwise);
+                       any Demonstrations with orientations fit (load_sets).
 
 Metrics (reproduction against the held-out demonstration, both on its T time steps;
 benchmarks/lfd_metrics.py)
@@ -127,9 +128,9 @@ TLGC_STATES = 200
 WIPING_STATES = 250
 WIPING_TURN = Rotation.from_euler("z", 180.0, degrees=True)   # recording base -> Jaco base
 WIPING_CENTRE = np.array([0.35, -0.30, 0.30])            # [m] the placed set's box centre
-# where posedata's synthetic skills with orientation are looked for: (module, function); each
-# called as function(skill, num_demos=6, seed=0) -> Demonstrations with orientations
-POSE_SKILLS_SOURCE = ("robots", "make_pose_demonstrations")
+# where the synthetic skills with orientation are looked for: (module, function), called as
+# function(robot, skill, num_demos=6, seed=0) -> Demonstrations with orientations
+POSE_SKILLS_SOURCE = ("robots.pose_skills", "make_pose_demonstrations")
 POSE_SKILLS = ("pouring", "inserting")
 DTW_TOLERANCE = 0.02                                     # target: arm DTW <= 1.02 x anchor
 POSE_IK_SEEDS = 4                                        # position IK answers pose_ik starts from
@@ -219,14 +220,17 @@ def wiping_rim() -> scenes.Demonstrations | None:
 
 
 def pose_skills() -> dict[str, scenes.Demonstrations]:
-    """The synthetic skills with orientation from POSE_SKILLS_SOURCE, or none with a note."""
+    """The synthetic skills with orientation demonstrated on the Jaco, from
+    POSE_SKILLS_SOURCE, or none with a note when the installed robots has no such function."""
     import importlib
     module, function = POSE_SKILLS_SOURCE
-    make = getattr(importlib.import_module(module), function, None)
-    if make is None:
+    try:
+        make = getattr(importlib.import_module(module), function)
+    except (ImportError, AttributeError):
         print(f"# {module}.{function} not installed: the synthetic pose skills skipped")
         return {}
-    return {skill: make(skill, num_demos=6, seed=0) for skill in POSE_SKILLS}
+    jaco = robots.load_robot("jaco")
+    return {skill: make(jaco, skill, num_demos=6, seed=0) for skill in POSE_SKILLS}
 
 
 def load_sets(selected: list[str], quick: bool) -> list[DataSet]:
