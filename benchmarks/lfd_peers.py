@@ -23,12 +23,12 @@ demonstrations have orientations; it returns the reproduction in the same form, 
          [, quaternion]) samples of the training set, regressed on the phase (the quaternion
          renormalised; every coordinate standardised to zero mean and unit spread over the
          samples, since gmr regularises a singular covariance by a fixed 1e-3 I, which is not
-         small against positions in metres). GMR reproduces the time-indexed mean and cannot itself adapt to a new
-         start or goal (the TLGC paper, section 2): the difference to the start (and to the
-         goal) is blended in linearly in phase (rotations: along the rotation vector), so the
-         reproduction starts at the start (and ends at the goal). A coordinate every sample
-         shares (a planar set's height) is kept constant, not modelled (its covariance would be
-         singular).
+         small against positions in metres). GMR reproduces the time-indexed mean and
+         cannot itself adapt to a new start or goal (the TLGC paper, section 2): the
+         difference to the start (and to the goal) is blended in linearly in phase (rotations:
+         along the rotation vector), so the reproduction starts at the start (and ends at the
+         goal). A coordinate every sample shares (a planar set's height) is kept constant, not
+         modelled (its covariance would be singular).
 """
 from __future__ import annotations
 
@@ -36,6 +36,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 import scenes
+from scenes.demonstrations import continuous_quaternions
 
 WEIGHTS = 20                                             # ProMP / DMP weights per dimension
 PROMP_NOISE = 1e-4                                       # [m] std of ProMP's conditioning
@@ -65,7 +66,7 @@ def renormalised(y: np.ndarray) -> np.ndarray:
     if y.shape[1] == 3:
         return y
     q = y[:, 3:] / np.linalg.norm(y[:, 3:], axis=1, keepdims=True)
-    return np.column_stack([y[:, :3], scenes.demonstrations.continuous_quaternions(q)])
+    return np.column_stack([y[:, :3], continuous_quaternions(q)])
 
 
 def _target(target: np.ndarray, mean: np.ndarray) -> np.ndarray:
