@@ -93,6 +93,18 @@ before); LASA 4.67 / 4.67 -> 4.66 / 4.66, best on 9 / 10 -> 9 / 9 of 13 (lost: C
 NShape by 0.01 mm, Sshape; the prior's own mean is best on 11: the arm's joint GP keeps its
 path 0.05-0.2 mm of DTW off the mean); synthetic0 start still TLGC's (4.37 vs 5.68); 0
 unsuccessful plans; wall 578 s on 1 worker at load 3-5.
+Then (2026-11-29, issue 37) GMR and the pose sets. --quick on the position sets (load 10-13):
+GMR wins syn:box_closing goal (6.25 vs CLAMP arm 7.04 mm) and syn:reach_from_above goal (6.64
+vs 6.90), CLAMP arm the other 10 non-LASA cells and 5 of 8 LASA cells; its DTW recorded as
+anchors/bench_lfd_quick_5c9c49f.json (clamp as on main f76333e): 1.000x in all 20 cells again,
+also with branch pose's clamp. wiping_rim, 6 folds, position-only clamp: orientation error
+start / goal ProMP 48.67 / 24.75 deg, CartesianDMP 62.01 / 33.01, GMR 43.17 / 29.89; every
+method 100+ mm of DTW (strokes of unequal count on a normalised phase). With branch pose's
+clamp (previews, not merged): wiping_rim --quick CLAMP mean 20.29 / 20.89 deg (lowest), CLAMP
+arm 25.82 / 24.73; posedata's pouring / inserting (6 folds) CLAMP mean lowest at equal times
+in all 4 cells, on the DTW pairs all but pouring goal (9.17 vs CartesianDMP 5.80: the tilt
+in place); CLAMP arm lowest in 1 of 4 (4 inserting plans start in self-collision by 0.3-0.4
+mm at the demonstrations' own recorded start, 4 pouring plans leave the skill's tube).
 """
 from __future__ import annotations
 
