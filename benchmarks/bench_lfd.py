@@ -128,7 +128,6 @@ import scenes
 from harness import exit_with_parent, print_environment, shared_demonstrations
 from lfd_metrics import dtw_mean, geodesic_angle, orientation_error, swept_area
 from scenes.demonstrations import continuous_quaternions, slerp_quaternions
-from skillplan.threads import single_blas_thread
 
 METHODS = ("CLAMP arm", "CLAMP mean", "TLGC", "ProMP", "DMP", "GMR")
 RIVALS = ("CLAMP arm", "TLGC", "ProMP", "DMP", "GMR")    # who wins: CLAMP as users run it
@@ -443,8 +442,7 @@ def run_fold(task: tuple[DataSet, int]) -> dict:
                              ("DMP", lambda: lfd_peers.dmp(train, start, goal)),
                              ("GMR", lambda: lfd_peers.gmr(train, start, goal))):
             try:
-                with single_blas_thread():           # tiny products: threads only wait
-                    path = make()
+                path = make()
             except Exception as exc:                 # noqa: BLE001
                 out["errors"].append(f"{data.name} fold {k} {setting} {method}: {exc!r:.120}")
                 continue
