@@ -100,8 +100,8 @@ anchors/bench_lfd_quick_5c9c49f.json (clamp as on main f76333e): 1.000x in all 2
 also with branch pose's clamp. wiping_rim, 6 folds, position-only clamp: orientation error
 start / goal ProMP 48.67 / 24.75 deg, CartesianDMP 62.01 / 33.01, GMR 43.17 / 29.89; every
 method 100+ mm of DTW (strokes of unequal count on a normalised phase). With branch pose's
-clamp (previews, not merged): wiping_rim --quick CLAMP mean 20.29 / 20.89 deg (lowest), CLAMP
-arm 25.82 / 24.73; posedata's pouring / inserting (6 folds) CLAMP mean lowest at equal times
+clamp (previews, not merged): wiping_rim (6 folds) CLAMP arm 35.13 / 29.26 deg, CLAMP mean
+32.12 / 27.37, lowest at the start, ProMP's 24.75 lowest at the goal; posedata's pouring / inserting (6 folds) CLAMP mean lowest at equal times
 in all 4 cells, on the DTW pairs all but pouring goal (9.17 vs CartesianDMP 5.80: the tilt
 in place); CLAMP arm lowest in 1 of 4 (4 inserting plans start in self-collision by 0.3-0.4
 mm at the demonstrations' own recorded start, 4 pouring plans leave the skill's tube).
