@@ -97,7 +97,9 @@ Then (2026-11-29, issue 37) GMR and the pose sets. --quick on the position sets 
 GMR wins syn:box_closing goal (6.25 vs CLAMP arm 7.04 mm) and syn:reach_from_above goal (6.64
 vs 6.90), CLAMP arm the other 10 non-LASA cells and 5 of 8 LASA cells; its DTW recorded as
 anchors/bench_lfd_quick_5c9c49f.json (clamp as on main f76333e): 1.000x in all 20 cells again,
-also with branch pose's clamp. wiping_rim, 6 folds, position-only clamp: orientation error
+also with branch pose's clamp. The full run (CPU 427 s): CLAMP arm as before and best in all
+20 non-LASA cells, GMR best on 3 / 2 of the 13 LASA shapes (CLAMP arm 11 / 11 -> 8 / 9),
+recorded as anchors/bench_lfd_5c9c49f.json. wiping_rim, 6 folds, position-only clamp: orientation error
 start / goal ProMP 48.67 / 24.75 deg, CartesianDMP 62.01 / 33.01, GMR 43.17 / 29.89; every
 method 100+ mm of DTW (strokes of unequal count on a normalised phase). With branch pose's
 clamp (previews, not merged): wiping_rim (6 folds) CLAMP arm 35.13 / 29.26 deg, CLAMP mean
