@@ -33,9 +33,10 @@ Data (every set expressed in the Jaco2's workspace, metres; figures in that fram
                        cubic spline, rotations by slerp), the mean duration; placed by a
                        rigid transform (180 deg about z, the bounding box centred on
                        (0.35, -0.30, 0.30)): every sampled position is in the Jaco's reach;
-  pose skills          synthetic skills with orientation (pouring, inserting) from
-                       POSE_SKILLS_SOURCE where the installed scenes / robots provide it
-                       (a note otherwise); any Demonstrations with orientations fit.
+  pose skills          synthetic skills with orientation (pouring, inserting) demonstrated
+                       on the Jaco, robots.pose_skills.make_pose_demonstrations(jaco, skill,
+                       6 demos, seed 0) where the installed robots has it (a note otherwise);
+                       any Demonstrations with orientations fit (load_sets).
 
 Metrics (reproduction against the held-out demonstration, both on its T time steps;
 benchmarks/lfd_metrics.py)
@@ -45,7 +46,11 @@ benchmarks/lfd_metrics.py)
   end    end error [mm];
   vel    velocity RMSE [mm/s], velocities by central differences in time of both paths;
   ori    orientation error [deg]: the mean geodesic angle 2 arccos |<q1, q2>| between the
-         rotations of the pairs of the position DTW alignment (pose data only);
+         rotations of the pairs of the position DTW alignment (pose data only; the target's);
+  oeq    the mean geodesic angle at equal times [deg] (pose data only): where the hand turns
+         without moving (a pour's tilt: the last 60 of pouring's 200 states turn 69 deg within
+         0.1 mm) the position alignment's pairs there are arbitrary, and ori with them
+         (ProMP, pouring, fold 0, goal: ori 23.3 deg, oeq 2.2 deg);
   oend   end orientation error [deg] (pose data only);
   fail   CLAMP arm plans with success False (their paths are scored all the same).
 
@@ -88,6 +93,20 @@ before); LASA 4.67 / 4.67 -> 4.66 / 4.66, best on 9 / 10 -> 9 / 9 of 13 (lost: C
 NShape by 0.01 mm, Sshape; the prior's own mean is best on 11: the arm's joint GP keeps its
 path 0.05-0.2 mm of DTW off the mean); synthetic0 start still TLGC's (4.37 vs 5.68); 0
 unsuccessful plans; wall 578 s on 1 worker at load 3-5.
+Then (2026-11-29, issue 37) GMR and the pose sets. --quick on the position sets (load 10-13):
+GMR wins syn:box_closing goal (6.25 vs CLAMP arm 7.04 mm) and syn:reach_from_above goal (6.64
+vs 6.90), CLAMP arm the other 10 non-LASA cells and 5 of 8 LASA cells; its DTW recorded as
+anchors/bench_lfd_quick_5c9c49f.json (clamp as on main f76333e): 1.000x in all 20 cells again,
+also with branch pose's clamp. The full run (CPU 427 s): CLAMP arm as before and best in all
+20 non-LASA cells, GMR best on 3 / 2 of the 13 LASA shapes (CLAMP arm 11 / 11 -> 8 / 9),
+recorded as anchors/bench_lfd_5c9c49f.json. wiping_rim, 6 folds, position-only clamp: orientation error
+start / goal ProMP 48.67 / 24.75 deg, CartesianDMP 62.01 / 33.01, GMR 43.17 / 29.89; every
+method 100+ mm of DTW (strokes of unequal count on a normalised phase). With branch pose's
+clamp (previews, not merged): wiping_rim (6 folds) CLAMP arm 35.13 / 29.26 deg, CLAMP mean
+32.12 / 27.37, lowest at the start, ProMP's 24.75 lowest at the goal; posedata's pouring / inserting (6 folds) CLAMP mean lowest at equal times
+in all 4 cells, on the DTW pairs all but pouring goal (9.17 vs CartesianDMP 5.80: the tilt
+in place); CLAMP arm lowest in 1 of 4 (4 inserting plans start in self-collision by 0.3-0.4
+mm at the demonstrations' own recorded start, 4 pouring plans leave the skill's tube).
 """
 from __future__ import annotations
 
@@ -110,13 +129,13 @@ import robots
 import scenes
 from harness import exit_with_parent, print_environment, shared_demonstrations
 from lfd_metrics import dtw_mean, geodesic_angle, orientation_error, swept_area
-from skillplan.threads import single_blas_thread
+from scenes.demonstrations import continuous_quaternions, slerp_quaternions
 
 METHODS = ("CLAMP arm", "CLAMP mean", "TLGC", "ProMP", "DMP", "GMR")
 RIVALS = ("CLAMP arm", "TLGC", "ProMP", "DMP", "GMR")    # who wins: CLAMP as users run it
 PEERS = ("TLGC", "ProMP", "DMP", "GMR")
 SETTINGS = ("start", "goal")
-METRICS = ("dtw", "sea", "end", "vel", "ori", "oend")
+METRICS = ("dtw", "sea", "end", "vel", "ori", "oeq", "oend")
 SHARED = ("box_closing", "needle_threading", "pick_place", "synthetic0")
 POSE_SETS = ("wiping_rim", "pose_synthetic")
 REGION_CENTRE = np.array([0.30, -0.40, 0.25])            # the synthetic skills' region
@@ -126,11 +145,12 @@ TLGC_STATES = 200
 WIPING_STATES = 250
 WIPING_TURN = Rotation.from_euler("z", 180.0, degrees=True)   # recording base -> Jaco base
 WIPING_CENTRE = np.array([0.35, -0.30, 0.30])            # [m] the placed set's box centre
-# where posedata's synthetic skills with orientation are looked for: (module, function); each
-# called as function(skill, num_demos=6, seed=0) -> Demonstrations with orientations
-POSE_SKILLS_SOURCE = ("robots", "make_pose_demonstrations")
+# where the synthetic skills with orientation are looked for: (module, function), called as
+# function(robot, skill, num_demos=6, seed=0) -> Demonstrations with orientations
+POSE_SKILLS_SOURCE = ("robots.pose_skills", "make_pose_demonstrations")
 POSE_SKILLS = ("pouring", "inserting")
 DTW_TOLERANCE = 0.02                                     # target: arm DTW <= 1.02 x anchor
+POSE_IK_SEEDS = 4                                        # position IK answers pose_ik starts from
 
 
 @dataclass
@@ -210,21 +230,24 @@ def wiping_rim() -> scenes.Demonstrations | None:
         spline = CubicSpline(s, p, axis=0)
         pos.append(spline(phase))
         vel.append(spline(phase, 1) / duration)
-        turns.append(scenes.demonstrations.slerp_quaternions(
+        turns.append(slerp_quaternions(
             s, (WIPING_TURN * Rotation.from_quat(q)).as_quat(), phase))
     return scenes.Demonstrations(np.array(pos), np.array(vel), time_, name="wiping_rim",
                                  orientations=np.array(turns))
 
 
 def pose_skills() -> dict[str, scenes.Demonstrations]:
-    """The synthetic skills with orientation from POSE_SKILLS_SOURCE, or none with a note."""
+    """The synthetic skills with orientation demonstrated on the Jaco, from
+    POSE_SKILLS_SOURCE, or none with a note when the installed robots has no such function."""
     import importlib
     module, function = POSE_SKILLS_SOURCE
-    make = getattr(importlib.import_module(module), function, None)
-    if make is None:
+    try:
+        make = getattr(importlib.import_module(module), function)
+    except (ImportError, AttributeError):
         print(f"# {module}.{function} not installed: the synthetic pose skills skipped")
         return {}
-    return {skill: make(skill, num_demos=6, seed=0) for skill in POSE_SKILLS}
+    jaco = robots.load_robot("jaco")
+    return {skill: make(jaco, skill, num_demos=6, seed=0) for skill in POSE_SKILLS}
 
 
 def load_sets(selected: list[str], quick: bool) -> list[DataSet]:
@@ -262,59 +285,117 @@ def load_sets(selected: list[str], quick: bool) -> list[DataSet]:
 
 
 def subset(demos: scenes.Demonstrations, keep: np.ndarray) -> scenes.Demonstrations:
+    """The demonstrations ``keep`` (a mask or indices) with all they recorded (rotations,
+    joint trajectories; obstacles are not kept)."""
+    def kept(values):
+        return None if values is None else values[keep]
     return scenes.Demonstrations(
         demos.positions[keep], demos.velocities[keep], demos.time, name=demos.name,
-        orientations=None if demos.orientations is None else demos.orientations[keep])
+        joint_positions=kept(demos.joint_positions),
+        joint_names=None if demos.joint_positions is None else demos.joint_names,
+        orientations=kept(demos.orientations))
 
 
 # ---------------------------------------------------------------------------- CLAMP
+def is_pose_prior(prior) -> bool:
+    """Whether the installed clamp learned ``prior`` with the hand's orientation (a pose
+    prior: an orientation chain beside the positions' and ``mean_quaternions()``)."""
+    return (getattr(prior, "orientation", None) is not None
+            and hasattr(prior, "mean_quaternions"))
+
+
+def pose_ik(robot, pose: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """A configuration (n,) [rad] of ``robot`` whose hand is at ``pose`` (7,) (position [m],
+    quaternion x, y, z, w), by least squares (1 mm weighs as 1 deg) within the joint limits
+    from up to POSE_IK_SEEDS position IK answers; with its position [m] and rotation [rad]
+    errors."""
+    from scipy.optimize import least_squares
+    target, turn = pose[:3], Rotation.from_quat(pose[3:])
+    millimetre, degree = 1e-3, np.radians(1.0)
+
+    def residual(q: np.ndarray) -> np.ndarray:
+        rotation, _ = robot.ee_rotation(q)
+        angle = (turn.inv() * Rotation.from_matrix(rotation)).as_rotvec()
+        return np.concatenate([(robot.fk(q) - target) / millimetre, angle / degree])
+    best = None
+    for attempt in range(POSE_IK_SEEDS):
+        seed = np.clip(np.asarray(robot.ik(target, rng=attempt).q, float), robot.lower_limits,
+                       robot.upper_limits)
+        fit = least_squares(residual, seed, bounds=(robot.lower_limits, robot.upper_limits))
+        if best is None or fit.cost < best.cost:
+            best = fit
+        if best.cost < 1e-6:                         # within ~1 um and ~1e-3 deg
+            break
+    r = residual(best.x)
+    return best.x, float(np.linalg.norm(r[:3]) * millimetre), \
+        float(np.linalg.norm(r[3:]) * degree)
+
+
 def clamp_methods(train: scenes.Demonstrations, start: np.ndarray, goal: np.ndarray | None,
-                  robot) -> tuple[dict[str, np.ndarray], bool, float, list[str]]:
-    """(reproductions of "CLAMP arm" and "CLAMP mean": (T, 3), or (T, 7) poses where the
-    prior gives rotations; the plan's success; planning seconds; notes of cells n/a)."""
+                  robot, start_q: np.ndarray | None = None
+                  ) -> tuple[dict[str, np.ndarray], bool, float, list[str]]:
+    """(reproductions of "CLAMP arm" and "CLAMP mean": (T, 3), or (T, 7) poses from a pose
+    prior; the plan's success; planning seconds; notes: a start out of reach, a failed plan's
+    reasons).
+
+    From a pose prior the arm starts at the start pose (the start pose is the arm's): at
+    ``start_q`` (n,) [rad], the held-out demonstration's recorded start configuration where
+    it was recorded in joint space, else by pose_ik; it plans to the goal pose, and the
+    mean's orientation chain is conditioned on the start (and goal) rotation."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", clamp.ClampWarning)   # 2-demo training sets warn
         prior = clamp.learn_prior(train)
     T = prior.T
     observations = [(0, start[:3])] + ([] if goal is None else [(T - 1, goal[:3])])
-    mean = np.asarray(clamp.condition_prior(prior, observations).mean)[:, :3]
-    began = time.perf_counter()
-    result = clamp.plan(prior, robot, None, start[:3], goal=None if goal is None else goal[:3])
-    seconds = time.perf_counter() - began
-    out = {"CLAMP arm": np.asarray(result.ee_path), "CLAMP mean": mean}
+    conditioned = clamp.condition_prior(prior, observations)
+    mean = np.asarray(conditioned.mean)[:, :3]
     notes: list[str] = []
-    if len(start) == 7:
-        notes = _clamp_rotations(out, prior, robot, np.asarray(result.q), start, goal)
+    pose = len(start) == 7 and is_pose_prior(prior)
+    arm_start, arm_goal = start[:3], None if goal is None else goal[:3]
+    if pose and start_q is not None:
+        arm_start = start_q
+    elif pose:
+        arm_start, position_error, angle_error = pose_ik(robot, start)
+        if position_error > 1e-3 or angle_error > np.radians(1.0):
+            notes.append(f"CLAMP arm start pose out of reach: pose IK {1e3 * position_error:.1f}"
+                         f" mm, {np.degrees(angle_error):.1f} deg off")
+        arm_goal = None if goal is None else (goal[:3], goal[3:])
+    began = time.perf_counter()
+    result = clamp.plan(prior, robot, None, arm_start, goal=arm_goal)
+    seconds = time.perf_counter() - began
+    if not result.success:
+        notes.append("CLAMP arm unsuccessful: " + "; ".join(result.reasons)[:160])
+    out = {"CLAMP arm": np.asarray(result.ee_path), "CLAMP mean": mean}
+    if pose:
+        rotations, _ = robot.ee_rotation(np.asarray(result.q))
+        out["CLAMP arm"] = np.column_stack([out["CLAMP arm"], continuous_quaternions(
+            Rotation.from_matrix(rotations).as_quat())])
+        out["CLAMP mean"] = np.column_stack([mean, _mean_quaternions(conditioned, prior,
+                                                                     start, goal)])
     return out, bool(result.success), seconds, notes
 
 
-def _clamp_rotations(out: dict[str, np.ndarray], prior, robot, q: np.ndarray,
-                     start: np.ndarray, goal: np.ndarray | None) -> list[str]:
-    """Add CLAMP's rotations to ``out`` where the installed clamp learns a pose prior: the
-    arm's by forward kinematics of its plan q (T, n), the mean's ``mean_quaternions()`` of the
-    prior conditioned on the start (and goal) pose (index, pose (7,)). Returns notes on what
-    is n/a and why."""
-    if not hasattr(prior, "mean_quaternions"):
-        return ["CLAMP orientation n/a: the installed clamp learns no pose prior"]
-    rotations, _ = robot.ee_rotation(q)
-    arm = scenes.demonstrations.continuous_quaternions(Rotation.from_matrix(rotations).as_quat())
-    out["CLAMP arm"] = np.column_stack([out["CLAMP arm"], arm])
+def _mean_quaternions(conditioned, prior, start: np.ndarray,
+                      goal: np.ndarray | None) -> np.ndarray:
+    """(T, 4) ``mean_quaternions()`` of ``conditioned`` (a pose prior conditioned on positions)
+    with ``prior``'s orientation chain conditioned on the start (and goal) rotation, as the
+    planner conditions it (clamp.prior.conditioning.conditioned_orientation, the planner's
+    conditioning sigma)."""
+    from clamp.prior.conditioning import conditioned_orientation
     T = prior.T
-    poses = [(0, start)] + ([] if goal is None else [(T - 1, goal)])
-    try:
-        conditioned = clamp.condition_prior(prior, poses)
-        quaternions = np.asarray(conditioned.mean_quaternions())
-    except Exception as exc:                         # noqa: BLE001 - reported, not hidden
-        return [f"CLAMP mean orientation n/a: conditioning on poses failed: {exc!r:.100}"]
-    out["CLAMP mean"] = np.column_stack([np.asarray(conditioned.mean)[:, :3], quaternions])
-    return []
+    rotations = [(0, Rotation.from_quat(start[3:]).as_matrix())]
+    if goal is not None:
+        rotations.append((T - 1, Rotation.from_quat(goal[3:]).as_matrix()))
+    chain = conditioned_orientation(prior.orientation, rotations,
+                                    clamp.PlannerConfig().model.conditioning_sigma)
+    return np.asarray(conditioned.with_orientation(chain).mean_quaternions())
 
 
 # ---------------------------------------------------------------------------- metrics
 def metrics(reproduction: np.ndarray, demo: np.ndarray, time_: np.ndarray, planar: bool,
             demo_quaternions: np.ndarray | None = None) -> dict:
     """The metrics (module doc) of a reproduction (T, 3) or (T, 7) against a demonstration's
-    positions (T, 3) (and quaternions (T, 4)); ori / oend NaN without both rotations."""
+    positions (T, 3) (and quaternions (T, 4)); ori / oeq / oend NaN without both rotations."""
     path = reproduction[:, :3]
     vel = np.gradient(path, time_, axis=0) - np.gradient(demo, time_, axis=0)
     rotated = reproduction.shape[1] == 7 and demo_quaternions is not None
@@ -324,6 +405,9 @@ def metrics(reproduction: np.ndarray, demo: np.ndarray, time_: np.ndarray, plana
             "vel": 1e3 * float(np.sqrt(np.mean(np.sum(vel ** 2, axis=1)))),
             "ori": (np.degrees(orientation_error(path, reproduction[:, 3:], demo,
                                                  demo_quaternions)) if rotated else np.nan),
+            "oeq": (float(np.degrees(np.mean(geodesic_angle(reproduction[:, 3:],
+                                                            demo_quaternions))))
+                    if rotated else np.nan),
             "oend": (float(np.degrees(geodesic_angle(reproduction[-1, 3:],
                                                      demo_quaternions[-1])))
                      if rotated else np.nan)}
@@ -338,17 +422,19 @@ def run_fold(task: tuple[DataSet, int]) -> dict:
     held = demos.positions[k]
     held_turns = None if demos.orientations is None else demos.orientations[k]
     held_poses = held if held_turns is None else np.column_stack([held, held_turns])
+    start_q = None if demos.joint_positions is None else demos.joint_positions[k][0]
     train = subset(demos, np.arange(demos.M) != k)
     out: dict = {"failures": {s: 0 for s in SETTINGS}, "plan_seconds": 0.0, "errors": []}
     for setting in SETTINGS:
         start, goal = held_poses[0], (held_poses[-1] if setting == "goal" else None)
         paths: dict[str, np.ndarray] = {}
         try:
-            clamp_paths, success, seconds, notes = clamp_methods(train, start, goal, robot)
+            clamp_paths, success, seconds, notes = clamp_methods(train, start, goal, robot,
+                                                                 start_q)
             paths.update(clamp_paths)
             out["failures"][setting] += not success
             out["plan_seconds"] += seconds
-            out["errors"].extend(f"{data.name} {setting}: {note}" for note in notes)
+            out["errors"].extend(f"{data.name} fold {k} {setting}: {note}" for note in notes)
         except Exception as exc:                     # noqa: BLE001 - reported, not hidden
             out["errors"].append(f"{data.name} fold {k} {setting} CLAMP: {exc!r:.120}")
             out["failures"][setting] += 1
@@ -358,8 +444,7 @@ def run_fold(task: tuple[DataSet, int]) -> dict:
                              ("DMP", lambda: lfd_peers.dmp(train, start, goal)),
                              ("GMR", lambda: lfd_peers.gmr(train, start, goal))):
             try:
-                with single_blas_thread():           # tiny products: threads only wait
-                    path = make()
+                path = make()
             except Exception as exc:                 # noqa: BLE001
                 out["errors"].append(f"{data.name} fold {k} {setting} {method}: {exc!r:.120}")
                 continue
@@ -395,7 +480,8 @@ def print_set(data: DataSet, folds: list[dict]) -> dict[str, dict]:
     summary = {}
     print(f"\n{data.name} (M={data.demos.M}, {data.note}; {len(folds)} folds)")
     print(f"  {'setting':<6} {'method':<11} {'dtw mm':>8} {'sea cm2':>8} {'end mm':>8} "
-          f"{'vel mm/s':>9}" + (f" {'ori deg':>8} {'oend deg':>8}" if data.pose else "")
+          f"{'vel mm/s':>9}" + (f" {'ori deg':>8} {'oeq deg':>8} {'oend deg':>8}"
+                                if data.pose else "")
           + f" {'fail':>5}")
     for setting in SETTINGS:
         table = mean_over_folds(folds, setting)
@@ -403,7 +489,8 @@ def print_set(data: DataSet, folds: list[dict]) -> dict[str, dict]:
         for method, row in table.items():
             sea = "-" if np.isnan(row["sea"]) else f"{row['sea']:8.2f}"
             fail = f"{fails:5d}" if method == "CLAMP arm" else ""
-            turn = (f" {_cell(row['ori'], 8)} {_cell(row['oend'], 8)}" if data.pose else "")
+            turn = (f" {_cell(row['ori'], 8)} {_cell(row['oeq'], 8)} {_cell(row['oend'], 8)}"
+                    if data.pose else "")
             print(f"  {setting:<6} {method:<11} {row['dtw']:8.2f} {sea:>8} {row['end']:8.2f} "
                   f"{row['vel']:9.2f}{turn} {fail}")
         best = winner(table)
@@ -414,7 +501,9 @@ def print_set(data: DataSet, folds: list[dict]) -> dict[str, dict]:
                                                  if mean_best else ""))
         if data.pose:
             print(f"  {setting:<6} lowest orientation error: "
-                  f"{winner(table, 'ori', ('CLAMP arm', 'CLAMP mean', *PEERS))}")
+                  f"{winner(table, 'ori', ('CLAMP arm', 'CLAMP mean', *PEERS))}"
+                  + ("   (CLAMP's n/a: the installed clamp learned no pose prior)"
+                     if "CLAMP arm" in table and np.isnan(table["CLAMP arm"]["ori"]) else ""))
         summary[setting] = {"table": table, "best": best, "fails": fails}
     for line in sorted({e for f in folds for e in f["errors"]}):
         print(f"  ! {line}")
@@ -456,24 +545,31 @@ def print_overview(sets: list[DataSet], summaries: list[dict]) -> None:
 
 
 def print_pose_targets(sets: list[DataSet], summaries: list[dict]) -> None:
-    """Orientation error [deg] of every pose cell and whether CLAMP's is the lowest in all."""
+    """Orientation errors [deg] of every pose cell and whether CLAMP's is the lowest in all:
+    the target's (ori, on the position DTW pairs) and at equal times (oeq: the DTW pairs are
+    arbitrary where the hand turns in place, like a pour's tilt)."""
     cells = [(d, st, s[st]["table"]) for d, s in zip(sets, summaries) if d.pose
              for st in SETTINGS]
     if not cells:
         return
-    print("\nPose cells: mean orientation error [deg] (" + " / ".join(METHODS) + ")")
-    for data, setting, table in cells:
-        row = " / ".join(_cell(table[m]["ori"], 1) if m in table else "-" for m in METHODS)
-        print(f"  {data.name:<26} {setting:<6} {row}")
-    for clamp_cell in ("CLAMP arm", "CLAMP mean"):
-        lost = [f"{d.name} {st} ({winner(t, 'ori', (clamp_cell, *PEERS))})"
-                for d, st, t in cells if winner(t, "ori", (clamp_cell, *PEERS)) != clamp_cell]
-        unmeasured = sum(clamp_cell not in t or np.isnan(t[clamp_cell]["ori"])
-                         for _, _, t in cells)
-        verdict = ("n/a (no CLAMP orientation in " + f"{unmeasured} of {len(cells)} cells)"
-                   if unmeasured else ("yes" if not lost else "no: " + ", ".join(lost)))
-        print(f"  target: {clamp_cell} has the lowest orientation error in every pose cell: "
-              f"{verdict}")
+    for metric, label in (("ori", "on the position DTW pairs (the target's)"),
+                          ("oeq", "at equal times")):
+        print(f"\nPose cells: mean orientation error [deg] {label} ("
+              + " / ".join(METHODS) + ")")
+        for data, setting, table in cells:
+            row = " / ".join(_cell(table[m][metric], 1) if m in table else "-"
+                             for m in METHODS)
+            print(f"  {data.name:<26} {setting:<6} {row}")
+        for clamp_cell in ("CLAMP arm", "CLAMP mean"):
+            lost = [f"{d.name} {st} ({winner(t, metric, (clamp_cell, *PEERS))})"
+                    for d, st, t in cells
+                    if winner(t, metric, (clamp_cell, *PEERS)) != clamp_cell]
+            unmeasured = sum(clamp_cell not in t or np.isnan(t[clamp_cell][metric])
+                             for _, _, t in cells)
+            verdict = (f"n/a (no CLAMP orientation in {unmeasured} of {len(cells)} cells)"
+                       if unmeasured else ("yes" if not lost else "no: " + ", ".join(lost)))
+            print(f"  {'target' if metric == 'ori' else 'also'}: {clamp_cell} has the lowest "
+                  f"orientation error ({metric}) in every pose cell: {verdict}")
 
 
 def position_cells(sets: list[DataSet], summaries: list[dict]) -> dict[str, float]:
