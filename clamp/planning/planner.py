@@ -102,11 +102,12 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
 def _planned_in_time(model_at: Callable[..., Model], timing: TimeRequest, covariance: bool,
                      started: float) -> PlanResult:
     """The time stage, then the path solve (:mod:`clamp.planning.time_scale`): at the caller's
-    scale; else at the scale the free plan needs. With obstacles the free plan is solved when the model is built: a skill too fast for the
-    arm is built again at its scale (one more free-plan solve). In an empty scene the plan is
-    the free plan: the skill followed at its demonstrated speed (the initial trajectory)
-    predicts its need. A plan whose path moves faster than its scale allows (a detour) is
-    retimed once, at its own need (:func:`_retimed`)."""
+    scale; else at the scale the free plan needs. With obstacles the free plan is solved when
+    the model is built: a skill too fast for the arm is built again at its scale (one more
+    free-plan solve). In an empty scene the plan is the free plan: the skill followed at its
+    demonstrated speed (the initial trajectory) predicts its need. A plan whose path moves
+    faster than its scale allows (a detour) is retimed once, at its own need
+    (:func:`_retimed`)."""
     if timing.fixed is not None:
         k = timing.fixed
         planned = model_at(k)

@@ -21,9 +21,9 @@ free-plan solve, the model built again at k, never a path search); in an empty s
 itself, whose need the initial trajectory (the skill followed at the demonstrations' speed)
 predicts. A path that still moves faster than its scale allows (a detour) is retimed once at
 its own need, without a solve: the same states in slower time, which the scaled problem
-allows exactly (:func:`clamp.planning.planner._retimed`). The solve's judge does not check joint velocities
-(:meth:`clamp.factors.JointLimitFamily.check`); the verdict does, and :func:`timing_reasons`
-adds the accelerations and, when the scale was bounded, why. The scale is
+allows exactly (:func:`clamp.planning.planner._retimed`). The solve's judge does not check
+joint velocities (:meth:`clamp.factors.JointLimitFamily.check`); the verdict does, and
+:func:`timing_reasons` adds the accelerations and, when the scale was bounded, why. The scale is
 ``PlanResult.time_scale``; the result's time stamps, velocities and verdict are the scaled
 plan's.
 """
