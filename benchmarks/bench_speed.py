@@ -91,11 +91,12 @@ def keyframe_demonstrations(robot: Any, keyframes: Any, name: str) -> Any:
     return from_joint_trajectories(robot, q, [time] * KEYFRAME_DEMOS, name=name)
 
 
-def too_fast(prior: Any, robot: Any, learn_prior: Any, demos: Any, faster: float) -> Any:
+def too_fast(demos: Any, robot: Any, faster: float) -> Any:
     """The prior of ``demos`` shown so fast that following it needs ``faster`` x the arm's
-    velocity limits: time compressed by the free plan's peak velocity ratio / faster."""
-    from clamp import plan
+    velocity limits: time compressed by its empty-scene plan's peak velocity ratio / faster."""
+    from clamp import learn_prior, plan
     from clamp.planning.time_scale import peak_ratios
+    prior = learn_prior(demos)
     free = plan(prior, robot, None, np.asarray(prior.mean)[0, :3], time_scale=1.0,
                 covariance=False)
     velocity, _ = peak_ratios(robot, free.q, free.qdot, free.time)
@@ -140,7 +141,7 @@ def make_cases(quick: bool) -> list[Case]:
                                 end_effector=frame, package_dirs=[share])
         add(f"keyframes:{arm}", arm, robot, keyframe_demonstrations(robot, keyframes, arm))
     demos = make_demonstrations("reach_from_above", num_demos=6, num_points=250, seed=0)
-    prior = too_fast(learn_prior(demos), jaco, learn_prior, demos, 2.0)
+    prior = too_fast(demos, jaco, 2.0)
     cases.append(Case("syn:reach_from_above x2 fast", "jaco", jaco, prior,
                       np.asarray(prior.mean)[0, :3], "jaco"))
     return cases

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -91,45 +92,69 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
 
         extras = tuple(as_extras(extra_factors))
 
-        def model_at(k: float) -> Model:
-            """The model of the request with the skill traversed k times slower."""
+        def model_at(k: float, **start: np.ndarray) -> Model:
+            """The model of the request with the skill traversed k times slower (``start``:
+            build_model's ``initial`` / ``free`` instead of the configured ones)."""
             return build_model(time_scaled_prior(prior, k), robot, scene, request,
-                               time_scaled_config(config, k), extras, sdf, initial)
+                               time_scaled_config(config, k), extras, sdf,
+                               **{"initial": initial, **start})
         return _planned_in_time(model_at, timing, covariance, started)
 
 
-def _planned_in_time(model_at: Callable[[float], Model], timing: TimeRequest, covariance: bool,
+def _planned_in_time(model_at: Callable[..., Model], timing: TimeRequest, covariance: bool,
                      started: float) -> PlanResult:
     """The time stage, then the path solve (:mod:`clamp.planning.time_scale`): at the caller's
     scale; else at the scale the free plan needs. With obstacles the free plan is solved when
     the model is built: a skill too fast for the arm is built again at its scale (one more
     free-plan solve). In an empty scene the plan is the free plan: the skill followed at its
-    demonstrated speed (the initial trajectory) predicts its need, and a plan still beyond the
-    limits at that scale is solved once more at its own need."""
+    demonstrated speed (the initial trajectory) predicts its need. A plan whose path moves
+    faster than its scale allows (a detour) is retimed once, at its own need
+    (:func:`_retimed`)."""
     if timing.fixed is not None:
         k = timing.fixed
         planned = model_at(k)
         result = plan_model(planned, covariance, started=started)
-        needed = k * _needed(planned, np.hstack([result.q, result.qdot]), None)
+        needed = k * _needed(planned, np.hstack([result.q, result.qdot]))
         return _timed(result, k, planned, timing, needed)
     planned = model_at(1.0)
     if planned.free_plan is not None:                # obstacles: the free plan is known
         needed = _needed(planned, planned.free_plan, planned.initialisation.q)
     else:                                            # empty: the skill's own speed
-        needed = _needed(planned, planned.initialisation.theta, None)
+        needed = _needed(planned, planned.initialisation.theta)
     k = chosen_scale(timing, needed)
     planned = planned if k == 1.0 else model_at(k)
     solving = time.perf_counter()
     solution = solve(planned)
-    if planned.free_plan is None:
-        beyond = _needed(planned, solution.optimum.theta, planned.initialisation.q)
-        if beyond > 1.0 and chosen_scale(timing, k * beyond) > k:
-            needed = k * beyond
-            k = chosen_scale(timing, needed)
-            return _timed(plan_model(model_at(k), covariance, started=started), k, planned,
-                          timing, needed)
+    beyond = _needed(planned, solution.optimum.theta)
+    if beyond > 1.0 and chosen_scale(timing, k * beyond) > k:
+        needed = k * beyond
+        planned, solution, k = _retimed(model_at, planned, solution, k,
+                                        chosen_scale(timing, needed))
     return _timed(_concluded(planned, solution, covariance, started, solving), k, planned,
                   timing, needed)
+
+
+def _retimed(model_at: Callable[..., Model], planned: Model, solution: Solution, k: float,
+             slower: float) -> tuple[Model, Solution, float]:
+    """``solution`` of ``planned`` (at scale k) traversed at scale ``slower`` > k, solved no
+    more: the same states q, velocities times k / slower, in the model at ``slower`` (its free
+    plan ``planned``'s retimed alike). The scaled problem is the same problem in slower time
+    (module docstring of :mod:`clamp.planning.time_scale`): the path, its clearance between the
+    states (the cubic Hermite segments keep their shape) and its skill checks are the same, every
+    joint speed is k / slower times the plan's; the verdict checks it all again."""
+    n, ratio = planned.robot.n, k / slower
+
+    def retime(theta: np.ndarray) -> np.ndarray:
+        return np.hstack([theta[:, :n], theta[:, n:] * ratio])
+    theta = retime(solution.optimum.theta)
+    start = {"initial": theta}
+    if planned.free_plan is not None:
+        start["free"] = retime(planned.free_plan)
+    retimed = model_at(slower, **start)
+    optimum = replace(solution.optimum, theta=theta,
+                      final_error=retimed.problem.error(theta))
+    return retimed, Solution(optimum, retimed.problem, solution.report, solution.self_report,
+                             solution.attempts), slower
 
 
 def _timed(result: PlanResult, k: float, planned: Model, timing: TimeRequest,
@@ -140,7 +165,7 @@ def _timed(result: PlanResult, k: float, planned: Model, timing: TimeRequest,
     return fail(result, timing_reasons(result, planned.robot, planned.config, timing, needed))
 
 
-def _needed(planned: Model, theta: np.ndarray, initial_q: np.ndarray | None) -> float:
+def _needed(planned: Model, theta: np.ndarray, initial_q: np.ndarray | None = None) -> float:
     """:func:`clamp.planning.time_scale.needed_scale` of theta (T, 2n) in ``planned``."""
     return needed_scale(planned.robot, theta, np.asarray(planned.prior.time, dtype=float),
                         planned.config, initial_q)

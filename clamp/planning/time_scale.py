@@ -16,11 +16,14 @@ The stage (:func:`clamp.plan` runs it): the caller's scale (``time_scale``) is t
 otherwise k is chosen from the free plan's peaks (:func:`needed_scale`: joint velocities
 between the states and accelerations against the limits, :func:`peak_ratios`), k = that need
 x :data:`MARGIN`, at most ``max_duration`` / the skill's duration. The free plan is the model's
-(with obstacles, solved when the model is built) or, in an empty scene, the plan itself: a
-skill shown too fast costs one more free-plan solve (the model built again at k), never a
-path search. The solve's judge does not check joint velocities
-(:meth:`clamp.factors.JointLimitFamily.check`); the verdict does, and :func:`timing_reasons`
-adds the accelerations and, when the scale was bounded, why. The scale is
+(with obstacles, solved when the model is built: a skill shown too fast costs one more
+free-plan solve, the model built again at k, never a path search); in an empty scene the plan
+itself, whose need the initial trajectory (the skill followed at the demonstrations' speed)
+predicts. A path that still moves faster than its scale allows (a detour) is retimed once at
+its own need, without a solve: the same states in slower time, which the scaled problem
+allows exactly (:func:`clamp.planning.planner._retimed`). The solve's judge does not check
+joint velocities (:meth:`clamp.factors.JointLimitFamily.check`); the verdict does, and
+:func:`timing_reasons` adds the accelerations and, when the scale was bounded, why. The scale is
 ``PlanResult.time_scale``; the result's time stamps, velocities and verdict are the scaled
 plan's.
 """

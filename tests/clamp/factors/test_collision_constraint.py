@@ -188,11 +188,13 @@ def test_third_party_arm_avoids_a_box_in_the_skill_path(prior):
     assert brute_force_clearance(robot, scene, result.q) > 0.0
 
 
-def test_a_velocity_excess_is_tightened_away(jaco):
+def test_a_velocity_excess_is_a_question_of_time(jaco):
     """Scene-benchmark problem 115 (synthetic, Jaco): the weighted solve ends a little beyond a
-    velocity limit (the hinge is soft); the constrained solve updates the limit hinges'
-    multipliers and the plan then holds every velocity limit, measured here from the plan's own
-    velocities."""
+    velocity limit (the hinge is soft). A velocity is never a constraint the solve repairs
+    (issue 36): at the caller's time scale 1 the verdict names the joint, however many rounds
+    the solve may run; at the automatic scale the time stage slows the skill before the path
+    solve and the plan holds every velocity limit, measured here from the plan's own
+    velocities and the finite differences of its positions."""
     from pathlib import Path
 
     from clamp.batch.runner import resolve
@@ -206,18 +208,17 @@ def test_a_velocity_excess_is_tightened_away(jaco):
     # margin the weighted solve holds the limit already)
     kwargs["config"] = kwargs["config"].with_(soft_start=1.0, posture_sigma=0.0, epsilon=0.05,
                                               sigma_obs=0.005, velocity_margin=0.0)
-    # at the demonstrations' speed (time_scale 1): the limit hinges alone, no slower re-plan
-    weighted = plan(**{**kwargs, "config": kwargs["config"].with_(constraint_rounds=0)},
-                    covariance=False, time_scale=1.0)
-    assert not weighted.success
-    assert any("faster than its limit" in r for r in weighted.reasons), weighted.reasons
-    tightened = plan(**kwargs, covariance=False, time_scale=1.0)
-    assert tightened.success, tightened.reasons
-    assert "joint_limits" in tightened.attempts[0]["violated"]
-    assert tightened.problem.family("joint_limits").shift is not None
-    excess = np.abs(tightened.qdot) - np.asarray(jaco.velocity_limits)
-    assert excess.max() <= PlannerConfig().checks.velocity_tolerance
-    assert (np.abs(weighted.qdot) - np.asarray(jaco.velocity_limits)).max() > excess.max()
+    at_one = plan(**kwargs, covariance=False, time_scale=1.0)
+    assert not at_one.success
+    assert any("faster than its limit" in r for r in at_one.reasons), at_one.reasons
+    timed = plan(**kwargs, covariance=False)
+    assert timed.success, timed.reasons
+    assert timed.time_scale > 1.0
+    vmax = np.asarray(jaco.velocity_limits)
+    tolerance = PlannerConfig().checks.velocity_tolerance
+    assert (np.abs(timed.qdot) - vmax).max() <= tolerance
+    step = np.abs(np.diff(timed.q, axis=0)) / np.diff(timed.time)[:, None]
+    assert (step - vmax).max() <= tolerance
 
 
 def test_soft_start_ends_at_an_optimum_of_the_configured_problem(prior, jaco):
