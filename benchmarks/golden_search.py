@@ -71,7 +71,38 @@ def run(data: dict[str, Any]) -> dict[str, Any]:
             "failed": sorted(judged["failed"]),
             "false_success": bool(result.success and judged["failed"]),
             "q": np.asarray(result.q), "time": np.asarray(result.time),
-            "solves": len(getattr(result, "attempts", []) or [])}
+            "solves": len(getattr(result, "attempts", []) or []),
+            "winner": next((a["candidate"] for a in result.attempts if a["feasible"]), None),
+            "work": getattr(result, "search", {}).get("work"),
+            "limit": getattr(result, "search", {}).get("limit")}
+
+
+def without(mechanisms: list[str]) -> None:
+    """Take ``mechanisms`` out of the search, for measuring what each one earns (this process
+    only): strategies by name, or the polish rounds, the active multipliers, the relaxed and
+    widened margins, the soft start."""
+    from dataclasses import replace
+    from clamp.optim import constrained
+    from clamp.planning import search
+    names = {s.name for s in search.STRATEGIES}
+    search.STRATEGIES = tuple(s for s in search.STRATEGIES if s.name not in mechanisms)
+    if "polish" in mechanisms:
+        search.POLISH_ROUNDS = 0
+        search.STRATEGIES = tuple(replace(s, polish=0) for s in search.STRATEGIES)
+    if "update_active" in mechanisms:
+        search.AL = replace(search.AL, update_active=False)
+    if "relax" in mechanisms:
+        search.AL = replace(search.AL, margin_floor=float("inf"))
+    if "soft_start" in mechanisms:
+        search.SOFT_START = 1.0
+    if "widen" in mechanisms:           # the checks' amounts only widen the margins
+        constrained._amounts = lambda verdict: {}
+    unknown = set(mechanisms) - names - {"polish", "update_active", "relax", "widen",
+                                         "soft_start"}
+    if unknown:
+        raise SystemExit(f"--without: unknown {', '.join(sorted(unknown))}")
+    if mechanisms:
+        print(f"# without {', '.join(mechanisms)}")
 
 
 def save(path: str, records: list[dict[str, Any]]) -> None:
@@ -120,7 +151,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", nargs="?", help="where to save the records (.npz)")
     parser.add_argument("--compare", nargs=2, metavar=("BEFORE", "AFTER"))
-    parser.add_argument("--only", default="", help="only problem ids containing this")
+    parser.add_argument("--only", default="", help="only problem ids containing these "
+                        "(comma-separated)")
+    parser.add_argument("--without", nargs="*", default=(), metavar="MECHANISM",
+                        help="measure the search without these: strategy names of "
+                        "clamp.planning.search.STRATEGIES, or polish, update_active, relax, "
+                        "widen, soft_start")
     args = parser.parse_args(argv)
     if args.compare:
         compare(*args.compare)
@@ -128,9 +164,11 @@ def main(argv: list[str] | None = None) -> int:
     if not args.out:
         parser.error("give OUT.npz or --compare BEFORE AFTER")
     print_environment()
+    without(args.without)
     records = []
+    wanted = args.only.split(",")
     for data in problems():
-        if args.only not in data["id"]:
+        if not any(w in data["id"] for w in wanted):
             continue
         t0 = time.perf_counter()
         record = run(data)

@@ -86,23 +86,28 @@ def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None,
     return scene.distance_query(config.model.sdf_cell_size, max_distance=reach)
 
 
+#: [rad] the start configuration's noise: the start is met to about this
+START_SIGMA = 1e-6
+#: [rad, rad/s] the joint-limit hinges' noise
+LIMIT_SIGMA = 1e-3
+
+
 def planner_families(prior: Any, robot: Any, request: Request, config: PlannerConfig,
                      query: Callable | None) -> list[Family]:
     """The planner's own factor families for ``request`` over the T support states of ``prior``
     (the conditioned prior); query: the obstacle distance (:func:`distance_query`) or None."""
     T, n, dt, model = prior.Phi.shape[0] + 1, robot.n, float(prior.dt), config.model
     families: list[Family] = [WorkspaceGPFamily(prior.Phi, prior.u, prior.Q)]
-    if model.workspace_start:
-        families.append(WorkspaceStartFamily(
+    families.append(WorkspaceStartFamily(
             shifted_start_mean(prior.mean0, prior.cov0, request.start_position),
             np.asarray(prior.cov0)))
     families.append(JointGPFamily(T, n, dt, model.Qc))
     start = request.start
-    if start.kind == "position" and model.fix_start_configuration:
+    if start.kind == "position":
         # the IK solution becomes the start: a fully determined theta_0 keeps the problem
         # well conditioned (an end-effector start leaves the arm's self-motion free)
         start = Target("joint", request.q_start)
-    targets = [(0, start, model.start_sigma)]
+    targets = [(0, start, START_SIGMA)]
     if request.goal is not None:
         targets.append((T - 1, request.goal, model.goal_sigma))
     targets += [(i, target, model.via_sigma) for i, target in request.vias]
@@ -116,8 +121,8 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
                                        model.sigma_obs))
     if model.joint_limits:
         families.append(JointLimitFamily(np.arange(T), robot.lower_limits, robot.upper_limits,
-                                         robot.velocity_limits, model.limit_sigma,
-                                         model.limit_margin, model.velocity_margin))
+                                         robot.velocity_limits, LIMIT_SIGMA, 0.0,
+                                         model.velocity_margin))
     return families
 
 
