@@ -48,10 +48,8 @@ class ModelConfig:
     #: (clamp.planning.time_scale.demonstrated_speed_config, docs/decisions.md#qc_duration);
     #: None: as they are
     Qc_duration: float | None = 20.0
-    #: [m or rad] goal factor
+    #: [m or rad] goal and via-point factors
     goal_sigma: float = 1e-3
-    #: [m or rad] via-point factors
-    via_sigma: float = 1e-3
     #: plan with the learned prior conditioned exactly on the start, goal and via positions
     #: (:mod:`clamp.prior.conditioning`) when a goal or via points are given
     condition_on_targets: bool = True
@@ -93,10 +91,6 @@ class OptimizerConfig:
     optimizer: str = "fast"
     #: "prior_mean" (IK of the prior mean moved to the start) or "straight_line" (joint space)
     initialisation: str = "prior_mean"
-    #: prior_mean: fade the start offset out along the path (else shift the whole path)
-    blend_start_offset: bool = True
-    #: straight_line: the two end configurations (n,) each (default: start and IK of the end)
-    straight_line_configurations: tuple[Any, Any] | None = None
     #: initial Levenberg-Marquardt damping (dimensionless, on the Jacobi-scaled system; see
     #: docs/decisions.md#lambda_initial)
     lambda_initial: float = 0.1
@@ -114,13 +108,10 @@ class OptimizerConfig:
     #: weights (see
     #: docs/decisions.md#constraint_rounds)
     constraint_rounds: int = 2
-    #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
-    #: workspace states (0 = plain LM; see docs/decisions.md#workspace_correction)
-    workspace_correction: int = 2
     #: work a request's search may spend (solver trials and judged optima: counted, not timed,
     #: so a plan is the same at any load), in units of its first solves; no start past the
     #: second begins once it is spent (None: unbounded; :mod:`clamp.planning.search`)
-    budget: float | None = 16.0
+    budget: float | None = 50.0
     #: [s] wall-clock deadline of a request's search, from the start of the call (None: none)
     deadline: float | None = None
 
@@ -222,25 +213,19 @@ class PlannerConfig:
         for name in ("epsilon", "velocity_margin", "posture_sigma", "posture_Qc",
                      "posture_velocity_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
-        for name in ("sigma_obs", "Qc", "goal_sigma", "via_sigma"):
+        for name in ("sigma_obs", "Qc", "goal_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", strictly_positive=True)
         if m.Qc_duration is not None:
             as_scalar(m.Qc_duration, "config.model.Qc_duration", strictly_positive=True)
         as_scalar(m.sdf_cell_size, "config.model.sdf_cell_size", strictly_positive=True,
                   maximum=DEFAULT_CELL_SIZE)
         for group, name in (("model", "obstacle_factors"), ("model", "joint_limits"),
-                            ("model", "condition_on_targets"),
-                            ("optimizer", "blend_start_offset")):
+                            ("model", "condition_on_targets")):
             as_bool(getattr(getattr(self, group), name), f"config.{group}.{name}")
-        pair = o.straight_line_configurations
-        if pair is not None and (not isinstance(pair, (tuple, list)) or len(pair) != 2):
-            raise InvalidParameterError("config.optimizer.straight_line_configurations: expected "
-                                        f"None or a pair of configurations (n,), got {pair!r:.60}")
         for name in ("relative_error_tol", "absolute_error_tol"):
             as_scalar(getattr(o, name), f"config.optimizer.{name}", minimum=0.0)
         as_scalar(o.lambda_initial, "config.optimizer.lambda_initial", strictly_positive=True)
         as_count(o.max_iterations, "config.optimizer.max_iterations", minimum=0)
-        as_count(o.workspace_correction, "config.optimizer.workspace_correction", minimum=0)
         as_count(o.constraint_rounds, "config.optimizer.constraint_rounds", minimum=0)
         as_count(o.convergence_patience, "config.optimizer.convergence_patience", minimum=1)
         for name, valid in (("optimizer", OPTIMIZERS), ("initialisation", INITIALISATIONS)):

@@ -243,8 +243,8 @@ def _amounts(verdict: Feasibility) -> dict[str, float]:
     return {check.name: check.amount for check in verdict.checks if check.violated}
 
 
-def _loose(start: Start, problem: PlanningProblem, config: PlannerConfig, al: ALConfig
-           ) -> tuple[PlanningProblem, Optimized | None, WarmStart | None]:
+def _loose(start: Start, problem: PlanningProblem, config: PlannerConfig, al: ALConfig,
+           stop: Callable[[], bool]) -> tuple[PlanningProblem, Optimized | None, WarmStart | None]:
     """The start's problem after its loose first solve (``start.soften``), that solve, and the
     warm-start rule of the first full solve."""
     if start.warm is not None or not start.soften:
@@ -252,16 +252,17 @@ def _loose(start: Start, problem: PlanningProblem, config: PlannerConfig, al: AL
     loose = [f.reweighted(1.0 / start.soften[f.name]) if f.name in start.soften else f
              for f in problem.families]
     soft = optimize(problem.with_families(loose, problem.initial),
-                    config.with_(relative_error_tol=al.soft_tolerance, convergence_patience=1))
+                    config.with_(relative_error_tol=al.soft_tolerance, convergence_patience=1),
+                    halt=stop)
     return problem.with_families(problem.families, soft.theta), soft, WarmStart()
 
 
 def _judged(start: Start, index: int, problem: PlanningProblem, warm: WarmStart | None,
             before: Optimized | None, config: PlannerConfig, judge: Judge,
-            ledger: Ledger) -> Round:
+            ledger: Ledger, stop: Callable[[], bool]) -> Round:
     """Solve ``problem`` (after the loose solve ``before``, whose work it counts), judge the
     optimum, write it in the ledger."""
-    out = optimize(problem, config, warm)
+    out = optimize(problem, config, warm, halt=stop)
     for k, v in out.timings.items():
         ledger.timings[k] = ledger.timings.get(k, 0.0) + v
     iterations = out.iterations + (before.iterations if before else 0)
@@ -291,18 +292,19 @@ def solve_start(start: Start, config: PlannerConfig, judge: Judge, ledger: Ledge
                 lazy: Lazy | None = None, al: ALConfig = ALConfig(),
                 stop: Callable[[], bool] = lambda: False) -> bool:
     """The outer loop on one start (module docstring), every judged optimum written in
-    ``ledger``; True when one passes the judge. ``stop()``: checked before every update (e.g.
-    a deadline); a start that holds no more rounds stops by itself."""
+    ``ledger``; True when one passes the judge. ``stop()``: checked before every update and
+    every solver iteration (e.g. a deadline: the solve stops where it is and its optimum is
+    judged); a start that holds no more rounds stops by itself."""
     lazy = lazy or {}
     current = start.problem
     carried = [lazy[name]() for name in sorted(ledger.joined) if not current.has(name)]
     if carried:           # a constraint that joined on an earlier start holds from the start
         current = current.with_families([*current.families, *carried], current.initial)
-    current, soft, warm = _loose(start, current, config, al)
+    current, soft, warm = _loose(start, current, config, al, stop)
     previous: dict[str, float] = {}
     index = polished = 0
     while True:
-        judged = _judged(start, index, current, warm, soft, config, judge, ledger)
+        judged = _judged(start, index, current, warm, soft, config, judge, ledger, stop)
         verdict, soft = judged.verdict, None
         if verdict.ok:
             return True

@@ -131,13 +131,15 @@ class Optimized:
 
 
 def optimize(problem: PlanningProblem, config: PlannerConfig | None = None,
-             warm_start: WarmStart | None = None) -> Optimized:
+             warm_start: WarmStart | None = None,
+             halt: Callable[[], bool] | None = None) -> Optimized:
     """Optimise ``problem`` from its initial trajectory with ``config.optimizer``.
 
     The fast solver needs every factor on one or two neighbouring states; otherwise GTSAM's
     Levenberg-Marquardt runs on the graph (logged). ``warm_start``: the fast solver's
     warm-start rule (:class:`clamp.optim.solver.WarmStart`) for an initial trajectory near the
-    optimum; GTSAM's optimizers ignore it.
+    optimum; GTSAM's optimizers ignore it. ``halt()``: the fast solver stops where it is when
+    it returns True (checked every iteration; e.g. a deadline); GTSAM's optimizers run on.
     """
     as_instance(problem, "problem", PlanningProblem, "a clamp PlanningProblem (from clamp.build)",
                 ClampTypeError)
@@ -156,8 +158,7 @@ def optimize(problem: PlanningProblem, config: PlannerConfig | None = None,
                                   relative_tol=opt.relative_error_tol,
                                   absolute_tol=opt.absolute_error_tol,
                                   patience=opt.convergence_patience,
-                                  workspace_correction=opt.workspace_correction,
-                                  warm_start=warm_start)
+                                  warm_start=warm_start, halt=halt)
         return Optimized(out.theta, out.iterations, out.trials, out.initial_error,
                          out.final_error, out.stop_reason, out.timings, name)
     current = _CurrentValues()

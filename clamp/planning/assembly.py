@@ -43,19 +43,14 @@ def configured_initialisation(prior: Any, robot: Any, request: Request,
         if goal is not None:
             goal_position = goal.value if goal.kind == "position" else robot.fk(goal.value)
         return prior_mean_initialisation(robot, mean_path, dt, request.q_start, goal_position,
-                                         opt.blend_start_offset, config.checks.ik_tolerance)
-    if opt.straight_line_configurations is not None:
-        first, last = (as_array(c, f"config.optimizer.straight_line_configurations[{k}]",
-                                (robot.n,))
-                       for k, c in enumerate(opt.straight_line_configurations))
+                                         True, config.checks.ik_tolerance)
+    first = request.q_start
+    if goal is not None and goal.kind == "joint":
+        last = goal.value
     else:
-        first = request.q_start
-        if goal is not None and goal.kind == "joint":
-            last = goal.value
-        else:
-            end = goal.value if goal is not None else mean_path[-1]
-            last = np.asarray(robot.ik(end, seed=first, tol=config.checks.ik_tolerance).q,
-                              dtype=float)
+        end = goal.value if goal is not None else mean_path[-1]
+        last = np.asarray(robot.ik(end, seed=first, tol=config.checks.ik_tolerance).q,
+                          dtype=float)
     return straight_line_initialisation(robot, first, last, T, dt)
 
 
@@ -110,7 +105,7 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
     targets = [(0, start, START_SIGMA)]
     if request.goal is not None:
         targets.append((T - 1, request.goal, model.goal_sigma))
-    targets += [(i, target, model.via_sigma) for i, target in request.vias]
+    targets += [(i, target, model.goal_sigma) for i, target in request.vias]
     for kind, family in (("joint", JointTargetFamily), ("position", EEPositionFamily)):
         chosen = [(i, t.value, s) for i, t, s in targets if t.kind == kind]
         if chosen:

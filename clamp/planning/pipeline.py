@@ -92,7 +92,7 @@ class Solution:
     ``PlanResult.attempts``); ``checks``: the records of every check the solve made of the
     optimum (:class:`clamp.factors.ConstraintCheck`; the verdict reuses them and makes only
     the others); ``search``: what the search spent (``PlanResult.search``: work, limit,
-    budget_ended, the strategies left)."""
+    unit, limit, budget_ended, the strategies left)."""
 
     optimum: Optimized
     problem: PlanningProblem
@@ -294,8 +294,8 @@ def solve(model: Model, warm_start: WarmStart | None = None,
                       "min_distance": r.verdict.clearance, "feasible": r.verdict.ok,
                       "prior_cost": r.cost, "iterations": r.iterations,
                       "violated": r.verdict.violated} for r in solved.rounds)
-    record = {"work": solved.work, "limit": solved.limit, "budget_ended": solved.budget_ended,
-              "left": list(solved.left)}
+    record = {"work": solved.work, "unit": solved.unit, "limit": solved.limit,
+              "budget_ended": solved.budget_ended, "left": list(solved.left)}
     return Solution(solved.out, solved.problem, None if obstacle is None else obstacle.report,
                     own.report, attempts, checks, record)
 

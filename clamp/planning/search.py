@@ -88,7 +88,7 @@ class Budget:
     (counted: the same plan at any load; None: unbounded) and ``seconds`` of wall clock from
     ``started`` (``time.perf_counter()``; None: no deadline)."""
 
-    work: float | None = 16.0
+    work: float | None
     seconds: float | None = None
     started: float = field(default_factory=time.perf_counter)
 
@@ -237,14 +237,15 @@ class Searched:
     """The search's plan: ``out`` (the chosen optimum, iterations and trials summed over every
     solve, the initial error of the first problem), the ``problem`` it solves (shifts and
     weights as the solver finished), its judgement, every judged optimum (``rounds``), the
-    work spent and the budget's limit in the same units (None: unbounded), whether the budget
-    ended the search and the strategies it left (names)."""
+    work spent, the budget's unit (the first solves' work) and its limit in the same units
+    (None: unbounded), whether the budget ended the search and the strategies it left."""
 
     out: Optimized
     problem: PlanningProblem
     feasibility: Feasibility
     rounds: tuple[Round, ...]
     work: int
+    unit: int
     limit: float | None
     budget_ended: bool = False
     left: tuple[str, ...] = ()
@@ -351,7 +352,7 @@ def _searched(ledger: Ledger, spend: _Spending, ended: tuple[str, ...]) -> Searc
         log.info("the search's budget ended it after %d units of work; left: %s",
                  ledger.work, ", ".join(ended))
     return Searched(out, plan.problem, plan.verdict, tuple(ledger.rounds), ledger.work,
-                    spend.limit, bool(ended), ended)
+                    max(spend.units), spend.limit, bool(ended), ended)
 
 
 def resumable(ledger: Ledger) -> list[Round]:
