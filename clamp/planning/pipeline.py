@@ -14,7 +14,7 @@ inspect ``model(...).problem.graph()`` before solving.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -22,16 +22,15 @@ import numpy as np
 
 from clamp.planning.assembly import (ExtraFactor, configured_initialisation, distance_query,
                             free_plan, given_initialisation, planner_families, split_extras,
-                            tied_to_free_plan, without_family)
+                            tied_to_free_plan)
 from clamp.planning.clearance import check_clearance, pusher
 from clamp.planning.reference import planning_prior, skill_reference
 from clamp.config import PlannerConfig
 from clamp.optim.constrained import Feasibility, Judge
 from clamp.planning.search import Budget, search
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
-from clamp.factors import (CheckContext, ConstraintCheck, EEPositionFamily, JointTargetFamily,
-                           ObstacleFamily, PostureFamily, SelfCollisionFamily, lazy_families)
-from robots.self_collision import self_collision_report
+from clamp.factors import (CheckContext, ConstraintCheck, ObstacleFamily, SelfCollisionFamily,
+                           lazy_families)
 from clamp.planning.initialisation import Initialisation
 from clamp.optim.optimizers import Optimized
 from clamp.graph.problem import PlanningProblem

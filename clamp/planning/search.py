@@ -5,30 +5,34 @@ Each :class:`Strategy` has a name, how it makes its starts (problem and initial 
 and what each start may spend (its augmented-Lagrangian updates and polish rounds,
 :func:`clamp.optim.constrained.solve_start`). :data:`STRATEGIES`, in order:
 
-1. ``tied``: the problem as built, tied to the free plan's posture: one solve (its updates go
-   to the starts after it); ``configured`` instead when the problem has no tie;
+1. ``tied``: the problem as built, tied to the free plan's posture: one solve (its updates
+   come later); ``configured`` instead when the problem has no tie (its updates at once);
 2. ``untied``: the same without the tie (the free plan's posture led into the obstacles);
-3. ``to_end``: untied with the demonstrations' mean end as a goal, when the closest optimum so
+3. ``tied_resumed``: the tied problem continued from its optimum, its own updates
+   (docs/decisions.md#the-declared-search-and-its-budget-issue-36);
+4. ``to_end``: untied with the demonstrations' mean end as a goal, when the closest optimum so
    far did not complete the skill and no goal was asked;
-4. ``detours``: the skill's path taken over, left, right and under every obstacle blocking it,
+5. ``detours``: the skill's path taken over, left, right and under every obstacle blocking it,
    ranked in the workspace before any solve (:func:`clamp.planning.detours.detour_search`),
    the best :data:`DETOURS`;
-5. ``ik_branches``: other inverse-kinematics solutions of an end-effector start;
-6. ``straight_line``: a straight line in joint space;
-7. ``resumed``: the closest starts (the tied problem first) continue their updates from their
-   last optimum;
-8. ``wide``: the same starts from their last optimum as new problems whose obstacle safety
+6. ``ik_branches``: other inverse-kinematics solutions of an end-effector start;
+7. ``straight_line``: a straight line in joint space;
+8. ``resumed``: the :data:`RESUMED` closest starts continue their updates from their last
+   optimum;
+9. ``wide``: the same starts from their last optimum as new problems whose obstacle safety
    distance is :data:`WIDE_MARGIN` times the model's.
 
-Strategies 2-6 run only with obstacles; every strategy after the first only while no start
-passed and no check reported a fault. The driver stops at the first start that passes.
+Strategies 2-7 run only with obstacles; every strategy after the first only while no start
+passed, no check reported a fault and the config allows updates (``constraint_rounds`` > 0).
+The driver stops at the first start that passes.
 
 The budget (:class:`Budget`) bounds every request, failures included. By default it is
 counted work (solver trials and judged optima, :class:`clamp.optim.constrained.Ledger`), in
 units of the first solves (the larger of the first start's whole work and the second start's
 first solve), so the same request gives the same plan at any load; ``seconds`` adds a
 wall-clock deadline. The first two starts always run; no later one begins once the budget is
-spent, and a deadline also stops a start between its updates. A search the budget ended says
+spent, and a deadline also stops a start between its updates and its solver between
+iterations. A search the budget ended says
 so (:class:`Searched`: ``budget_ended`` and the strategies ``left``), and its plan is the
 closest attempt with its honest verdict.
 """
@@ -42,7 +46,6 @@ from typing import Any
 
 import numpy as np
 
-from clamp.errors import InvalidParameterError
 from clamp.factors import EEPositionFamily, JointTargetFamily, ObstacleFamily, PostureFamily
 from clamp.graph.problem import PlanningProblem
 from clamp.optim.constrained import (ALConfig, Feasibility, Judge, Lazy, Ledger, Round, Start,
