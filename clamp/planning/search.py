@@ -30,9 +30,9 @@ The budget (:class:`Budget`) bounds every request, failures included. By default
 counted work (solver trials and judged optima, :class:`clamp.optim.constrained.Ledger`), in
 units of the first solves (the larger of the first start's whole work and the second start's
 first solve), so the same request gives the same plan at any load; ``seconds`` adds a
-wall-clock deadline. The first two starts always run; no later one begins once the budget is
-spent, and a deadline also stops a start between its updates and its solver between
-iterations. A search the budget ended says
+wall-clock deadline. The first two starts always run under the counted budget (its unit is
+their work), the first alone under a deadline; no later one begins once the budget is spent,
+and a deadline also stops a start between its updates and its solver between iterations. A search the budget ended says
 so (:class:`Searched`: ``budget_ended`` and the strategies ``left``), and its plan is the
 closest attempt with its honest verdict.
 """
@@ -340,10 +340,12 @@ class _Spending:
         return None if work is None or not self.units else work * max(self.units)
 
     def exhausted(self, ledger: Ledger) -> bool:
-        if self.starts < 2:                   # the first two starts always run
-            return False
+        """Whether no further start may begin: past the deadline (the first start always
+        runs), or past the counted limit (the first two always run: the limit's unit)."""
+        if self.starts >= 1 and self.budget.late():
+            return True
         limit = self.limit
-        return self.budget.late() or (limit is not None and ledger.work > limit)
+        return self.starts >= 2 and limit is not None and ledger.work > limit
 
 
 def _searched(ledger: Ledger, spend: _Spending, ended: tuple[str, ...]) -> Searched:
