@@ -269,9 +269,11 @@ def search(model: Any, judge: Judge, lazy: Lazy, budget: Budget,
     for k, strategy in enumerate(STRATEGIES):
         if not _applies(strategy, model, ledger):
             continue
-        for name, start_problem, lineage, warm in strategy.make(context):
-            if spend.exhausted(ledger):
-                ended = tuple(s.name for s in STRATEGIES[k:] if _applies(s, model, ledger))
+        starts = iter(strategy.make(context))
+        # the budget is checked before a strategy makes a start (a detour's IK costs too)
+        while not spend.exhausted(ledger):
+            name, start_problem, lineage, warm = next(starts, (None,) * 4)
+            if name is None:
                 break
             start = _start(strategy, name, start_problem, lineage, warm, model,
                            warm_start if not ledger.rounds else None)
@@ -281,6 +283,8 @@ def search(model: Any, judge: Judge, lazy: Lazy, budget: Budget,
             spend.measured(ledger, begun)
             if _finished(ledger):
                 break
+        else:
+            ended = tuple(s.name for s in STRATEGIES[k:] if _applies(s, model, ledger))
         if ended or _finished(ledger):
             break
     return _searched(ledger, spend, ended)
