@@ -101,9 +101,11 @@ class Budget:
         if self.seconds is not None:
             as_scalar(self.seconds, "deadline", minimum=0.0)
 
-    def late(self) -> bool:
-        """Whether the deadline has passed."""
-        return self.seconds is not None and time.perf_counter() - self.started > self.seconds
+    def late(self, reserve: float = 0.0) -> bool:
+        """Whether the deadline has passed, or comes within ``reserve`` [s] (the time the
+        judgement of what is solved now will take)."""
+        return (self.seconds is not None
+                and time.perf_counter() - self.started + reserve > self.seconds)
 
 
 @dataclass
@@ -279,7 +281,8 @@ def search(model: Any, judge: Judge, lazy: Lazy, budget: Budget,
                            warm_start if not ledger.rounds else None)
             context.roots.setdefault(start.root, start.problem)
             begun = ledger.work
-            solve_start(start, model.config, judge, ledger, lazy, AL, budget.late)
+            solve_start(start, model.config, judge, ledger, lazy, AL,
+                        lambda: budget.late(_judging(ledger)))
             spend.measured(ledger, begun)
             if _finished(ledger):
                 break
@@ -299,6 +302,11 @@ def _applies(strategy: Strategy, model: Any, ledger: Ledger) -> bool:
     if _finished(ledger) or model.config.optimizer.constraint_rounds == 0:
         return False
     return not strategy.obstacles or model.problem.has(ObstacleFamily.name)
+
+
+def _judging(ledger: Ledger) -> float:
+    """[s] what judging an optimum has taken on average so far (0 before the first)."""
+    return ledger.timings.get("checks", 0.0) / max(1, len(ledger.rounds))
 
 
 def _finished(ledger: Ledger) -> bool:
@@ -346,7 +354,7 @@ class _Spending:
     def exhausted(self, ledger: Ledger) -> bool:
         """Whether no further start may begin: past the deadline (the first start always
         runs), or past the counted limit (the first two always run: the limit's unit)."""
-        if self.starts >= 1 and self.budget.late():
+        if self.starts >= 1 and self.budget.late(_judging(ledger)):
             return True
         limit = self.limit
         return self.starts >= 2 and limit is not None and ledger.work > limit
