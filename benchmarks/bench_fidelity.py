@@ -98,11 +98,12 @@ CACHE_SAVE_S = 60.0               # [s] the caches are saved this often during a
 ORACLE_RESTARTS = 20
 ORACLE_CONFIG = {"max_iterations": 2000, "constraint_rounds": 6}   # the long budget
 ACCELERATION_LIMIT = 1.5          # [rad/s^2] TOPP-RA
-FAMILY_ORACLE_VERSION = 2         # bump when the families' oracle changes
-#: the families' oracle restarts but the default: one start each, their own (no detour search,
-#: IK branches or straight line of the planner inside a restart: those are the oracle's restarts;
-#: "initialisation" only keeps the planner from adding its straight line to a given initial)
-RESTART_CONFIG = {"detours": 0, "ik_branches": 0, "initialisation": "straight_line"}
+FAMILY_ORACLE_VERSION = 3         # bump when the families' oracle changes
+#: the families' oracle restarts but the default: their own start (and the untied one: a
+#: budget of 0 ends the planner's search after its first two starts, so no detour search, IK
+#: branches or straight line of the planner runs inside a restart: those are the oracle's
+#: restarts; "initialisation" only keeps the planner from adding its straight line)
+RESTART_CONFIG = {"budget": 0.0, "initialisation": "straight_line"}
 OBSTACLES_DETOURED = 3            # the families' oracle detours around this many obstacles
 MEASURES_VERSION = 3              # bump when a measure or check changes (invalidates caches)
 VELOCITY_TOLERANCE = 1e-3        # [rad/s] the verdict's (clamp.config CheckConfig)

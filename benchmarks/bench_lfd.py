@@ -382,12 +382,13 @@ def _mean_quaternions(conditioned, prior, start: np.ndarray,
     planner conditions it (clamp.prior.conditioning.conditioned_orientation, the planner's
     conditioning sigma)."""
     from clamp.prior.conditioning import conditioned_orientation
+    from clamp.planning.reference import CONDITIONING_SIGMA
     T = prior.T
     rotations = [(0, Rotation.from_quat(start[3:]).as_matrix())]
     if goal is not None:
         rotations.append((T - 1, Rotation.from_quat(goal[3:]).as_matrix()))
     chain = conditioned_orientation(prior.orientation, rotations,
-                                    clamp.PlannerConfig().model.conditioning_sigma)
+                                    CONDITIONING_SIGMA)
     return np.asarray(conditioned.with_orientation(chain).mean_quaternions())
 
 

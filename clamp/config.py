@@ -1,5 +1,5 @@
-"""Planner settings in four small groups: the model (factor graph), the optimizer, the
-constrained solve's augmented Lagrangian, the checks.
+"""Planner settings in three small groups: the model (factor graph), the optimizer (and the
+search's budget), the checks.
 
 ``PlannerConfig()`` holds the one set of defaults used by the Python API and the command line.
 Every group is a frozen dataclass; ``dataclasses.replace`` or :meth:`PlannerConfig.with_` make
@@ -48,29 +48,15 @@ class ModelConfig:
     #: (clamp.planning.time_scale.demonstrated_speed_config, docs/decisions.md#qc_duration);
     #: None: as they are
     Qc_duration: float | None = 20.0
-    #: [rad] start configuration fix (or [m] for an end-effector start without the IK fix)
-    start_sigma: float = 1e-6
-    #: [m or rad] goal factor
+    #: [m or rad] goal and via-point factors
     goal_sigma: float = 1e-3
-    #: [m or rad] via-point factors
-    via_sigma: float = 1e-3
     #: plan with the learned prior conditioned exactly on the start, goal and via positions
     #: (:mod:`clamp.prior.conditioning`) when a goal or via points are given
     condition_on_targets: bool = True
-    #: [m] observation noise of that conditioning (the conditioned mean meets them to ~this)
-    conditioning_sigma: float = 1e-5
-    #: learned initial workspace state factor (position moved to the start)
-    workspace_start: bool = True
-    #: an end-effector start is replaced by its IK configuration (removes the arm's self-motion)
-    fix_start_configuration: bool = True
     #: obstacle factors when the scene has obstacles
     obstacle_factors: bool = True
     #: joint position and velocity limit hinges
     joint_limits: bool = True
-    #: [rad, rad/s] limit hinge noise
-    limit_sigma: float = 1e-3
-    #: [rad] the position hinges start this far inside the limits
-    limit_margin: float = 0.0
     #: [rad/s] the velocity hinges start this far inside the limits (a plan on a velocity limit
     #: otherwise ends a hair beyond it between states; see docs/decisions.md#velocity_margin)
     velocity_margin: float = 0.01
@@ -86,12 +72,6 @@ class ModelConfig:
     #: held this near the free plan's (``clamp.factors.posture_velocity``; 0 = off; see
     #: docs/decisions.md#posture_velocity_sigma)
     posture_velocity_sigma: float = 0.03
-    #: [m] safety distance of the self-collision hinges the planner adds when a plan collides
-    #: with itself (``clamp.factors.self_collision``; capped per sphere pair at the gap the
-    #: pair keeps in 95 % of random configurations)
-    self_collision_epsilon: float = 0.03
-    #: [m] their noise
-    self_collision_sigma: float = 5e-4
     #: [m] grid cell for scenes that need a grid signed distance (primitives are exact)
     sdf_cell_size: float = 0.01
     #: uniform time scale k >= 1 of the skill (the plan lasts k times the demonstrations; None:
@@ -111,15 +91,9 @@ class OptimizerConfig:
     optimizer: str = "fast"
     #: "prior_mean" (IK of the prior mean moved to the start) or "straight_line" (joint space)
     initialisation: str = "prior_mean"
-    #: prior_mean: fade the start offset out along the path (else shift the whole path)
-    blend_start_offset: bool = True
-    #: straight_line: the two end configurations (n,) each (default: start and IK of the end)
-    straight_line_configurations: tuple[Any, Any] | None = None
     #: initial Levenberg-Marquardt damping (dimensionless, on the Jacobi-scaled system; see
     #: docs/decisions.md#lambda_initial)
     lambda_initial: float = 0.1
-    #: give up when no damping up to this decreases the error
-    lambda_upper_bound: float = 1e10
     #: accepted iterations at most
     max_iterations: int = 500
     #: stop when steps decrease the error by at most this fraction of it ...
@@ -129,70 +103,17 @@ class OptimizerConfig:
     #: ... for this many consecutive accepted steps
     convergence_patience: int = 2
     #: constraints inside the solve (:mod:`clamp.optim.constrained`, an augmented Lagrangian):
-    #: at most this many multiplier / penalty updates per candidate start while the optimum
-    #: fails a check; 0: the weighted solve only (see docs/decisions.md#constraint_rounds)
+    #: at most this many multiplier / penalty updates per start of the search while the
+    #: optimum fails a check; 0: the weighted solve only, one start at the configured
+    #: weights (see
+    #: docs/decisions.md#constraint_rounds)
     constraint_rounds: int = 2
-    #: a fresh plan whose initial trajectory runs through an obstacle first solves with the
-    #: obstacle hinge noise multiplied by this (a factor >= 1), loosely (``soft_start_tolerance``
-    #: of :class:`ConstraintConfig`); 1: the configured weight directly (see
-    #: docs/decisions.md#soft_start)
-    soft_start: float = 4.0
-    #: fast solver: Gauss-Newton updates per trial moving the joints back onto the predicted
-    #: workspace states (0 = plain LM; see docs/decisions.md#workspace_correction)
-    workspace_correction: int = 2
-
-
-@dataclass(frozen=True)
-class ConstraintConfig:
-    """The augmented-Lagrangian schedule of the constrained solve (:mod:`clamp.optim.constrained`;
-    how many updates per start and the soft first solve's weight are ``constraint_rounds`` and
-    ``soft_start`` of :class:`OptimizerConfig`)."""
-
-    #: a constraint family's violation must fall below this fraction of the previous round's,
-    #: or its penalty grows (see docs/decisions.md#progress-and-stiffen)
-    progress: float = 0.25
-    #: noise divisor of a constraint family whose violation did not fall enough (penalty x
-    #: stiffen ** 2)
-    stiffen: float = 4.0
-    #: feasible candidates after which the restarts stop (1: the first feasible restart is
-    #: kept; see docs/decisions.md#wanted)
-    wanted: int = 1
-    #: relative error decrease (dimensionless) below which the soft first solve stops, after
-    #: one such step (see docs/decisions.md#soft_start_tolerance)
-    soft_start_tolerance: float = 3e-2
-    #: extra updates a start gets, past its rounds, while every check it fails is within its
-    #: family's ``near`` of passing (a hair short: 1.5 mm of depth, 3 % of a limit, 10 % of
-    #: the tube; see docs/decisions.md#polish-rounds)
-    polish_rounds: int = 3
-    #: [m] the least safety margin a constraint family's hinges keep when they give way to
-    #: another that fails against them (``Family.relaxed``: the obstacle hinges' epsilon halves
-    #: per update down to this; see docs/decisions.md#relaxed-margins-and-active-multipliers)
-    margin_floor: float = 0.005
-    #: a start gets the polish rounds while every check it fails is within this many times its
-    #: family's ``near`` (1: only a hair short)
-    polish_reach: float = 2.0
-    #: every round also updates the multipliers of the constraint families that hold but
-    #: whose hinges are active (the textbook augmented Lagrangian), not only the violated ones
-    update_active: bool = True
-    #: detours solved at most when the skill is blocked: the best of the ranked detour search
-    #: (:func:`clamp.planning.detours.detour_search`; 0: none; see docs/decisions.md#detour-search)
-    detours: int = 3
-    #: other inverse-kinematics solutions of an end-effector start tried after the detours
-    #: (:func:`clamp.planning.pipeline.other_branches`; 0: none)
-    ik_branches: int = 2
-    #: work of the constrained solve (solver trials and judged optima: counted, not timed, so a
-    #: plan is the same at any load), in units of the larger of its first solve's (the problem
-    #: as built, judged) and its first restart's first solve's, after which no further start is
-    #: tried past the first restart (None: unbounded; see docs/decisions.md#detour-search)
-    search_budget: float | None = 16.0
-    #: when no start passes, the ``resumed`` closest starts (by their last optimum) continue
-    #: their updates for ``resume_rounds`` more rounds each, after the search and outside its
-    #: budget; then, while none passes, once more from there with the obstacles' safety
-    #: distance ``wide_margin`` times the model's epsilon (<= 1: not; see
-    #: docs/decisions.md#resumed-starts)
-    resumed: int = 2
-    resume_rounds: int = 4
-    wide_margin: float = 4.0
+    #: work a request's search may spend (solver trials and judged optima: counted, not timed,
+    #: so a plan is the same at any load), in units of its first solves; no start past the
+    #: second begins once it is spent (None: unbounded; :mod:`clamp.planning.search`)
+    budget: float | None = 50.0
+    #: [s] wall-clock deadline of a request's search, from the start of the call (None: none)
+    deadline: float | None = None
 
 
 @dataclass(frozen=True)
@@ -226,7 +147,7 @@ class CheckConfig:
 
 @dataclass(frozen=True, init=False)
 class PlannerConfig:
-    """All planner settings: ``model``, ``optimizer``, ``constraints`` and ``checks`` groups.
+    """All planner settings: ``model``, ``optimizer`` and ``checks`` groups.
 
     ``PlannerConfig(sigma_obs=0.01)`` is ``PlannerConfig().with_(sigma_obs=0.01)``: any field
     of any group by name. Every configuration is checked when made (InvalidParameterError
@@ -236,17 +157,14 @@ class PlannerConfig:
     model: ModelConfig
     optimizer: OptimizerConfig
     checks: CheckConfig
-    constraints: ConstraintConfig
 
     def __init__(self, model: ModelConfig | None = None, optimizer: OptimizerConfig | None = None,
-                 checks: CheckConfig | None = None, constraints: ConstraintConfig | None = None,
-                 **changes: Any) -> None:
+                 checks: CheckConfig | None = None, **changes: Any) -> None:
         if isinstance(optimizer, str):   # PlannerConfig(optimizer="gtsam"): the optimizer's name
             optimizer, changes = None, {**changes, "optimizer": optimizer}
         self._assign({"model": ModelConfig() if model is None else model,
                       "optimizer": OptimizerConfig() if optimizer is None else optimizer,
-                      "checks": CheckConfig() if checks is None else checks,
-                      "constraints": ConstraintConfig() if constraints is None else constraints},
+                      "checks": CheckConfig() if checks is None else checks},
                      changes)
 
     def _assign(self, groups: dict[str, Any], changes: dict[str, Any]) -> None:
@@ -299,34 +217,23 @@ class PlannerConfig:
 
     def validate(self) -> "PlannerConfig":
         """Check every field; raises InvalidParameterError naming the bad one."""
-        m, o, c, a = self.model, self.optimizer, self.checks, self.constraints
-        for name in ("epsilon", "limit_margin", "velocity_margin", "posture_sigma", "posture_Qc",
-                     "posture_velocity_sigma", "self_collision_epsilon"):
+        m, o, c = self.model, self.optimizer, self.checks
+        for name in ("epsilon", "velocity_margin", "posture_sigma", "posture_Qc",
+                     "posture_velocity_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
-        for name in ("sigma_obs", "Qc", "start_sigma", "goal_sigma", "via_sigma", "limit_sigma",
-                     "conditioning_sigma", "self_collision_sigma"):
+        for name in ("sigma_obs", "Qc", "goal_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", strictly_positive=True)
         if m.Qc_duration is not None:
             as_scalar(m.Qc_duration, "config.model.Qc_duration", strictly_positive=True)
         as_scalar(m.sdf_cell_size, "config.model.sdf_cell_size", strictly_positive=True,
                   maximum=DEFAULT_CELL_SIZE)
-        for group, name in (("model", "workspace_start"), ("model", "fix_start_configuration"),
-                            ("model", "obstacle_factors"), ("model", "joint_limits"),
-                            ("model", "condition_on_targets"),
-                            ("optimizer", "blend_start_offset"),
-                            ("constraints", "update_active")):
+        for group, name in (("model", "obstacle_factors"), ("model", "joint_limits"),
+                            ("model", "condition_on_targets")):
             as_bool(getattr(getattr(self, group), name), f"config.{group}.{name}")
-        pair = o.straight_line_configurations
-        if pair is not None and (not isinstance(pair, (tuple, list)) or len(pair) != 2):
-            raise InvalidParameterError("config.optimizer.straight_line_configurations: expected "
-                                        f"None or a pair of configurations (n,), got {pair!r:.60}")
         for name in ("relative_error_tol", "absolute_error_tol"):
             as_scalar(getattr(o, name), f"config.optimizer.{name}", minimum=0.0)
-        for name in ("lambda_initial", "lambda_upper_bound"):
-            as_scalar(getattr(o, name), f"config.optimizer.{name}", strictly_positive=True)
-        as_scalar(o.soft_start, "config.optimizer.soft_start", minimum=1.0)
+        as_scalar(o.lambda_initial, "config.optimizer.lambda_initial", strictly_positive=True)
         as_count(o.max_iterations, "config.optimizer.max_iterations", minimum=0)
-        as_count(o.workspace_correction, "config.optimizer.workspace_correction", minimum=0)
         as_count(o.constraint_rounds, "config.optimizer.constraint_rounds", minimum=0)
         as_count(o.convergence_patience, "config.optimizer.convergence_patience", minimum=1)
         for name, valid in (("optimizer", OPTIMIZERS), ("initialisation", INITIALISATIONS)):
@@ -343,26 +250,14 @@ class PlannerConfig:
         for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance",
                      "rotation_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", strictly_positive=True)
-        as_scalar(a.progress, "config.constraints.progress", strictly_positive=True, maximum=1.0)
-        as_scalar(a.stiffen, "config.constraints.stiffen", minimum=1.0)
-        as_count(a.wanted, "config.constraints.wanted", minimum=1)
-        as_scalar(a.soft_start_tolerance, "config.constraints.soft_start_tolerance", minimum=0.0)
-        as_count(a.polish_rounds, "config.constraints.polish_rounds", minimum=0)
-        as_scalar(a.margin_floor, "config.constraints.margin_floor", minimum=0.0)
-        as_scalar(a.polish_reach, "config.constraints.polish_reach", minimum=0.0)
-        as_count(a.detours, "config.constraints.detours", minimum=0)
-        as_count(a.ik_branches, "config.constraints.ik_branches", minimum=0)
-        if a.search_budget is not None:
-            as_scalar(a.search_budget, "config.constraints.search_budget", minimum=0.0)
-        as_count(a.resumed, "config.constraints.resumed", minimum=0)
-        as_count(a.resume_rounds, "config.constraints.resume_rounds", minimum=1)
-        as_scalar(a.wide_margin, "config.constraints.wide_margin", minimum=0.0)
+        for name in ("budget", "deadline"):
+            if getattr(o, name) is not None:
+                as_scalar(getattr(o, name), f"config.optimizer.{name}", minimum=0.0)
         return self
 
 
 #: the groups of a :class:`PlannerConfig`: attribute name -> class
-GROUPS = {"model": ModelConfig, "optimizer": OptimizerConfig, "checks": CheckConfig,
-          "constraints": ConstraintConfig}
+GROUPS = {"model": ModelConfig, "optimizer": OptimizerConfig, "checks": CheckConfig}
 
 
 def as_config(config: Any) -> PlannerConfig:

@@ -43,6 +43,8 @@ log = logging.getLogger(__name__)
 #: valid ``PlannerConfig.optimizer.optimizer`` names
 #: seconds a GTSAM optimisation runs before its progress bar is drawn
 PROGRESS_DELAY = 2.0
+#: Levenberg-Marquardt gives up when no damping up to this decreases the error
+LAMBDA_UPPER_BOUND = 1e10
 
 IterationHook = Callable[[int, float, float], None]
 
@@ -59,7 +61,7 @@ def gtsam_params(config: PlannerConfig):
     if opt.optimizer == "gtsam":
         params = gtsam.LevenbergMarquardtParams()
         params.setlambdaInitial(opt.lambda_initial)
-        params.setlambdaUpperBound(opt.lambda_upper_bound)
+        params.setlambdaUpperBound(LAMBDA_UPPER_BOUND)
         params.setUseFixedLambdaFactor(False)
         # lambda * I, not lambda * diag(H) (Marquardt's scaling): scaled by the stiff learned
         # prior's diagonal the first step barely moves and LM stops at once (box_closing with
@@ -129,13 +131,15 @@ class Optimized:
 
 
 def optimize(problem: PlanningProblem, config: PlannerConfig | None = None,
-             warm_start: WarmStart | None = None) -> Optimized:
+             warm_start: WarmStart | None = None,
+             halt: Callable[[], bool] | None = None) -> Optimized:
     """Optimise ``problem`` from its initial trajectory with ``config.optimizer``.
 
     The fast solver needs every factor on one or two neighbouring states; otherwise GTSAM's
     Levenberg-Marquardt runs on the graph (logged). ``warm_start``: the fast solver's
     warm-start rule (:class:`clamp.optim.solver.WarmStart`) for an initial trajectory near the
-    optimum; GTSAM's optimizers ignore it.
+    optimum; GTSAM's optimizers ignore it. ``halt()``: the fast solver stops where it is when
+    it returns True (checked every iteration; e.g. a deadline); GTSAM's optimizers run on.
     """
     as_instance(problem, "problem", PlanningProblem, "a clamp PlanningProblem (from clamp.build)",
                 ClampTypeError)
@@ -149,13 +153,12 @@ def optimize(problem: PlanningProblem, config: PlannerConfig | None = None,
         config = config.with_(optimizer="gtsam")
     if name == "fast":
         out = levenberg_marquardt(problem, problem.initial, lambda_initial=opt.lambda_initial,
-                                  lambda_max=opt.lambda_upper_bound,
+                                  lambda_max=LAMBDA_UPPER_BOUND,
                                   max_iterations=opt.max_iterations,
                                   relative_tol=opt.relative_error_tol,
                                   absolute_tol=opt.absolute_error_tol,
                                   patience=opt.convergence_patience,
-                                  workspace_correction=opt.workspace_correction,
-                                  warm_start=warm_start)
+                                  warm_start=warm_start, halt=halt)
         return Optimized(out.theta, out.iterations, out.trials, out.initial_error,
                          out.final_error, out.stop_reason, out.timings, name)
     current = _CurrentValues()

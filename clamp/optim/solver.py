@@ -32,6 +32,7 @@ threaded BLAS only adds synchronisation (measured slower under load).
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 import time
 from dataclasses import dataclass, field
 
@@ -173,10 +174,12 @@ def levenberg_marquardt(problem: PlanningProblem, theta0: np.ndarray, *,
                         max_iterations: int = 500, relative_tol: float = 1e-3,
                         absolute_tol: float = 1e-2, patience: int = 2,
                         workspace_correction: int = 2,
-                        warm_start: WarmStart | None = None) -> SolverOutcome:
+                        warm_start: WarmStart | None = None,
+                        halt: Callable[[], bool] | None = None) -> SolverOutcome:
     """Minimise the problem's graph error from theta0 (T, 2n) (see the module docstring);
     ``warm_start`` replaces ``lambda_initial``, ``absolute_tol`` and ``patience`` by the
-    warm-start rule."""
+    warm-start rule; ``halt()``, checked before every iteration, stops the solve where it is
+    (stop reason "halted": e.g. a deadline)."""
     predicted_tol = -np.inf
     if warm_start is not None:
         lambda_initial, absolute_tol = warm_start.lambda_initial, warm_start.tolerance
@@ -184,13 +187,14 @@ def levenberg_marquardt(problem: PlanningProblem, theta0: np.ndarray, *,
     with single_blas_thread():
         return _levenberg_marquardt(problem, np.array(theta0, dtype=float), lambda_initial,
                                     lambda_max, max_iterations, relative_tol, absolute_tol,
-                                    patience, workspace_correction, predicted_tol)
+                                    patience, workspace_correction, predicted_tol, halt)
 
 
 def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float,
                          lambda_max: float, max_iterations: int, relative_tol: float,
                          absolute_tol: float, patience: int, correction: int,
-                         predicted_tol: float) -> SolverOutcome:
+                         predicted_tol: float, halt: Callable[[], bool] | None = None
+                         ) -> SolverOutcome:
     T, d = problem.num_states, problem.dim
     layout = band_layout(T, d)
     timings = dict.fromkeys(("linearize", "solve", "correction", "error"), 0.0)
@@ -210,6 +214,9 @@ def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float
     while iterations < max_iterations:
         if error <= 0.0:
             stop = "zero_error"
+            break
+        if halt is not None and halt():
+            stop = "halted"
             break
         system: NormalEquations = problem.normal_equations(theta)
         g = system.g.reshape(-1)

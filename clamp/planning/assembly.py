@@ -44,23 +44,18 @@ def configured_initialisation(prior: Any, robot: Any, request: Request,
         if goal is not None:
             goal_position = goal.value if goal.kind == "position" else robot.fk(goal.value)
         init = prior_mean_initialisation(robot, mean_path, dt, request.q_start, goal_position,
-                                         opt.blend_start_offset, config.checks.ik_tolerance)
+                                         True, config.checks.ik_tolerance)
         orientation = getattr(prior, "orientation", None)
         if orientation is None:
             return init
         return pose_refined(robot, init, orientation.mean_rotations, dt)
-    if opt.straight_line_configurations is not None:
-        first, last = (as_array(c, f"config.optimizer.straight_line_configurations[{k}]",
-                                (robot.n,))
-                       for k, c in enumerate(opt.straight_line_configurations))
+    first = request.q_start
+    if goal is not None and goal.kind == "joint":
+        last = goal.value
     else:
-        first = request.q_start
-        if goal is not None and goal.kind == "joint":
-            last = goal.value
-        else:
-            end = goal.value if goal is not None else mean_path[-1]
-            last = np.asarray(robot.ik(end, seed=first, tol=config.checks.ik_tolerance).q,
-                              dtype=float)
+        end = goal.value if goal is not None else mean_path[-1]
+        last = np.asarray(robot.ik(end, seed=first, tol=config.checks.ik_tolerance).q,
+                          dtype=float)
     return straight_line_initialisation(robot, first, last, T, dt)
 
 
@@ -91,27 +86,32 @@ def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None,
     return scene.distance_query(config.model.sdf_cell_size, max_distance=reach)
 
 
+#: [rad] the start configuration's noise: the start is met to about this
+START_SIGMA = 1e-6
+#: [rad, rad/s] the joint-limit hinges' noise
+LIMIT_SIGMA = 1e-3
+
+
 def planner_families(prior: Any, robot: Any, request: Request, config: PlannerConfig,
                      query: Callable | None) -> list[Family]:
     """The planner's own factor families for ``request`` over the T support states of ``prior``
     (the conditioned prior); query: the obstacle distance (:func:`distance_query`) or None."""
     T, n, dt, model = prior.Phi.shape[0] + 1, robot.n, float(prior.dt), config.model
     families: list[Family] = [WorkspaceGPFamily(prior.Phi, prior.u, prior.Q)]
-    if model.workspace_start:
-        families.append(WorkspaceStartFamily(
+    families.append(WorkspaceStartFamily(
             shifted_start_mean(prior.mean0, prior.cov0, request.start_position),
             np.asarray(prior.cov0)))
     families += orientation_families(prior, robot, request, config)
     families.append(JointGPFamily(T, n, dt, model.Qc))
     start = request.start
-    if start.kind == "position" and model.fix_start_configuration:
+    if start.kind == "position":
         # the IK solution becomes the start: a fully determined theta_0 keeps the problem
         # well conditioned (an end-effector start leaves the arm's self-motion free)
         start = Target("joint", request.q_start)
-    targets = [(0, start, model.start_sigma)]
+    targets = [(0, start, START_SIGMA)]
     if request.goal is not None:
         targets.append((T - 1, request.goal, model.goal_sigma))
-    targets += [(i, target, model.via_sigma) for i, target in request.vias]
+    targets += [(i, target, model.goal_sigma) for i, target in request.vias]
     for kind, family in (("joint", JointTargetFamily), ("position", EEPositionFamily)):
         chosen = [(i, t.value, s) for i, t, s in targets if t.kind == kind]
         if chosen:
@@ -122,8 +122,8 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
                                        model.sigma_obs))
     if model.joint_limits:
         families.append(JointLimitFamily(np.arange(T), robot.lower_limits, robot.upper_limits,
-                                         robot.velocity_limits, model.limit_sigma,
-                                         model.limit_margin, model.velocity_margin))
+                                         robot.velocity_limits, LIMIT_SIGMA, 0.0,
+                                         model.velocity_margin))
     return families
 
 
@@ -140,7 +140,7 @@ def orientation_families(prior: Any, robot: Any, request: Request,
     families: list[Family] = []
     if orientation is not None:
         families.append(OrientationGPFamily.of(orientation))
-    if orientation is not None and model.workspace_start:
+    if orientation is not None:
         start = so3.log_map(orientation.rotations[0].T @ robot.ee_rotation(request.q_start)[0])
         families.append(OrientationStartFamily(
             orientation.rotations[0], shifted_start_mean(orientation.mean0, orientation.cov0, start),

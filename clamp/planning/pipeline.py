@@ -14,26 +14,23 @@ inspect ``model(...).problem.graph()`` before solving.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import asdict, dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from clamp.planning.assembly import (ExtraFactor, configured_initialisation, distance_query,
                             free_plan, given_initialisation, planner_families, split_extras,
-                            tied_to_free_plan, without_family)
+                            tied_to_free_plan)
 from clamp.planning.clearance import check_clearance, pusher
 from clamp.planning.reference import planning_prior, skill_reference
 from clamp.config import PlannerConfig
-from clamp.optim.constrained import Candidate, Feasibility, Judge, Progress, solve_constrained
-from clamp.planning.detours import detour_search, detour_trajectory
-from clamp.planning.reach import reach_radius
-from clamp.prior.skill import TUBE_RATIO, SkillRegion
+from clamp.optim.constrained import Feasibility, Judge
+from clamp.planning.search import Budget, search
 from clamp.errors import ClampTypeError, InvalidParameterError, ShapeError
-from clamp.factors import (CheckContext, ConstraintCheck, EEPositionFamily, JointTargetFamily,
-                           ObstacleFamily, PostureFamily, SelfCollisionFamily, lazy_families)
-from robots.self_collision import self_collision_report
+from clamp.factors import (CheckContext, ConstraintCheck, ObstacleFamily, SelfCollisionFamily,
+                           lazy_families)
 from clamp.planning.initialisation import Initialisation
 from clamp.optim.optimizers import Optimized
 from clamp.graph.problem import PlanningProblem
@@ -93,7 +90,8 @@ class Solution:
     the self-collision check; ``attempts``: the constrained solve's solves (dicts, see
     ``PlanResult.attempts``); ``checks``: the records of every check the solve made of the
     optimum (:class:`clamp.factors.ConstraintCheck`; the verdict reuses them and makes only
-    the others)."""
+    the others); ``search``: what the search spent (``PlanResult.search``: work, limit,
+    unit, limit, budget_ended, the strategies left)."""
 
     optimum: Optimized
     problem: PlanningProblem
@@ -101,6 +99,7 @@ class Solution:
     self_report: SelfCollisionReport
     attempts: tuple[dict[str, Any], ...]
     checks: tuple[ConstraintCheck, ...] = ()
+    search: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -193,112 +192,6 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
 
 
 # ------------------------------------------------------------------------------------ solve
-#: [rad] another IK branch of the start differs from the start configuration (and from the other
-#: branches) by at least this in some joint
-BRANCH_APART = 0.5
-
-
-def _restarts(model: Model) -> Callable[[Progress], Iterable[Candidate]]:
-    """Other starts when the problem as built fails its checks (see :mod:`clamp.optim.constrained`),
-    all without the posture tie (the free plan's posture is what led into the obstacles; a
-    tied detour is pulled back into it): the configured initialisation; when the closest
-    optimum did not complete the skill (and no goal was asked), the same with the
-    demonstrations' mean end as a goal factor ("to_end"); the detour search
-    (:func:`clamp.planning.detours.detour_search`: over, left, right and under every obstacle
-    that blocks the skill's path, two heights each, ranked in the workspace; the best
-    ``config.constraints.detours``); a straight line in joint space (see
-    docs/decisions.md#untied-restarts and docs/decisions.md#detour-search)."""
-    prior, robot, scene, request, config = (model.prior, model.robot, model.scene,
-                                            model.request, model.config)
-    problem, init = model.problem, model.initialisation
-    untied = without_family(problem, PostureFamily.name, init.theta)
-
-    def generate(progress: Progress) -> Iterable[Candidate]:
-        if problem.has(PostureFamily.name):
-            yield Candidate("untied", untied)
-        closest = progress.closest
-        if (closest is not None and not closest.violated and not closest.accepted
-                and request.goal is None and not progress.feasible):
-            end = SkillRegion.of(prior).end_mean
-            yield Candidate("to_end", untied.with_families(
-                [*untied.families, EEPositionFamily([problem.num_states - 1], end[None],
-                                                    [config.model.goal_sigma])], init.theta))
-        if config.constraints.detours > 0 and scene is not None:
-            reference = np.asarray(model.reference.mean)[:, :3]
-            tube = TUBE_RATIO * SkillRegion.of(prior).tube
-            ranked = detour_search(init.path, scene.obstacles, reference, tube,
-                                   2.0 * config.model.epsilon, np.zeros(3), reach_radius(robot),
-                                   _focus(closest))
-            for name, path, _ in ranked[:config.constraints.detours]:
-                theta = detour_trajectory(robot, path, request.q_start, float(prior.dt),
-                                          config.checks.ik_tolerance)
-                yield Candidate(f"detour_{name}", untied.with_families(untied.families, theta))
-        for k, q0 in enumerate(other_branches(model, config.constraints.ik_branches)):
-            theta = detour_trajectory(robot, init.path, q0, float(prior.dt),
-                                      config.checks.ik_tolerance)
-            yield Candidate(f"ik_branch_{k}", untied.with_families(
-                [started_at(f, q0) for f in untied.families], theta))
-        if config.optimizer.initialisation != "straight_line":
-            line = configured_initialisation(prior, robot, request,
-                                             config.with_(initialisation="straight_line"))
-            yield Candidate("straight_line", untied.with_families(untied.families, line.theta))
-    return generate
-
-
-def other_branches(model: Model, count: int) -> list[np.ndarray]:
-    """Up to ``count`` other inverse-kinematics solutions (n,) of an end-effector start (the
-    user gave a position; the planner chose ``request.q_start``): from seeded random
-    configurations, each at least :data:`BRANCH_APART` from the start configuration and from
-    each other in some joint, within the limits, clear of the arm itself and of the scene;
-    none for a joint start."""
-    request, robot, config = model.request, model.robot, model.config
-    if count <= 0 or request.start.kind != "position":
-        return []
-    out: list[np.ndarray] = []
-    rng = np.random.default_rng(0)
-    for attempt in range(4 * count):
-        if len(out) >= count:
-            break
-        ik = robot.ik(request.start.value, seed=robot.random_configuration(rng),
-                      tol=config.checks.ik_tolerance, rng=attempt)
-        q0 = np.asarray(ik.q, dtype=float)
-        if (ik.error > config.checks.ik_tolerance
-                or not bool(np.all(robot.within_limits(q0[None], tolerance=0.0)))
-                or any(float(np.max(np.abs(q0 - q))) < BRANCH_APART
-                       for q in (request.q_start, *out))):
-            continue
-        if self_collision_report(robot, q0[None]).collision:
-            continue
-        report = check_clearance(robot, model.scene, q0[None])
-        if report is not None and report.collision:
-            continue
-        out.append(q0)
-    return out
-
-
-def started_at(family: Any, q0: np.ndarray) -> Any:
-    """``family`` with its joint target at state 0 moved to q0 (n,) (others as they are)."""
-    if family.name != JointTargetFamily.name or 0 not in family.first:
-        return family
-    targets = np.array(family.targets, dtype=float)
-    targets[family.first == 0] = q0
-    return JointTargetFamily(family.first, targets, 1.0 / np.asarray(family.whitening))
-
-
-def _focus(closest: Feasibility | None) -> int | None:
-    """The state where the closest optimum failed: the skill's worst state when it left the
-    tube, else the obstacle contact's (None: neither)."""
-    if closest is None:
-        return None
-    skill = closest.reports.get("skill_tube")
-    if skill is not None and not getattr(skill, "within_tube", True):
-        return int(skill.worst)
-    contact = closest.reports.get(ObstacleFamily.name)
-    if contact is not None and getattr(contact, "nearest", None) is not None:
-        return int(round(float(contact.nearest.index)))
-    return None
-
-
 def check_context(model: Model, final: bool = False) -> CheckContext:
     """What the constraint families' checks (and the lazy families' makers) of ``model`` use
     (:class:`clamp.factors.CheckContext`); final: the verdict's (the skill scored)."""
@@ -370,35 +263,41 @@ def _judge(model: Model) -> Judge:
     return judge
 
 
-def solve(model: Model, warm_start: WarmStart | None = None) -> Solution:
+def solve(model: Model, warm_start: WarmStart | None = None,
+          budget: Budget | None = None) -> Solution:
     """The :class:`Solution` of ``model``: optimised from ``model.problem.initial`` (the fast
     solver or the configured GTSAM optimizer; ``warm_start``: the fast solver's warm-start
     rule, for a start near the optimum) with every constraint inside one constrained solve
-    (:func:`clamp.optim.constrained.solve_constrained`: an augmented Lagrangian on the constraint
-    families, judged by their own checks (:func:`_judge`): obstacles on the robot's collision
-    geometry, self-collision, whose hinges join when the plan collides with itself, limits,
-    constraint families and, with obstacles, the skill, whose tube hinges join when the plan
-    leaves it; restarts when the problem as built fails)."""
+    (an augmented Lagrangian on the constraint families, :mod:`clamp.optim.constrained`),
+    judged by their own checks (:func:`_judge`), its starts made by the declared search
+    (:mod:`clamp.planning.search`) within ``budget`` (None: the config's ``budget`` and
+    ``deadline``, counted from now)."""
     as_instance(model, "model", Model, "a clamp.planning.pipeline.Model (from clamp.planning.pipeline.model)",
                 ClampTypeError)
     if warm_start is not None:
         as_instance(warm_start, "warm_start", WarmStart, "a clamp.optim.solver.WarmStart or None",
                     ClampTypeError)
-    problem = model.problem
+    if budget is None:
+        budget = Budget(model.config.optimizer.budget, model.config.optimizer.deadline)
+    as_instance(budget, "budget", Budget, "a clamp.planning.search.Budget or None",
+                ClampTypeError)
     context = check_context(model)
     lazy = {cls.name: (lambda cls=cls: cls.joining(context)) for cls in lazy_families()}
-    restarts = _restarts(model) if problem.has(ObstacleFamily.name) else (lambda _: ())
-    # the tied problem: one solve, its rounds go to the untied restart (clamp.optim.constrained)
-    solved = solve_constrained(problem, model.config, _judge(model), restarts, lazy, warm_start,
-                               first_rounds=0 if problem.has(PostureFamily.name) else None)
+    solved = search(model, _judge(model), lazy, budget, warm_start)
     checks = solved.feasibility.checks
     own = next((c for c in checks if c.name == SelfCollisionFamily.name), None)
     if own is None:             # the chosen optimum collides with an obstacle: not yet checked
         own = SelfCollisionFamily.check(context, solved.out.theta)
         checks = (*checks, own)
     obstacle = next((c for c in checks if c.name == ObstacleFamily.name), None)
+    attempts = tuple({"candidate": r.start, "round": r.index,
+                      "min_distance": r.verdict.clearance, "feasible": r.verdict.ok,
+                      "prior_cost": r.cost, "iterations": r.iterations,
+                      "violated": r.verdict.violated} for r in solved.rounds)
+    record = {"work": solved.work, "unit": solved.unit, "limit": solved.limit,
+              "budget_ended": solved.budget_ended, "left": list(solved.left)}
     return Solution(solved.out, solved.problem, None if obstacle is None else obstacle.report,
-                    own.report, tuple(asdict(a) for a in solved.attempts), checks)
+                    own.report, attempts, checks, record)
 
 
 # -------------------------------------------------------------------------------- posterior

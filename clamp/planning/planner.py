@@ -21,6 +21,7 @@ import numpy as np
 from clamp.planning.assembly import ExtraFactor
 from clamp.config import PlannerConfig
 from clamp.planning.pipeline import Model, Solution, build_model, posterior, solve
+from clamp.planning.search import Budget
 from clamp.graph.problem import PlanningProblem
 from clamp.config import as_config
 from clamp.planning.request import as_extras, as_scene, make_request
@@ -34,6 +35,10 @@ from clamp.planning.time_scale import (TimeRequest, chosen_scale, fail, needed_s
 from clamp.validation import as_bool
 from clamp.planning.verdict import evaluate, failed_result, start_problems
 from skillplan.threads import single_blas_thread
+
+
+#: plan()'s budget and deadline when not given: the config's
+CONFIGURED: Any = object()
 
 
 def build(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any = None,
@@ -64,7 +69,8 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
          via_points: Sequence[tuple[int, Any]] = (), extra_factors: Sequence[ExtraFactor] = (),
          config: PlannerConfig | None = None, sdf: Any = None,
          initial: np.ndarray | None = None, covariance: bool = True,
-         time_scale: float | None = None, max_duration: float | None = None) -> PlanResult:
+         time_scale: float | None = None, max_duration: float | None = None,
+         budget: Any = CONFIGURED, deadline: Any = CONFIGURED) -> PlanResult:
     """Reproduce the skill of ``prior`` with ``robot`` from ``start`` in ``scene``.
 
     Arguments as for :func:`build`; covariance: compute the posterior covariance of every
@@ -74,10 +80,16 @@ def plan(prior: Any, robot: Any, scene: Any = None, start: Any = None, goal: Any
     posterior -> verdict, timed ("build", "optimize", "marginals", "total"). time_scale (>= 1)
     / max_duration [s]: plan the skill that many times slower / at most that long (None:
     ``config.model``'s; by default as slow as the arm's velocity limits need,
-    ``PlanResult.time_scale``; :mod:`clamp.planning.time_scale`).
+    ``PlanResult.time_scale``; :mod:`clamp.planning.time_scale`). budget: the work the search
+    may spend, in units of its first solves (None: unbounded); deadline [s]: of the whole
+    call (None: none); both ``config.optimizer``'s unless given (:mod:`clamp.planning.search`;
+    ``PlanResult.search`` says what was spent and whether the budget ended the search).
     """
     started = time.perf_counter()
     config, scene = as_config(config), as_scene(scene)
+    given = {name: value for name, value in (("budget", budget), ("deadline", deadline))
+             if value is not CONFIGURED}
+    config = config.with_(**given) if given else config
     covariance = as_bool(covariance, "covariance")
     time_scale, max_duration = as_time_scale(time_scale), as_max_duration(max_duration)
     with single_blas_thread():  # small products only: one BLAS thread (see skillplan.threads)
@@ -124,7 +136,7 @@ def _planned_in_time(model_at: Callable[..., Model], timing: TimeRequest, covari
     k = chosen_scale(timing, needed)
     planned = planned if k == 1.0 else model_at(k)
     solving = time.perf_counter()
-    solution = solve(planned)
+    solution = solve(planned, budget=_budget(planned, started))
     beyond = _needed(planned, solution.optimum.theta)
     if beyond > 1.0 and chosen_scale(timing, k * beyond) > k:
         needed = k * beyond
@@ -179,7 +191,15 @@ def plan_model(planned: Model, covariance: bool = True, warm_start: WarmStart | 
     before the request was made; None: now) to the solve, "optimize", "marginals", "total"."""
     started = time.perf_counter() if started is None else started
     solving = time.perf_counter()
-    return _concluded(planned, solve(planned, warm_start), covariance, started, solving)
+    solution = solve(planned, warm_start, _budget(planned, started))
+    return _concluded(planned, solution, covariance, started, solving)
+
+
+def _budget(planned: Model, started: float) -> Budget:
+    """The search's budget of ``planned`` (its optimizer's counted budget and deadline [s]),
+    a deadline counted from ``started`` (``time.perf_counter()``)."""
+    optimizer = planned.config.optimizer
+    return Budget(optimizer.budget, optimizer.deadline, started)
 
 
 def _concluded(planned: Model, solution: Solution, covariance: bool, started: float,

@@ -25,7 +25,12 @@ from clamp.graph.problem import PlanningProblem
 from clamp.optim.solver import levenberg_marquardt
 from clamp.prior.conditioning import (conditioned, conditioned_orientation, retargeted,
                                       same_pattern)
+from clamp.optim.optimizers import LAMBDA_UPPER_BOUND
 
+
+#: [m] observation noise of the conditioning on the targets (the conditioned mean meets them
+#: to about this)
+CONDITIONING_SIGMA = 1e-5
 
 def target_observations(prior: Any, robot: Any, request: Any) -> list[tuple[int, np.ndarray]]:
     """(state index, position (3,) [m]) of the request's start, goal and via points (joint
@@ -64,7 +69,7 @@ def with_rotation_targets(conditioned_prior: Any, prior: Any, robot: Any, reques
         return conditioned_prior
     observations = rotation_observations(robot, request, orientation.T)
     return conditioned_prior.with_orientation(conditioned_orientation(
-        orientation, observations, config.model.conditioning_sigma))
+        orientation, observations, CONDITIONING_SIGMA))
 
 
 def planning_prior(prior: Any, robot: Any, request: Any, config: Any,
@@ -78,7 +83,7 @@ def planning_prior(prior: Any, robot: Any, request: Any, config: Any,
         return position
     if position is prior:
         position = conditioned(prior, target_observations(prior, robot, request),
-                               config.model.conditioning_sigma)
+                               CONDITIONING_SIGMA)
     return with_rotation_targets(position, prior, robot, request, config)
 
 
@@ -96,9 +101,9 @@ def position_planning_prior(prior: Any, robot: Any, request: Any, config: Any,
         return prior
     observations = target_observations(prior, robot, request)
     if (previous is not None and previous is not prior
-            and same_pattern(previous, observations, model.conditioning_sigma)):
+            and same_pattern(previous, observations, CONDITIONING_SIGMA)):
         return retargeted(previous, observations)
-    return conditioned(prior, observations, model.conditioning_sigma)
+    return conditioned(prior, observations, CONDITIONING_SIGMA)
 
 
 def conditioned_reference(prior: Any, robot: Any, request: Any, config: Any,
@@ -108,7 +113,7 @@ def conditioned_reference(prior: Any, robot: Any, request: Any, config: Any,
     if model_prior is not None and model_prior is not prior:
         return model_prior
     return with_rotation_targets(conditioned(prior, target_observations(prior, robot, request),
-                                             config.model.conditioning_sigma),
+                                             CONDITIONING_SIGMA),
                                  prior, robot, request, config)
 
 
@@ -216,7 +221,7 @@ def skill_reference(prior: Any, robot: Any, request: Any, config: Any,
         return base, f"{name} (the caller's families hold on it: {names})"
     opt = config.optimizer
     out = levenberg_marquardt(problem, mean, lambda_initial=opt.lambda_initial,
-                              lambda_max=opt.lambda_upper_bound,
+                              lambda_max=LAMBDA_UPPER_BOUND,
                               max_iterations=opt.max_iterations,
                               relative_tol=opt.relative_error_tol,
                               absolute_tol=opt.absolute_error_tol,

@@ -122,6 +122,11 @@ class PlanResult:
     collision_geometry: str | None = None
     nearest_contact: dict[str, Any] | None = None
     attempts: list[dict[str, Any]] = field(default_factory=list)
+    #: what the search spent: ``work`` (solver trials and judged optima), ``unit`` (the work of
+    #: the first solves: the budget's unit), ``limit`` (the budget in the same units, None:
+    #: unbounded), ``budget_ended`` (the budget stopped it),
+    #: ``left`` (the strategies it did not run; :mod:`clamp.planning.search`)
+    search: dict[str, Any] = field(default_factory=dict)
     skill: dict[str, Any] = field(default_factory=dict)
     self_clearance: float = float("inf")
     self_contact: dict[str, Any] | None = None

@@ -118,6 +118,15 @@ def plan_inputs(model: Model) -> PlanInputs:
                       model.free_plan)
 
 
+def budget_reason(search: dict[str, Any]) -> str:
+    """The reason a failed plan gives when the search's budget ended it (``PlanResult.search``)."""
+    limit = search.get("limit")
+    spent = (f"{search['work']} of {limit:.0f} units of work" if limit is not None
+             else "its deadline")
+    return (f"search ended by its budget ({spent}) with {len(search['left'])} strategies left: "
+            + ", ".join(search["left"]))
+
+
 def evaluate(model: Model, solution: Solution, posterior: Posterior,
              timings: dict[str, float] | None = None, started: float | None = None
              ) -> PlanResult:
@@ -188,6 +197,8 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
                            f"pose's, limit {np.degrees(checks.rotation_tolerance):.3g} deg")
     for record in records:                # in check order: collision, self-collision,
         reasons += record.reasons         # limits, constraint families, the skill
+    if reasons and solution.search.get("budget_ended"):
+        reasons.append(budget_reason(solution.search))
     return PlanResult(q=q, qdot=qdot, ee_path=position, ee_velocity=x[:, 3:],
                       time=np.asarray(prior.time, dtype=float),
                       iterations=out.iterations, initial_error=out.initial_error,
@@ -215,6 +226,7 @@ def evaluate(model: Model, solution: Solution, posterior: Posterior,
                       nearest_contact=None if report is None or report.nearest is None
                       else report.nearest.to_dict(),
                       initial_q=model.initialisation.q, attempts=[dict(a) for a in solution.attempts],
+                      search=dict(solution.search),
                       state_covariance=posterior.state_covariance,
                       ee_covariance=posterior.ee_covariance, covariance_floor=posterior.floor,
                       inputs=plan_inputs(model), problem=problem,

@@ -196,10 +196,6 @@ CATALOGUE: list[Case] = [
     Case("config-optimizer", lambda fx: PlannerConfig(optimizer="lu"), P, "optimizer"),
     Case("config-initialisation", lambda fx: PlannerConfig().with_(initialisation="magic"), P,
          "initialisation"),
-    Case("config-blend-text", lambda fx: PlannerConfig().with_(blend_start_offset="no"), P,
-         "blend_start_offset"),
-    Case("config-straight-line", lambda fx: PlannerConfig().with_(straight_line_configurations=[1]), P,
-         "straight_line_configurations"),
     Case("config-tolerance-nan", lambda fx: PlannerConfig().with_(goal_tolerance=np.nan), P, "goal_tolerance"),
     Case("config-reference-unknown", lambda fx: PlannerConfig.reference(lambda0=1.0), P, "lambda0"),
     # --- planning

@@ -25,7 +25,7 @@ SAWYER_SHIFT = np.array([0.3, 0.0, 0.2])
 def _config():
     from clamp import PlannerConfig
     return PlannerConfig().with_(sigma_obs=0.05, condition_on_targets=False, goal_tolerance=0.02,
-                                 constraint_rounds=0, soft_start=1.0, posture_sigma=0.0,
+                                 constraint_rounds=0, posture_sigma=0.0,
                                  epsilon=0.05, time_scale=1.0)
 
 

@@ -3,12 +3,15 @@
 - a constraint family's shifts move its hinges: e = max(0, g + s) for the unshifted hinge g
   (measured from the unshifted kernel wherever it is active), Jacobians still those of g
   (central differences), the GTSAM adapters the same kernel; cost families have no shifts;
-- one multiplier update (:func:`clamp.optim.constrained.augmented`): the shift of a violated family
+- one multiplier update (:func:`clamp.optim.constrained.update`): the shift of a violated family
   becomes its current residual, its noise is divided by the configuration's ``stiffen`` at its
   first update (and its shifts by stiffen^2, so lambda = mu s is the same multiplier), a family
   the checks did not name is left as it is, a lazy family joins unshifted at its configured
-  noise and is stiffened at its first update after joining; the schedule's constants are the
-  ``constraints`` group of PlannerConfig.
+  noise and is stiffened at its first update after joining; the schedule is
+  :class:`clamp.optim.constrained.ALConfig`;
+- one start's outer loop (:func:`clamp.optim.constrained.solve_start`): updates until the judge
+  passes or its rounds are spent, a stop between updates, every judged optimum in the ledger;
+- the solver layer names no planning domain.
 """
 from __future__ import annotations
 
@@ -16,8 +19,12 @@ import numpy as np
 import pytest
 
 from bad_input import raises_naming
-from clamp.config import ConstraintConfig, PlannerConfig
-from clamp.optim.constrained import Candidate, Feasibility, augmented, solve_constrained
+from pathlib import Path
+
+import clamp
+from clamp.config import PlannerConfig
+from clamp.optim.constrained import (ALConfig, Feasibility, Ledger, Start, chosen, resumed,
+                                     solve_start, update)
 from clamp.errors import InvalidParameterError
 from clamp.factors import ConstraintCheck, PostureFamily, SelfCollisionFamily
 from clamp.graph.problem import PlanningProblem
@@ -96,9 +103,9 @@ def test_one_multiplier_update(setup):
             for name in ("self_collision", "skill_tube")}
     previous: dict[str, float] = {}
     # the violated families alone: no multiplier update nor margin relaxed elsewhere
-    plain = ConstraintConfig(update_active=False, margin_floor=1.0)
-    new = augmented(problem, theta, ["obstacle", "self_collision"], previous, lazy, plain)
-    STIFFEN, PROGRESS = ConstraintConfig().stiffen, ConstraintConfig().progress
+    plain = ALConfig(update_active=False, margin_floor=1.0)
+    new = update(problem, theta, ["obstacle", "self_collision"], previous, lazy, plain)
+    STIFFEN, PROGRESS = ALConfig().stiffen, ALConfig().progress
 
     obstacle, updated = problem.family("obstacle"), new.family("obstacle")
     # first update: noise / STIFFEN, shift = the residual now / STIFFEN^2 (same multiplier)
@@ -116,7 +123,7 @@ def test_one_multiplier_update(setup):
     # a second update that made progress (violation below PROGRESS x the last) keeps the
     # noise: the shift accumulates the residual of the shifted hinge, i.e. max(0, g + s)
     previous["obstacle"] = 1e9
-    again = augmented(new, theta, ["obstacle"], previous, lazy, plain)
+    again = update(new, theta, ["obstacle"], previous, lazy, plain)
     np.testing.assert_allclose(again.family("obstacle").whitening, updated.whitening)
     np.testing.assert_allclose(again.family("obstacle").shift,
                                dense_residual(updated, robot, theta))
@@ -126,20 +133,18 @@ def test_one_multiplier_update(setup):
 
     # the joined family's first update stiffens it, whatever its violation (issue 27: a lazy
     # constraint at its configured noise lost against the stiffened obstacle hinges)
-    stiffer = augmented(new, theta, ["self_collision"], dict(previous), lazy, plain)
+    stiffer = update(new, theta, ["self_collision"], dict(previous), lazy, plain)
     np.testing.assert_allclose(stiffer.family("self_collision").whitening,
                                STIFFEN * joined.whitening)
 
     # the skill's tube joins (a lazy constraint), the rest as it was
-    tube = augmented(again, theta, ["skill_tube"], previous, lazy, plain)
+    tube = update(again, theta, ["skill_tube"], previous, lazy, plain)
     assert tube.family("skill_tube").shift is None
     for name in ("obstacle", PostureFamily.name, "self_collision"):
         assert tube.family(name) is again.family(name)
 
-    # the schedule comes from the configuration: another stiffening factor
-    config = PlannerConfig().with_(stiffen=2.0)
-    assert config.constraints.stiffen == 2.0 and config.optimizer == PlannerConfig().optimizer
-    softer = augmented(problem, theta, ["obstacle"], {}, lazy, config.constraints)
+    # another schedule: another stiffening factor
+    softer = update(problem, theta, ["obstacle"], {}, lazy, ALConfig(stiffen=2.0))
     np.testing.assert_allclose(softer.family("obstacle").whitening, 2.0 * obstacle.whitening)
 
 
@@ -152,7 +157,7 @@ def test_families_that_hold_give_way_to_one_that_fails(setup):
     robot, theta, families, _ = setup
     kept = [f for f in families if f.name not in ("self_collision", "skill_tube")]
     problem = PlanningProblem(robot, len(theta), kept, [], theta)
-    new = augmented(problem, theta, ["joint_limits"], {}, {}, ConstraintConfig())
+    new = update(problem, theta, ["joint_limits"], {}, {}, ALConfig())
     for name in ("workspace_gp", "joint_gp", PostureFamily.name):
         assert new.family(name) is problem.family(name)
     before, after = problem.family("obstacle"), new.family("obstacle")
@@ -164,8 +169,8 @@ def test_families_that_hold_give_way_to_one_that_fails(setup):
     np.testing.assert_allclose(orientation.shift,
                                dense_residual(problem.family("orientation"), robot, theta))
     # at the floor the margin stays
-    floor = ConstraintConfig(margin_floor=before.epsilon)
-    assert augmented(problem, theta, ["joint_limits"], {}, {}, floor).family("obstacle") \
+    floor = ALConfig(margin_floor=before.epsilon)
+    assert update(problem, theta, ["joint_limits"], {}, {}, floor).family("obstacle") \
         .epsilon == before.epsilon
 
 
@@ -179,19 +184,19 @@ def test_a_violation_the_hinges_do_not_see_widens_the_family(setup):
     obstacle = problem.family("obstacle")
     seen = float(np.max(dense_residual(obstacle, robot, theta)))
     assert seen > 0.0
-    plain = ConstraintConfig(update_active=False)
-    unseen = augmented(problem, theta, ["obstacle"], {}, {}, plain,
+    plain = ALConfig(update_active=False)
+    unseen = update(problem, theta, ["obstacle"], {}, {}, plain,
                        {"obstacle": 3.0 * seen + 0.01})
     assert unseen.family("obstacle").epsilon == pytest.approx(
         obstacle.epsilon + 2.0 * seen + 0.01)
-    tiny = augmented(problem, theta, ["obstacle"], {}, {}, plain, {"obstacle": 2.0 * seen + 1e-6})
+    tiny = update(problem, theta, ["obstacle"], {}, {}, plain, {"obstacle": 2.0 * seen + 1e-6})
     assert tiny.family("obstacle").epsilon == pytest.approx(
         obstacle.epsilon + max(seen + 1e-6, obstacle.near))
     for amounts in ({"obstacle": 1.5 * seen}, {}, None):
-        kept = augmented(problem, theta, ["obstacle"], {}, {}, plain, amounts)
+        kept = update(problem, theta, ["obstacle"], {}, {}, plain, amounts)
         assert kept.family("obstacle").epsilon == obstacle.epsilon
     # a family without a margin to widen keeps its hinges
-    limits = augmented(problem, theta, ["joint_limits"], {}, {}, plain, {"joint_limits": 1.0})
+    limits = update(problem, theta, ["joint_limits"], {}, {}, plain, {"joint_limits": 1.0})
     assert type(limits.family("joint_limits")) is type(problem.family("joint_limits"))
 
 
@@ -209,89 +214,85 @@ def scripted_judge(passes_at: int):
     return judge, calls
 
 
-def test_the_closest_starts_continue_only_when_none_passes(jaco):
-    """After the search (here: the problem as built alone, one update), the closest start
-    continues for ``resume_rounds`` more rounds ("+resumed"), then once more with the
-    obstacles' safety distance ``wide_margin`` times the model's ("+wide"); a search that
-    passes is left as it is; ``resumed`` 0 turns both off."""
-    rng = np.random.default_rng(3)
-    theta = random_theta(jaco, rng)
-    problem = PlanningProblem(jaco, len(theta), make_families(jaco, theta, rng), [], theta)
-    config = PlannerConfig().with_(constraint_rounds=1, max_iterations=5)
-    rounds = config.constraints.resume_rounds
-
-    def names(solved):
-        return [a.candidate for a in solved.attempts]
-
-    passed, calls = scripted_judge(2)                  # the search's own second round passes
-    solved = solve_constrained(problem, config, passed)
-    assert solved.feasibility.ok and names(solved) == ["configured"] * 2
-    resumed, calls = scripted_judge(4)                 # the second round of the resumed start
-    solved = solve_constrained(problem, config, resumed)
-    assert solved.feasibility.ok
-    assert names(solved) == ["configured"] * 2 + ["configured+resumed"] * 2
-    assert len(calls) == 4
-    wide, calls = scripted_judge(2 + rounds + 1)       # the first solve of the widened start
-    # (20 x 2 cm: wider than the rounds before widened the hinges seeing less than the check)
-    solved = solve_constrained(problem, config.with_(wide_margin=20.0), wide)
-    assert solved.feasibility.ok
-    assert names(solved) == (["configured"] * 2 + ["configured+resumed"] * rounds
-                             + ["configured+resumed+wide"])
-    assert solved.problem.family("obstacle").epsilon == pytest.approx(20.0 * config.model.epsilon)
-    never, calls = scripted_judge(10 ** 6)
-    solved = solve_constrained(problem, config.with_(resumed=0), never)
-    assert not solved.feasibility.ok and names(solved) == ["configured"] * 2
+def _random_problem(robot, seed):
+    rng = np.random.default_rng(seed)
+    theta = random_theta(robot, rng)
+    return PlanningProblem(robot, len(theta), make_families(robot, theta, rng), [], theta)
 
 
-def test_the_tied_problem_leads_the_resumed_starts(jaco):
-    """The problem as built that had one solve only (``first_rounds`` 0: the planner's tied
-    problem, whose rounds went to the restarts) continues first when no start passes, before
-    the ``resumed`` closest starts and whatever its own clearance (hard/sawyer/0170: the tied
-    problem's rounds passed where the closest starts traded the obstacle for the skill's tube);
-    a problem as built that had its rounds is resumed only when it is among the closest."""
-    rng = np.random.default_rng(5)
-    theta = random_theta(jaco, rng)
-    problem = PlanningProblem(jaco, len(theta), make_families(jaco, theta, rng), [], theta)
-    config = PlannerConfig().with_(constraint_rounds=1, max_iterations=5, resumed=1)
-    #: clearance [m] of each judged optimum, by call: the problem as built farthest, then b,
-    #: a; continued (calls 6-9 the problem as built, 10-13 a), a still the closest
-    clearances = {1: -0.05, 2: -0.01, 3: -0.01, 4: -0.02, 5: -0.02,
-                  **{k: -0.012 for k in range(10, 14)}}
-
-    def restarts(_):
-        for name in ("a", "b"):
-            yield Candidate(name, problem.with_families(problem.families, theta))
-
-    def distinct(solved):
-        return list(dict.fromkeys(a.candidate for a in solved.attempts))
-
-    for first_rounds, expected in (
-            (0, ["configured", "a", "b", "configured+resumed", "a+resumed",
-                 "configured+resumed+wide", "a+resumed+wide"]),
-            (None, ["configured", "a", "b", "a+resumed", "a+resumed+wide"])):
-        calls = []
-
-        def judge(theta: np.ndarray) -> Feasibility:
-            calls.append(theta)
-            if first_rounds is None and len(calls) == 2:    # the as-built's own round: farther
-                clearance = -0.06
-            else:
-                k = len(calls) - (1 if first_rounds is None and len(calls) > 2 else 0)
-                clearance = clearances.get(k, -0.015)
-            return Feasibility(("obstacle",), True, (ConstraintCheck("obstacle", True, 0.05),),
-                               clearance)
-        solved = solve_constrained(problem, config, judge, restarts, first_rounds=first_rounds)
-        assert not solved.feasibility.ok
-        assert distinct(solved) == expected, first_rounds
+@pytest.mark.parametrize("rounds, passes_at, passed, solves", [
+    (1, 2, True, 2),        # the first update's optimum passes
+    (0, 2, False, 1),       # no update allowed: the weighted solve alone, judged once
+    (2, 10, False, 3)])     # the rounds spent (5 cm short: no polish)
+def test_a_start_updates_until_the_judge_passes(jaco, rounds, passes_at, passed, solves):
+    problem = _random_problem(jaco, 3)
+    config = PlannerConfig().with_(max_iterations=5)
+    judge, calls = scripted_judge(passes_at)
+    ledger = Ledger()
+    assert solve_start(Start("s", problem, rounds, polish=3), config, judge, ledger) is passed
+    assert len(ledger.rounds) == len(calls) == solves
+    assert [r.index for r in ledger.rounds] == list(range(solves))
+    assert ledger.work == ledger.trials + solves and ledger.iterations == sum(
+        r.iterations for r in ledger.rounds)
+    assert (ledger.feasible is not None) is passed
+    assert chosen(ledger).verdict.ok is passed
+    # every update after the first solve stiffened the violated obstacle hinges
+    if solves > 1:
+        assert np.all(ledger.rounds[-1].problem.family("obstacle").whitening
+                      > problem.family("obstacle").whitening)
 
 
-def test_constraint_config_defaults_and_checks():
-    """The schedule's defaults are the constants the solve used before the group existed."""
-    defaults = PlannerConfig().constraints
-    assert (defaults.progress, defaults.stiffen, defaults.wanted,
-            defaults.soft_start_tolerance) == (0.25, 4.0, 1, 3e-2)
-    for bad in ({"progress": 0.0}, {"stiffen": 0.5}, {"wanted": 0},
-                {"soft_start_tolerance": -1.0}, {"resumed": -1}, {"resume_rounds": 0},
-                {"wide_margin": -1.0}):
-        with raises_naming(InvalidParameterError, f"config.constraints.{next(iter(bad))}"):
-            PlannerConfig().with_(**bad)
+def test_a_stop_ends_a_start_between_its_updates(jaco):
+    problem = _random_problem(jaco, 3)
+    judge, calls = scripted_judge(10)
+    ledger = Ledger()
+    assert not solve_start(Start("s", problem, 4), PlannerConfig().with_(max_iterations=5),
+                           judge, ledger, stop=lambda: True)
+    assert len(calls) == len(ledger.rounds) == 1
+
+
+def test_a_hair_short_start_gets_its_polish_rounds(jaco):
+    """An optimum within ``reach`` times its family's ``near`` of passing gets ``polish`` more
+    updates past its rounds; 5 cm short gets none."""
+    problem = _random_problem(jaco, 3)
+    near = problem.family("obstacle").near
+    calls = []
+
+    def judge(theta):
+        calls.append(theta)
+        return Feasibility(("obstacle",), True, (ConstraintCheck("obstacle", True, near),),
+                           -near)
+    ledger = Ledger()
+    config = PlannerConfig().with_(max_iterations=5)
+    assert not solve_start(Start("s", problem, 1, polish=2, reach=1.0), config, judge, ledger)
+    assert len(calls) == 1 + 1 + 2
+
+
+def test_a_resumed_start_continues_the_multipliers(jaco):
+    problem = _random_problem(jaco, 3)
+    judge, _ = scripted_judge(10)
+    ledger = Ledger()
+    solve_start(Start("s", problem, 0), PlannerConfig().with_(max_iterations=5), judge, ledger)
+    last = ledger.rounds[-1]
+    again = resumed(last, {})
+    expected = update(last.problem, last.out.theta, ["obstacle"], {}, {}, ALConfig(),
+                      {"obstacle": 0.05})
+    np.testing.assert_allclose(again.family("obstacle").shift,
+                               expected.family("obstacle").shift)
+    np.testing.assert_array_equal(again.initial, last.out.theta)
+
+
+def test_the_solver_names_no_planning_domain():
+    """clamp.optim is a generic constrained solver (issue 36): no obstacle, skill or
+    self-collision in its sources."""
+    import re
+    folder = Path(clamp.__file__).parent / "optim"
+    for path in folder.glob("*.py"):
+        assert not re.search(r"Obstacle|Skill|SelfCollision", path.read_text()), path.name
+
+
+def test_the_schedule_defaults():
+    """The schedule's defaults are the constants the solve used before it was its own group."""
+    al = ALConfig()
+    assert (al.progress, al.stiffen, al.margin_floor, al.update_active,
+            al.soft_tolerance) == (0.25, 4.0, 0.005, True, 3e-2)

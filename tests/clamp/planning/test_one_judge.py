@@ -87,7 +87,7 @@ def test_each_check_runs_once_after_a_collision(prior, jaco, counted):
     """The final optimum collides (a box on the skill's path, no constraint rounds, a loose
     hinge): the solve stopped at the obstacle check, the verdict makes the others, once."""
     calls, plausibility = counted
-    config = PlannerConfig().with_(constraint_rounds=0, soft_start=1.0, sigma_obs=0.5,
+    config = PlannerConfig().with_(constraint_rounds=0, sigma_obs=0.5,
                                    epsilon=0.0, posture_sigma=0.0)
     on_path = Scene([Box(np.asarray(prior.mean)[125, :3].tolist(), [0.05, 0.05, 0.05])])
     result = plan(prior, jaco, on_path, START, config=config, covariance=False)

@@ -140,7 +140,7 @@ def test_end_effector_goal_and_via_point(jaco, synthetic):
     start = prior.mean[0, :3]
     goal = prior.mean[-1, :3] + np.array([0.0, 0.0, 0.03])
     via = prior.mean[60, :3] + np.array([0.0, 0.0, 0.02])
-    config = PlannerConfig().with_(goal_sigma=1e-4, via_sigma=1e-4)
+    config = PlannerConfig().with_(goal_sigma=1e-4)
     result = plan(prior, jaco, None, start, goal=goal, via_points=[(60, via)], config=config)
     assert result.goal_error <= 2e-3
     assert np.linalg.norm(result.ee_path[60] - via) <= 2e-3
@@ -216,8 +216,6 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
      InvalidParameterError, "initialisation"),
     ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(sigma_obs=-1.0)},
      InvalidParameterError, "sigma_obs"),
-    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(workspace_correction=-1)},
-     InvalidParameterError, "workspace_correction"),
     ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(optimizer="lu")},
      InvalidParameterError, "optimizer"),
     ({"start": [0.3, -0.3, 0.2], "config": {"sigma_obs": 0.005}}, ClampTypeError, "config"),
