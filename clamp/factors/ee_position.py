@@ -8,9 +8,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from clamp.validation import as_array, as_indices
-
-from .family import Family, Linearization
+from .family import Family, Linearization, targets_by_state
 from .states import StateWindow
 
 
@@ -22,11 +20,8 @@ class EEPositionFamily(Family):
     kinematics = 1
 
     def __init__(self, indices: Sequence[int], targets: np.ndarray, sigmas: Sequence[float]):
-        indices = as_indices(indices, "indices")
-        order = np.argsort(indices, kind="stable")
-        self.targets = as_array(targets, "targets", (len(order), 3))[order]
-        sigmas = as_array(sigmas, "sigmas", (len(order),))
-        super().__init__(indices[order], 3, sigma=sigmas[order])
+        indices, self.targets, sigmas = targets_by_state(indices, targets, sigmas, (3,))
+        super().__init__(indices, 3, sigma=sigmas)
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
         x, dx = window.workspace()

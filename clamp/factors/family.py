@@ -49,6 +49,7 @@ import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
 import gtsam
@@ -145,6 +146,17 @@ class CheckContext:
     clearance: Callable[[np.ndarray], Any] = lambda q: None
     pusher: Callable[[np.ndarray], Any] = lambda path: None
     final: bool = False
+
+
+def targets_by_state(indices: Sequence[int], targets: np.ndarray, sigmas: Sequence[float],
+                     shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The targets of a one-state family ordered by state: indices (K,), ``targets`` (K, *shape)
+    and ``sigmas`` (K,), each checked, sorted by index (stable)."""
+    indices = as_indices(indices, "indices")
+    order = np.argsort(indices, kind="stable")
+    targets = as_array(targets, "targets", (len(order), *shape))[order]
+    sigmas = as_array(sigmas, "sigmas", (len(order),))
+    return indices[order], targets, sigmas[order]
 
 
 def square_root_information(cov: np.ndarray) -> np.ndarray:
