@@ -133,20 +133,19 @@ def orientation_families(prior: Any, robot: Any, request: Request,
     (:class:`~clamp.factors.OrientationGPFamily`) and its start at the arm's start rotation
     (:class:`~clamp.factors.OrientationStartFamily`, with the workspace start); for any prior
     the goal and via poses' rotations (:class:`~clamp.factors.EERotationFamily`, noise
-    ``goal_sigma`` / ``via_sigma`` read in radians). None for a position-only prior without
-    poses."""
+    ``goal_sigma`` read in radians, for the goal and the via points alike). None for a
+    position-only prior without poses."""
     orientation = getattr(prior, "orientation", None)
     model, T = config.model, prior.Phi.shape[0] + 1
     families: list[Family] = []
     if orientation is not None:
         families.append(OrientationGPFamily.of(orientation))
-    if orientation is not None:
         start = so3.log_map(orientation.rotations[0].T @ robot.ee_rotation(request.q_start)[0])
         families.append(OrientationStartFamily(
             orientation.rotations[0], shifted_start_mean(orientation.mean0, orientation.cov0, start),
             np.asarray(orientation.cov0)))
     targets = [(T - 1, request.goal, model.goal_sigma)] if request.goal is not None else []
-    targets += [(i, target, model.via_sigma) for i, target in request.vias]
+    targets += [(i, target, model.goal_sigma) for i, target in request.vias]
     chosen = [(i, t.rotation, s) for i, t, s in targets if t.rotation is not None]
     if chosen:
         index, rotation, sigma = zip(*chosen)
