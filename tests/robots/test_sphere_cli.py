@@ -56,7 +56,10 @@ def test_the_sphere_file_is_the_planners_fit(tmp_path, monkeypatch):
     monkeypatch.setenv(CACHE_ENV, str(tmp_path / "own_cache"))        # fitted here, not read
     planner = Robot.from_urdf(urdf, end_effector="tool").fit_spheres(max_spheres=6)
     assert written.link_names == planner.link_names and "finger" not in written.link_names
-    assert np.array_equal(written.centres, planner.centres) and np.array_equal(written.radii, planner.radii)
+    # the same fit to the last digits: two processes may differ in the last bits (the suite's
+    # earlier tests leave another BLAS kernel or thread count); another fit differs by mm
+    np.testing.assert_allclose(written.centres, planner.centres, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(written.radii, planner.radii, rtol=0, atol=1e-9)
 
 
 def test_urdf_needs_the_end_effector(tmp_path):
