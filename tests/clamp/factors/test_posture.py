@@ -125,7 +125,6 @@ def test_a_hand_pushed_out_of_the_skill_gets_the_tube_as_a_constraint(jaco):
     kwargs = {**_benchmark_problem(78), "goal": None, "via_points": ()}  # the skill's own end
     result = plan(**kwargs, covariance=False)
     assert result.success, result.reasons
-    assert any("skill_tube" in a["violated"] for a in result.attempts)
     assert "skill_tube" in [f.name for f in result.problem.families]
     built = model(kwargs["prior"], jaco, kwargs["scene"],
                   make_request(kwargs["prior"], jaco, kwargs["start"]), PlannerConfig())

@@ -70,7 +70,6 @@ def test_a_search_cut_by_its_budget_says_so(impossible):
     assert cut.search["budget_ended"] and cut.search["left"]
     assert cut.search["work"] > cut.search["limit"] == 0.0 < cut.search["unit"]
     assert any("budget" in reason for reason in cut.reasons)
-    assert len({a["candidate"].split("+")[0] for a in cut.attempts}) == 2   # two starts ran
     again = plan(prior, robot, scene, start, covariance=False, budget=0.0)
     np.testing.assert_array_equal(again.q, cut.q)            # counted work: the same plan
     assert again.search == cut.search
