@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 
 from clamp import PlannerConfig, build, learn_prior, plan
+from clamp.factors import joint_limits
+from clamp.factors.joint_limits import VELOCITY_TOLERANCE
 from clamp.planning.clearance import check_clearance, checker
 from clamp.planning.verdict import sphere_clearance
 from robots import Robot
@@ -189,7 +191,7 @@ def test_third_party_arm_avoids_a_box_in_the_skill_path(prior):
     assert brute_force_clearance(robot, scene, result.q) > 0.0
 
 
-def test_a_velocity_excess_is_a_question_of_time(jaco):
+def test_a_velocity_excess_is_a_question_of_time(jaco, monkeypatch):
     """Scene-benchmark problem 115 (synthetic, Jaco): the weighted solve ends a little beyond a
     velocity limit (the hinge is soft). A velocity is never a constraint the solve repairs
     (issue 36): at the caller's time scale 1 the verdict names the joint, however many rounds
@@ -205,10 +207,10 @@ def test_a_velocity_excess_is_a_question_of_time(jaco):
     kwargs = resolve(problem, Path("."))
     # the configured weight solved directly (no soft start and no posture tie, either of which
     # happens to avoid the excess, at the safety distance and hinge noise of the time, 5 cm and
-    # 5 mm); the velocity hinges at the limits themselves (velocity_margin 0: with its 0.01 rad/s
-    # margin the weighted solve holds the limit already)
-    kwargs["config"] = kwargs["config"].with_(posture_sigma=0.0, epsilon=0.05,
-                                              sigma_obs=0.005, velocity_margin=0.0)
+    # 5 mm); the velocity hinges at the limits themselves (VELOCITY_MARGIN 0: with its
+    # 0.01 rad/s margin the weighted solve holds the limit already)
+    monkeypatch.setattr(joint_limits, "VELOCITY_MARGIN", 0.0)
+    kwargs["config"] = kwargs["config"].with_(posture_sigma=0.0, epsilon=0.05, sigma_obs=0.005)
     at_one = plan(**kwargs, covariance=False, time_scale=1.0)
     assert not at_one.success
     assert any("faster than its limit" in r for r in at_one.reasons), at_one.reasons
@@ -216,7 +218,7 @@ def test_a_velocity_excess_is_a_question_of_time(jaco):
     assert timed.success, timed.reasons
     assert timed.time_scale > 1.0
     vmax = np.asarray(jaco.velocity_limits)
-    tolerance = PlannerConfig().checks.velocity_tolerance
+    tolerance = VELOCITY_TOLERANCE
     assert (np.abs(timed.qdot) - vmax).max() <= tolerance
     step = np.abs(np.diff(timed.q, axis=0)) / np.diff(timed.time)[:, None]
     assert (step - vmax).max() <= tolerance
