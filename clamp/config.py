@@ -7,6 +7,7 @@ variants. Units: metres, radians, seconds; errors in nats (negative log posterio
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -83,7 +84,8 @@ class OptimizerConfig:
     initialisation: str = "prior_mean"
     #: when a solve stops: a name of :data:`clamp.optim.stopping.STOPPING_RULES` ("default",
     #: "fast", "reference") or a :class:`clamp.optim.stopping.StoppingRule` (first damping,
-    #: relative and absolute [nats] tolerances, patience)
+    #: relative and absolute [nats] tolerances, patience; given to ``with_`` as a mapping of its
+    #: fields, e.g. from a JSON file, it is made one)
     stopping: str | StoppingRule = "default"
     #: accepted iterations at most
     max_iterations: int = 500
@@ -165,6 +167,8 @@ class PlannerConfig:
             if name not in owner:
                 raise InvalidParameterError(f"config field: unknown {name!r}; valid: "
                                             f"{', '.join(sorted(owner))}")
+            if name == "stopping" and isinstance(value, Mapping):   # e.g. a saved problem's
+                value = as_stopping_rule(value, "config.optimizer.stopping")
             updates[owner[name]][name] = value
         for group, value in groups.items():
             object.__setattr__(self, group, replace(value, **updates[group]) if updates[group]
@@ -233,9 +237,9 @@ class PlannerConfig:
 #: the groups of a :class:`PlannerConfig`: attribute name -> class
 GROUPS = {"model": ModelConfig, "optimizer": OptimizerConfig, "checks": CheckConfig}
 
-_STOPPING = ("part of the stopping rule: set stopping=\"default\", \"fast\", \"reference\" or "
+_STOPPING = ("part of the stopping rule: set stopping=\"default\", \"fast\", \"reference\", "
              "a clamp.optim.stopping.StoppingRule(lambda_initial, relative_tol, absolute_tol, "
-             "patience)")
+             "patience) or (in a JSON file) a mapping of those fields")
 #: the settings issue 36 removed -> where each went (docs/decisions.md#settings-issue-36): a config
 #: naming one, e.g. an older saved problem file, is refused with this, never silently changed
 REMOVED = {

@@ -15,7 +15,8 @@ rules (docs/decisions.md#stopping):
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from clamp.errors import InvalidParameterError
@@ -62,11 +63,20 @@ STOPPING_RULES = {
 
 
 def as_stopping_rule(value: Any, name: str = "stopping") -> StoppingRule:
-    """``value`` (a name of :data:`STOPPING_RULES` or a :class:`StoppingRule`) as a rule;
+    """``value`` (a name of :data:`STOPPING_RULES`, a :class:`StoppingRule`, or a mapping of
+    its fields as a JSON file gives them, the others the default rule's) as a rule;
     InvalidParameterError naming ``name`` otherwise."""
     if isinstance(value, StoppingRule):
         return value
     if isinstance(value, str) and value in STOPPING_RULES:
         return STOPPING_RULES[value]
-    raise InvalidParameterError(f"{name}: expected one of {', '.join(map(repr, STOPPING_RULES))} "
-                                f"or a clamp.optim.stopping.StoppingRule, got {value!r:.60}")
+    valid = [f.name for f in fields(StoppingRule)]
+    if isinstance(value, Mapping):
+        unknown = [str(key) for key in value if key not in valid]
+        if unknown:
+            raise InvalidParameterError(f"{name}: unknown {', '.join(unknown)}; a stopping rule "
+                                        f"has {', '.join(valid)}")
+        return StoppingRule(**value)
+    raise InvalidParameterError(f"{name}: expected one of {', '.join(map(repr, STOPPING_RULES))}, "
+                                f"a clamp.optim.stopping.StoppingRule or a mapping of its fields "
+                                f"({', '.join(valid)}), got {value!r:.60}")

@@ -174,3 +174,16 @@ def test_a_saved_problem_naming_a_removed_setting_is_refused(tmp_path):
     assert read.config_changes() == {"relative_error_tol": 0.05, "sigma_obs": 0.005}
     with raises_naming(InvalidParameterError, "relative_error_tol", "stopping"):
         resolve(read, tmp_path)
+
+
+def test_a_saved_problem_gives_its_stopping_rule_as_fields(tmp_path):
+    """What replaces the old tolerances in a file: ``stopping`` as a name or as the rule's
+    fields (the others the default rule's)."""
+    from clamp import PlannerConfig
+    from clamp.batch.runner import resolve
+    problems = [make_problem(f"new/{k}", SHORT, {"name": "jaco"}, [0.2, -0.45, 0.25],
+                             config={"stopping": stopping})
+                for k, stopping in enumerate(("fast", {"relative_tol": 0.05, "patience": 1}))]
+    fast = PlannerConfig.fast().optimizer.stopping_rule()
+    for problem in read_problems(write_problems(problems, tmp_path / "new.jsonl")):
+        assert resolve(problem, tmp_path)["config"].optimizer.stopping_rule() == fast
