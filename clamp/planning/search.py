@@ -56,6 +56,7 @@ from clamp.planning.assembly import configured_initialisation, without_family
 from clamp.planning.clearance import check_clearance
 from clamp.planning.detours import detour_search, detour_trajectory
 from clamp.planning.reach import reach_radius
+from clamp.planning.request import IK_TOLERANCE
 from clamp.prior.skill import TUBE_RATIO, SkillRegion
 from clamp.validation import as_scalar
 from robots.self_collision import self_collision_report
@@ -177,7 +178,7 @@ def _detours(context: Context) -> Iterator[Made]:
                            focus(context.ledger.closest))
     for name, path, _ in ranked[:DETOURS]:
         theta = detour_trajectory(robot, path, model.request.q_start, float(prior.dt),
-                                  config.checks.ik_tolerance)
+                                  IK_TOLERANCE)
         yield f"detour_{name}", context.untied.with_families(context.untied.families, theta), \
             "", False
 
@@ -186,7 +187,7 @@ def _ik_branches(context: Context) -> Iterator[Made]:
     model, untied = context.model, context.untied
     for k, q0 in enumerate(other_branches(model, IK_BRANCHES)):
         theta = detour_trajectory(model.robot, model.initialisation.path, q0,
-                                  float(model.prior.dt), model.config.checks.ik_tolerance)
+                                  float(model.prior.dt), IK_TOLERANCE)
         yield f"ik_branch_{k}", untied.with_families(
             [started_at(f, q0) for f in untied.families], theta), "", False
 
@@ -410,9 +411,9 @@ def other_branches(model: Any, count: int) -> list[np.ndarray]:
         if len(out) >= count:
             break
         ik = robot.ik(request.start.value, seed=robot.random_configuration(rng),
-                      tol=config.checks.ik_tolerance, rng=attempt)
+                      tol=IK_TOLERANCE, rng=attempt)
         q0 = np.asarray(ik.q, dtype=float)
-        if (ik.error > config.checks.ik_tolerance
+        if (ik.error > IK_TOLERANCE
                 or not bool(np.all(robot.within_limits(q0[None], tolerance=0.0)))
                 or any(float(np.max(np.abs(q0 - q))) < BRANCH_APART
                        for q in (request.q_start, *out))):
