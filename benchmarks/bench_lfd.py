@@ -352,6 +352,10 @@ def clamp_methods(train: scenes.Demonstrations, start: np.ndarray, goal: np.ndar
     notes: list[str] = []
     pose = len(start) == 7 and is_pose_prior(prior)
     arm_start, arm_goal = start[:3], None if goal is None else goal[:3]
+    if pose:
+        # the goal pose, as the peers and the mean are given it (also when the start is the
+        # recorded joint start)
+        arm_goal = None if goal is None else (goal[:3], goal[3:])
     if pose and start_q is not None:
         arm_start = start_q
     elif pose:
@@ -359,7 +363,6 @@ def clamp_methods(train: scenes.Demonstrations, start: np.ndarray, goal: np.ndar
         if position_error > 1e-3 or angle_error > np.radians(1.0):
             notes.append(f"CLAMP arm start pose out of reach: pose IK {1e3 * position_error:.1f}"
                          f" mm, {np.degrees(angle_error):.1f} deg off")
-        arm_goal = None if goal is None else (goal[:3], goal[3:])
     began = time.perf_counter()
     result = clamp.plan(prior, robot, None, arm_start, goal=arm_goal)
     seconds = time.perf_counter() - began
