@@ -105,3 +105,18 @@ def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys):
     assert main(["show", str(out)]) == 2                            # drawn already: only with --force
     [line] = capsys.readouterr().err.strip().splitlines()
     assert "--force" in line and "plan_result.png" in line
+
+
+def test_retiming_loads_toppra_without_matplotlib_and_its_plotting_still_reaches_pyplot(tmp_path):
+    retimed = ("from robots import JointTrajectory, load_robot, retime\nimport numpy as np\n"
+               "robot = load_robot('jaco')\nt = np.linspace(0.0, 2.0, 30)\n"
+               "q = np.linspace(robot.neutral_configuration(), robot.neutral_configuration() + 0.5, 30)\n"
+               "traj = JointTrajectory.from_plan(robot, t, q, np.gradient(q, t, axis=0))\n"
+               "out, report = retime(traj, robot, 2.0, method='toppra')\n"
+               "assert report.method == 'toppra' and out.duration > 0")
+    loaded = loaded_after(retimed, tmp_path)
+    assert "toppra" in loaded and "matplotlib" not in loaded
+    plotting = ("from robots.retiming import import_toppra\nimport_toppra()\n"
+                "import toppra.algorithm.algorithm as algorithm, matplotlib.pyplot as plt\n"
+                "assert algorithm.plt.plot is plt.plot")
+    assert "matplotlib" in loaded_after(plotting, tmp_path)
