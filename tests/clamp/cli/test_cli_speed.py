@@ -120,3 +120,14 @@ def test_retiming_loads_toppra_without_matplotlib_and_its_plotting_still_reaches
                 "import toppra.algorithm.algorithm as algorithm, matplotlib.pyplot as plt\n"
                 "assert algorithm.plt.plot is plt.plot")
     assert "matplotlib" in loaded_after(plotting, tmp_path)
+
+
+def test_version_answers_before_numpy_loads_as_the_parser_does(tmp_path):
+    code = ("import sys\nfrom clamp.cli import main\nassert main(['--version']) == 0\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'numpy', 'gtsam', 'scipy'}))")
+    done = python(["-c", code], tmp_path)
+    assert done.returncode == 0, done.stderr
+    fast, loaded = done.stdout.strip().splitlines()
+    assert loaded == "[]"
+    parsed = python(["-c", "from clamp.cli.main import parser\nparser().parse_args(['--version'])"], tmp_path)
+    assert parsed.returncode == 0 and parsed.stdout.strip() == fast and fast.startswith("clamp ")
