@@ -55,15 +55,32 @@ DEMO_START_OFFSET = np.array([0.0, -0.03, 0.03])
 TRAJECTORY_FILES = ("trajectory_{}.json", "trajectory_{}_ros2.json")
 
 
+#: the planner setting each option sets: (option, the setting's name in a config error)
+CONFIG_OPTIONS = {"epsilon": ("--epsilon", "config.model.epsilon"),
+                  "min_clearance": ("--min-clearance", "config.checks.min_clearance"),
+                  "initialisation": ("--init", "config.optimizer.initialisation"),
+                  "max_iterations": ("--max-iterations", "config.optimizer.max_iterations"),
+                  "optimizer": ("--optimizer", "config.optimizer.optimizer"),
+                  "sigma_obs": ("--sigma-obs", "config.model.sigma_obs")}
+
+
 def _config(args: argparse.Namespace) -> PlannerConfig:
     """PlannerConfig() (PlannerConfig.fast() with --fast) with the options given on the command
-    line; an option left out keeps the Python API's default."""
+    line; an option left out keeps the Python API's default. A value the config refuses is
+    InvalidParameterError naming the option as typed."""
     given = {"epsilon": args.epsilon, "min_clearance": args.min_clearance, "initialisation": args.init,
              "max_iterations": args.max_iterations, "optimizer": args.optimizer,
              "sigma_obs": args.sigma_obs}
     changes = {name: value for name, value in given.items() if value is not None}
-    config = PlannerConfig.fast(**changes) if args.fast else PlannerConfig().with_(**changes)
-    return config.validate()
+    try:
+        config = PlannerConfig.fast(**changes) if args.fast else PlannerConfig().with_(**changes)
+        return config.validate()
+    except InvalidParameterError as exc:
+        text = str(exc)
+        for name, (option, setting) in CONFIG_OPTIONS.items():
+            if name in changes and text.startswith(f"{setting}:"):
+                raise InvalidParameterError(option + text[len(setting):]) from None
+        raise
 
 
 def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
@@ -298,6 +315,11 @@ def learned_prior(demos: Any) -> Any:
 
 
 def run_demo(args: argparse.Namespace) -> int:
+    from scenes.synthetic import SKILLS
+    if args.skill not in SKILLS:          # bad input is refused before the output folder is made
+        raise InvalidParameterError(f"--skill: unknown skill {args.skill!r}; expected one of the "
+                                    f"built-in skills: {', '.join(SKILLS)}")
+    _config(args)
     with created_output_directory(args.out, args.force) as out:
         return _demo(args, out)
 
@@ -434,6 +456,7 @@ def run_plan(args: argparse.Namespace) -> int:
         check_demonstration_args(args)
     if args.scene:
         as_file(args.scene, "--scene", SceneFileError)
+    _config(args)
     with created_output_directory(args.out, args.force) as out:
         return _plan_from_files(args, out)
 
@@ -647,7 +670,8 @@ def parser() -> argparse.ArgumentParser:
     robot_options(demo, default_robot="jaco")
     trajectory_options(demo)
     demo.add_argument("--skill", default="box_closing", help="built-in skill (scenes.SKILLS)")
-    demo.add_argument("--num-points", type=integer_at_least(2), default=250, help="support states T")
+    demo.add_argument("--num-points", type=integer_at_least(4), default=250,
+                      help="support states T (at least 4; default 250)")
     demo.set_defaults(run=run_demo)
 
     learn = sub.add_parser("learn", help="learn the prior from demonstrations and save it (plan from it "
