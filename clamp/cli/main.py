@@ -32,7 +32,7 @@ from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError, PriorFileError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.cli.batch import add_batch_parser
-from clamp.cli.figures import write_figures
+from clamp.cli.figures import figure_clocks, figure_options, write_figures
 from clamp.cli.show import add_show_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
@@ -247,9 +247,9 @@ def state_times(q: np.ndarray, trajectory: Any) -> np.ndarray:
 
 
 def on_trajectory_clock(result: PlanResult, record: dict[str, Any]) -> dict[str, Any] | None:
-    """``result.nearest_contact`` (its ``time`` on the skill's clock) with ``trajectory_time``
-    [s] added: the same instant on the executable trajectory's clock (None without a
-    trajectory); None without a contact."""
+    """``result.nearest_contact`` (its ``time`` on the skill's clock, which ``time_clock``
+    names) with ``skill_time`` and ``trajectory_time`` [s] added: the same instant on the
+    executable trajectory's clock (None without a trajectory); None without a contact."""
     contact = result.nearest_contact
     if contact is None:
         return None
@@ -257,7 +257,21 @@ def on_trajectory_clock(result: PlanResult, record: dict[str, Any]) -> dict[str,
     index = contact.get("index")
     moment = None if times is None or index is None else float(
         np.interp(index, np.arange(len(times)), times))
-    return {**contact, "skill_time": contact.get("time"), "trajectory_time": moment}
+    return {**contact, "time_clock": "skill", "skill_time": contact.get("time"), "trajectory_time": moment}
+
+
+def contact_summary(name: str, contact: dict[str, Any] | None) -> str | None:
+    """One line for the summary: where plan ``name`` comes closest to an obstacle, on the
+    trajectory's clock where it has one and on the skill's (``contact``: the plan JSON's
+    ``nearest_contact``, :func:`on_trajectory_clock`); None without obstacles."""
+    if contact is None or contact.get("distance") is None:
+        return None
+    when = [] if contact.get("trajectory_time") is None else [f"trajectory time {contact['trajectory_time']:.2f} s"]
+    if contact.get("skill_time") is not None:
+        when.append(f"skill time t = {contact['skill_time']:.2f} s")
+    at = f" at {when[0]}" + (f" ({when[1]})" if len(when) > 1 else "") if when else ""
+    return (f"nearest contact {name}: {1e3 * contact['distance']:.1f} mm, link {contact.get('link')} "
+            f"to {contact.get('obstacle')}{at}")
 
 
 def flagged(error: Exception, option: str) -> Exception:
@@ -346,7 +360,8 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
     write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
                scene=scene.to_dict(), trajectory=exported["obstacle"])
     write_figures(out, prior, demos, robot, config,
-                  [("empty", empty, None), ("obstacle", with_obstacle, scene)])
+                  [("empty", empty, None), ("obstacle", with_obstacle, scene)],
+                  figure_clocks(args.clock, exported))
     save_view_inputs(out, {"empty": {"scene": None, "start": start},
                            "obstacle": {"scene": scene, "start": start}}, prior, demos, robot_spec(args), config)
     if not quiet(args):
@@ -355,6 +370,9 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
         print(summary_table(rows, {"empty scene": exported["empty"], "obstacle": exported["obstacle"]},
                             verbose=verbose(args)))
         print(trajectory_summary(exported))
+        contact = contact_summary("obstacle", on_trajectory_clock(with_obstacle, exported["obstacle"]))
+        if contact is not None:
+            print(contact)
         print(f"wrote figures and plans to {out}")
     report_failures(args, rows[:2], {"empty scene": exported["empty"], "obstacle": exported["obstacle"]})
     return EXIT_OK if all(record["files"] for record in exported.values()) else EXIT_FAILED
@@ -445,6 +463,9 @@ LEARNING_OPTIONS = {"--topic": "topic", "--frames": "frames", "--num-points": "n
 
 
 def run_plan(args: argparse.Namespace) -> int:
+    if args.clock is not None and not args.figures:
+        raise InvalidParameterError("--clock: only with --figures (the figures' time axis; clamp show "
+                                    "--clock draws them later)")
     if args.prior is not None:
         given = [option for option, name in LEARNING_OPTIONS.items() if getattr(args, name) is not None]
         given += ["--split"] if args.split is not None else []
@@ -487,13 +508,17 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     if args.figures:
-        write_figures(out, prior, demos, robot, config, [("result", result, scene)])
+        write_figures(out, prior, demos, robot, config, [("result", result, scene)],
+                      figure_clocks(args.clock, exported))
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
     name = Path(args.prior if args.prior is not None else args.demos[0]).stem
     if not quiet(args):
         print(summary_table([(name, result)], {name: exported["result"]}, verbose=verbose(args)))
         print(trajectory_summary(exported))
+        contact = contact_summary(name, on_trajectory_clock(result, exported["result"]))
+        if contact is not None:
+            print(contact)
         print(f"wrote {'figures and ' if args.figures else ''}plan to {out}")
     report_failures(args, [(name, result)], {name: exported["result"]})
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
@@ -670,6 +695,7 @@ def parser() -> argparse.ArgumentParser:
     robot_options(demo, default_robot="jaco")
     trajectory_options(demo)
     demo.add_argument("--skill", default="box_closing", help="built-in skill (scenes.SKILLS)")
+    figure_options(demo)
     demo.add_argument("--num-points", type=integer_at_least(4), default=250,
                       help="support states T (at least 4; default 250)")
     demo.set_defaults(run=run_demo)
@@ -707,6 +733,7 @@ def parser() -> argparse.ArgumentParser:
                       help="also draw the figures (prior, plan 3-D, top view, joints, clearance, "
                            "uncertainty) and the browser animation: seconds more (default: plan and "
                            "trajectory files only; clamp show OUT draws them later)")
+    figure_options(user)
     user.set_defaults(run=run_plan)
     add_batch_parser(sub)
     add_view_parser(sub)

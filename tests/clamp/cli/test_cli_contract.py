@@ -144,3 +144,9 @@ def test_demo_leaves_a_folder_of_the_users_files_alone(work):
     result = clamp(["demo", "--out", "mine", "-q"], work)
     refused(result, work, "--out:", "'mine'", "not empty", "--force", command="demo")
     assert sorted(p.name for p in folder.iterdir()) == ["notes.txt"]
+
+
+def test_clock_is_for_the_figures(work):
+    result = clamp(["plan", "--robot", "jaco", "--demos", "demos.npz", *START, "--clock", "skill",
+                    "--out", "out"], work)
+    refused(result, work, "--clock:", "only with --figures", "clamp show")

@@ -86,7 +86,7 @@ def test_a_second_plan_reads_the_fitted_spheres_and_plans_the_same_q(tmp_path, p
     assert problem["robot"]["package_dirs"] == [str(share.resolve())]
 
 
-def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys):
+def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys, monkeypatch):
     from clamp.cli.main import main
     from scenes import Box, Scene, make_demonstrations
     demos = make_demonstrations("box_closing", num_points=40, seed=1)
@@ -105,6 +105,14 @@ def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys):
     assert main(["show", str(out)]) == 2                            # drawn already: only with --force
     [line] = capsys.readouterr().err.strip().splitlines()
     assert "--force" in line and "plan_result.png" in line
+    import clamp.cli.figures as figures
+    drawn = {}
+    monkeypatch.setattr(figures, "write_figures", lambda *args: drawn.update(args[-1]))
+    recorded = json.loads((out / "plan.json").read_text())["trajectory"]["state_times"]
+    assert main(["show", str(out), "--force"]) == 0                  # on the trajectory's clock
+    assert list(drawn) == ["result"] and np.array_equal(drawn["result"], recorded)
+    drawn.clear()
+    assert main(["show", str(out), "--force", "--clock", "skill"]) == 0 and drawn == {}
 
 
 def test_retiming_loads_toppra_without_matplotlib_and_its_plotting_still_reaches_pyplot(tmp_path):
