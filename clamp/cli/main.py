@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -307,15 +308,46 @@ def load_robot_from_args(args: argparse.Namespace) -> Any:
 def _plan_all(prior: Any, robot: Any, start: np.ndarray,
               requests: Sequence[tuple[str, Any, PlannerConfig, dict[str, Any]]]
               ) -> list[PlanResult]:
-    """plan() for each (name, scene, config, options), one progress-bar step per plan."""
+    """plan() for each (name, scene, config, options), one progress-bar step per plan, and the
+    search's own progress line (:func:`search_progress`)."""
     from clamp.planning.planner import plan
     results = []
     bar = progress(requests, description="planning", unit="plan")
     for name, scene, config, options in bar:
         bar.set_postfix_str(f"{name} ({config.optimizer.optimizer})")
         log.info("planning %r with the %s optimizer", name, config.optimizer.optimizer)
-        results.append(plan(prior, robot, scene, start, config=config, **options))
+        with search_progress(name):
+            results.append(plan(prior, robot, scene, start, config=config, **options))
     return results
+
+
+#: [s] how long a plan searches before its progress line shows (a quick plan draws none)
+SEARCH_PROGRESS_DELAY = 1.0
+
+
+@contextmanager
+def search_progress(name: str) -> Iterator[None]:
+    """Within the block, a progress line on stderr for the search of plan ``name`` once it has
+    lasted SEARCH_PROGRESS_DELAY s (on a terminal only, never with -q:
+    :mod:`skillplan.progress`): the work spent against the budget (solver trials and judged
+    optima, the budget's count), the starts and solves,
+    updated after every start (:mod:`clamp.planning.progress`; the searches of one plan, at
+    several time scales, add up)."""
+    from clamp.planning.progress import SearchProgress, watching
+    spent = {"before": 0, "last": 0}
+
+    with progress(description=f"searching {name!r}", unit="trial",
+                  delay=SEARCH_PROGRESS_DELAY) as bar:
+        def show(state: SearchProgress) -> None:
+            if state.work < spent["last"]:               # a new search of the same plan
+                spent["before"] += spent["last"]
+            spent["last"] = state.work
+            bar.total = None if state.limit is None else spent["before"] + math.ceil(state.limit)
+            bar.set_postfix_str(f"{state.starts} start{'s' if state.starts != 1 else ''}, {state.solves} "
+                                f"solve{'s' if state.solves != 1 else ''}", refresh=False)
+            bar.update(spent["before"] + state.work - bar.n)
+        with watching(show):
+            yield
 
 
 def learned_prior(demos: Any) -> Any:
