@@ -20,4 +20,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"clamp {package_version()}")
         return 0
     from clamp.cli.main import main as run
+    globals()["main"] = _ENTRY          # importing the module clamp.cli.main rebinds this name to it
     return run(arguments)
+
+
+_ENTRY = main

@@ -3,6 +3,7 @@
 - building the parser (``clamp --version``, ``--help``, a usage error) and ``import clamp``
   load none of the heavy libraries (GTSAM, SciPy, Pinocchio, matplotlib, rosbags, viser, Dask,
   TOPP-RA), and the public names still resolve;
+- ``clamp --version`` answers before NumPy loads; retiming loads TOPP-RA without matplotlib;
 - a second ``clamp plan`` on the same URDF arm reads the collision spheres the first one fitted
   (a cache entry shared by processes) and plans the very same q; no figures unless asked for,
   and no warning about ``clamp view`` (the package folders are recorded for it).
@@ -139,3 +140,6 @@ def test_version_answers_before_numpy_loads_as_the_parser_does(tmp_path):
     assert loaded == "[]"
     parsed = python(["-c", "from clamp.cli.main import parser\nparser().parse_args(['--version'])"], tmp_path)
     assert parsed.returncode == 0 and parsed.stdout.strip() == fast and fast.startswith("clamp ")
+    entry = python(["-c", "import clamp.cli\nassert clamp.cli.main(['demo', '--skill', 'x']) == 2\n"
+                          "assert callable(clamp.cli.main)"], tmp_path)    # still the entry point
+    assert entry.returncode == 0, entry.stderr
