@@ -56,8 +56,9 @@ def write_figures(out: Path, prior: Any, demos: Any, robot: Any, config: Planner
     figures and the browser animation (HTML). ``demos`` None (a plan from a saved prior): the
     same figures, drawn from the prior alone (mean path and envelope, no demonstrations).
     ``state_times``: plan name -> when its executable trajectory passes each support state
-    (T,) [s]: that plan's figures against time are on the trajectory's clock; the others' (and
-    the prior's) on the skill's (:func:`clamp.viz.plan_plots.plan_clock`)."""
+    (T,) [s]: that plan's figures against time are on the trajectory's clock, and its animation
+    plays at the trajectory's pace (when those times strictly increase); the others' (and the
+    prior's) on the skill's (:func:`clamp.viz.plan_plots.plan_clock`)."""
     # deferred: matplotlib and the animation writer load only when figures are written
     import matplotlib
     matplotlib.use("Agg")              # files only: no window, whatever the user's backend
@@ -85,7 +86,9 @@ def write_figures(out: Path, prior: Any, demos: Any, robot: Any, config: Planner
                         out / f"plan_{name}_clearance.png")
         if result.ee_covariance is not None:
             save_figure(plot_plan_uncertainty(result, **clock), out / f"plan_{name}_uncertainty.png")
-        write_animation(out / f"animation_{name}.html", robot, result.time, result.q,
+        moving = clock["state_times"] is not None and bool(np.all(np.diff(clock["state_times"]) > 0.0))
+        write_animation(out / f"animation_{name}.html", robot,        # played at the arm's speed
+                        clock["state_times"] if moving else result.time, result.q,
                         obstacles=scene, demonstrations=None if demos is None else demos.positions,
                         mean_path=np.asarray(prior.mean)[:, :3],
                         title=f"CLAMP plan {name} on {robot.name}")
