@@ -1,6 +1,6 @@
-"""``python -m clamp`` runs the command line (see :mod:`clamp.cli.main`)."""
+"""``python -m clamp`` runs the command line (see :mod:`clamp.cli`)."""
 import sys
 
-from clamp.cli.main import main
+from clamp.cli import main
 
 sys.exit(main())

@@ -55,9 +55,12 @@ joint space (Euclidean, rad) and at the end effector (``robot.fk``, m).
 """
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import logging
 import math
+import sys
+import types
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -450,15 +453,47 @@ class _RestToRestProfile:
         return position, speed, acceleration
 
 
+class _DeferredModule(types.ModuleType):
+    """A stand-in for module ``name`` while another package loads: any attribute read from it
+    imports the real module then (once the stand-in has left ``sys.modules``) and reads it
+    there, so code holding the stand-in behaves as with the real module."""
+
+    def __getattr__(self, attribute: str) -> Any:
+        if attribute.startswith("__") or sys.modules.get(self.__name__) is self:
+            raise AttributeError(attribute)      # still standing in: `import a.b as c` reads c there
+        return getattr(importlib.import_module(self.__name__), attribute)
+
+
+def import_toppra() -> Any:
+    """The ``toppra`` package with its ``algorithm`` and ``constraint`` modules, imported without
+    matplotlib: toppra imports ``matplotlib.pyplot`` at load (about a second, most of a
+    command's import time) for plotting helpers this project never calls. While toppra loads,
+    ``matplotlib`` and ``matplotlib.pyplot`` (those not imported yet) are :class:`_DeferredModule`
+    stand-ins, removed from ``sys.modules`` afterwards: toppra's plotting helpers, if called,
+    import the real pyplot then; every other import of matplotlib is untouched."""
+    if "toppra.algorithm" in sys.modules:
+        return sys.modules["toppra"]
+    stand_ins = {name: _DeferredModule(name) for name in ("matplotlib", "matplotlib.pyplot")
+                 if name not in sys.modules}
+    sys.modules.update(stand_ins)
+    try:
+        import toppra
+        import toppra.algorithm
+        import toppra.constraint
+    finally:
+        for name, stand_in in stand_ins.items():
+            if sys.modules.get(name) is stand_in:
+                del sys.modules[name]
+    return toppra
+
+
 def _toppra_profile(traj: JointTrajectory, vlim: np.ndarray, alim: np.ndarray, grid_per_interval: int,
                     ramp_time: float) -> tuple[_ChordPath, _RestToRestProfile, Callable[[np.ndarray], np.ndarray]]:
     """Rest-to-rest profile on the C2 spline through the samples, parameterised by chord length
     s [rad]: (path, profile, the map from s to the input's time [s] (piecewise linear between
     the knots)). Jerk-limited ramps at both ends, TOPP-RA between them starting and ending at
     the ramps' path speeds. Raises RetimingError when TOPP-RA fails."""
-    import toppra
-    import toppra.algorithm
-    import toppra.constraint
+    toppra = import_toppra()
 
     path = _ChordPath(traj)
     s_knots, length = path.knots, path.length

@@ -26,7 +26,7 @@ from pathlib import Path
 import coal
 import pinocchio as pin
 
-from skillplan.command_line import package_version
+from skillplan.version import package_version
 
 from .errors import SphereFileError
 from .sphere_model import SphereModel, load_sphere_file, save_sphere_file

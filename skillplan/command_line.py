@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib.metadata
 import logging
 import os
 import secrets
@@ -36,20 +35,13 @@ from typing import IO, Any, NoReturn
 from .errors import ArgumentTypeError, InvalidArgumentError, OutputPathError, OutputWriteError
 from skillplan.progress import set_progress
 from skillplan.validation import as_instance, as_path
+from skillplan.version import package_version
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 #: loggers of the project's packages (the command lines set their level)
 PACKAGE_LOGGERS = ("robots", "scenes", "clamp", "tlgc")
 
 log = logging.getLogger(__name__)
-
-
-def package_version() -> str:
-    """Installed version of the ``skillplan`` distribution ("unknown" when not installed)."""
-    try:
-        return importlib.metadata.version("skillplan")
-    except importlib.metadata.PackageNotFoundError:
-        return "unknown"
 
 
 # --------------------------------------------------------------------------- atomic writes

@@ -6,8 +6,10 @@ same ``--out`` skips the problems already there. In this process by default, in 
 worker processes with ``--workers N``, on a Dask cluster with ``--scheduler ADDRESS``. Shows a
 progress bar (done, failed, rate, ETA; :mod:`skillplan.progress`: on a terminal only, never with
 ``-q``) and prints a summary of the whole output file for the problems of this file (not with
-``-q``). Exit code: 0 every problem planned (successfully or not), 1 some
-recorded as error or lost, 2 bad input, 130 interrupted (rerun to resume).
+``-q``). Every problem of the file that did not pass gets one line on stderr, also under ``-q``:
+its first reason (:func:`failure_line`). Exit code, as ``clamp plan``'s: 0 every problem
+passed its verdict, 1 some failed it or were recorded as error or lost, 2 bad input, 130
+interrupted (rerun to resume).
 """
 from __future__ import annotations
 
@@ -103,4 +105,27 @@ def run_batch(args: argparse.Namespace) -> int:
     summary = summarize(records)
     if not quiet(args):
         print(summary_table(summary))
-    return 1 if summary["status"].get("error") or summary["status"].get("lost") else 0
+    failures = [failure_line(record) for record in records if not passed(record)]
+    for line in failures:                       # also under -q: exit code 1 says so, this says why
+        print(f"clamp batch: {line}", file=sys.stderr)
+    return 1 if failures else 0
+
+
+def passed(record: dict[str, Any]) -> bool:
+    """Whether a result record's problem was planned and passed its verdict."""
+    return record.get("status") == "done" and bool(record.get("success"))
+
+
+def failure_line(record: dict[str, Any]) -> str:
+    """Why a result record's problem did not pass, in one line: its first reason (a plan that
+    failed its verdict), its error (type and message) or that its worker was lost."""
+    name = f"problem {record.get('id')!r}"
+    status = record.get("status")
+    if status == "done":
+        reasons = record.get("reasons") or ["no reason recorded"]
+        return f"{name} failed: {reasons[0]}"
+    if status == "error":
+        error = record.get("error") or {}
+        message = " ".join(str(error.get("message", "")).split())
+        return f"{name}: error: {error.get('type', 'Error')}: {message}"
+    return f"{name}: {status}: its worker died every try; rerun the same command to plan it again"

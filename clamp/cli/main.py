@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -32,7 +33,7 @@ from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError, PriorFileError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.cli.batch import add_batch_parser
-from clamp.cli.figures import write_figures
+from clamp.cli.figures import figure_clocks, figure_options, write_figures
 from clamp.cli.show import add_show_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
@@ -55,15 +56,32 @@ DEMO_START_OFFSET = np.array([0.0, -0.03, 0.03])
 TRAJECTORY_FILES = ("trajectory_{}.json", "trajectory_{}_ros2.json")
 
 
+#: the planner setting each option sets: (option, the setting's name in a config error)
+CONFIG_OPTIONS = {"epsilon": ("--epsilon", "config.model.epsilon"),
+                  "min_clearance": ("--min-clearance", "config.checks.min_clearance"),
+                  "initialisation": ("--init", "config.optimizer.initialisation"),
+                  "max_iterations": ("--max-iterations", "config.optimizer.max_iterations"),
+                  "optimizer": ("--optimizer", "config.optimizer.optimizer"),
+                  "sigma_obs": ("--sigma-obs", "config.model.sigma_obs")}
+
+
 def _config(args: argparse.Namespace) -> PlannerConfig:
     """PlannerConfig() (PlannerConfig.fast() with --fast) with the options given on the command
-    line; an option left out keeps the Python API's default."""
+    line; an option left out keeps the Python API's default. A value the config refuses is
+    InvalidParameterError naming the option as typed."""
     given = {"epsilon": args.epsilon, "min_clearance": args.min_clearance, "initialisation": args.init,
              "max_iterations": args.max_iterations, "optimizer": args.optimizer,
              "sigma_obs": args.sigma_obs}
     changes = {name: value for name, value in given.items() if value is not None}
-    config = PlannerConfig.fast(**changes) if args.fast else PlannerConfig().with_(**changes)
-    return config.validate()
+    try:
+        config = PlannerConfig.fast(**changes) if args.fast else PlannerConfig().with_(**changes)
+        return config.validate()
+    except InvalidParameterError as exc:
+        text = str(exc)
+        for name, (option, setting) in CONFIG_OPTIONS.items():
+            if name in changes and text.startswith(f"{setting}:"):
+                raise InvalidParameterError(option + text[len(setting):]) from None
+        raise
 
 
 def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
@@ -230,9 +248,9 @@ def state_times(q: np.ndarray, trajectory: Any) -> np.ndarray:
 
 
 def on_trajectory_clock(result: PlanResult, record: dict[str, Any]) -> dict[str, Any] | None:
-    """``result.nearest_contact`` (its ``time`` on the skill's clock) with ``trajectory_time``
-    [s] added: the same instant on the executable trajectory's clock (None without a
-    trajectory); None without a contact."""
+    """``result.nearest_contact`` (its ``time`` on the skill's clock, which ``time_clock``
+    names) with ``skill_time`` and ``trajectory_time`` [s] added: the same instant on the
+    executable trajectory's clock (None without a trajectory); None without a contact."""
     contact = result.nearest_contact
     if contact is None:
         return None
@@ -240,7 +258,21 @@ def on_trajectory_clock(result: PlanResult, record: dict[str, Any]) -> dict[str,
     index = contact.get("index")
     moment = None if times is None or index is None else float(
         np.interp(index, np.arange(len(times)), times))
-    return {**contact, "skill_time": contact.get("time"), "trajectory_time": moment}
+    return {**contact, "time_clock": "skill", "skill_time": contact.get("time"), "trajectory_time": moment}
+
+
+def contact_summary(name: str, contact: dict[str, Any] | None) -> str | None:
+    """One line for the summary: where plan ``name`` comes closest to an obstacle, on the
+    trajectory's clock where it has one and on the skill's (``contact``: the plan JSON's
+    ``nearest_contact``, :func:`on_trajectory_clock`); None without obstacles."""
+    if contact is None or contact.get("distance") is None:
+        return None
+    when = [] if contact.get("trajectory_time") is None else [f"trajectory time {contact['trajectory_time']:.2f} s"]
+    if contact.get("skill_time") is not None:
+        when.append(f"skill time t = {contact['skill_time']:.2f} s")
+    at = f" at {when[0]}" + (f" ({when[1]})" if len(when) > 1 else "") if when else ""
+    return (f"nearest contact {name}: {1e3 * contact['distance']:.1f} mm, link {contact.get('link')} "
+            f"to {contact.get('obstacle')}{at}")
 
 
 def flagged(error: Exception, option: str) -> Exception:
@@ -276,15 +308,46 @@ def load_robot_from_args(args: argparse.Namespace) -> Any:
 def _plan_all(prior: Any, robot: Any, start: np.ndarray,
               requests: Sequence[tuple[str, Any, PlannerConfig, dict[str, Any]]]
               ) -> list[PlanResult]:
-    """plan() for each (name, scene, config, options), one progress-bar step per plan."""
+    """plan() for each (name, scene, config, options), one progress-bar step per plan, and the
+    search's own progress line (:func:`search_progress`)."""
     from clamp.planning.planner import plan
     results = []
     bar = progress(requests, description="planning", unit="plan")
     for name, scene, config, options in bar:
         bar.set_postfix_str(f"{name} ({config.optimizer.optimizer})")
         log.info("planning %r with the %s optimizer", name, config.optimizer.optimizer)
-        results.append(plan(prior, robot, scene, start, config=config, **options))
+        with search_progress(name):
+            results.append(plan(prior, robot, scene, start, config=config, **options))
     return results
+
+
+#: [s] how long a plan searches before its progress line shows (a quick plan draws none)
+SEARCH_PROGRESS_DELAY = 1.0
+
+
+@contextmanager
+def search_progress(name: str) -> Iterator[None]:
+    """Within the block, a progress line on stderr for the search of plan ``name`` once it has
+    lasted SEARCH_PROGRESS_DELAY s (on a terminal only, never with -q:
+    :mod:`skillplan.progress`): the work spent against the budget (solver trials and judged
+    optima, the budget's count), the starts and solves,
+    updated after every start (:mod:`clamp.planning.progress`; the searches of one plan, at
+    several time scales, add up)."""
+    from clamp.planning.progress import SearchProgress, watching
+    spent = {"before": 0, "last": 0}
+
+    with progress(description=f"searching {name!r}", unit="trial",
+                  delay=SEARCH_PROGRESS_DELAY) as bar:
+        def show(state: SearchProgress) -> None:
+            if state.work < spent["last"]:               # a new search of the same plan
+                spent["before"] += spent["last"]
+            spent["last"] = state.work
+            bar.total = None if state.limit is None else spent["before"] + math.ceil(state.limit)
+            bar.set_postfix_str(f"{state.starts} start{'s' if state.starts != 1 else ''}, {state.solves} "
+                                f"solve{'s' if state.solves != 1 else ''}", refresh=False)
+            bar.update(spent["before"] + state.work - bar.n)
+        with watching(show):
+            yield
 
 
 def learned_prior(demos: Any) -> Any:
@@ -308,6 +371,11 @@ def unaware_summary(robot: Any, scene: Any, empty: PlanResult) -> str:
 
 
 def run_demo(args: argparse.Namespace) -> int:
+    from scenes.synthetic import SKILLS
+    if args.skill not in SKILLS:          # bad input is refused before the output folder is made
+        raise InvalidParameterError(f"--skill: unknown skill {args.skill!r}; expected one of the "
+                                    f"built-in skills: {', '.join(SKILLS)}")
+    _config(args)
     with created_output_directory(args.out, args.force) as out:
         return _demo(args, out)
 
@@ -332,7 +400,8 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
     write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
                scene=scene.to_dict(), trajectory=exported["obstacle"])
     write_figures(out, prior, demos, robot, config,
-                  [("empty", empty, None), ("obstacle", with_obstacle, scene)])
+                  [("empty", empty, None), ("obstacle", with_obstacle, scene)],
+                  figure_clocks(args.clock, exported))
     save_view_inputs(out, {"empty": {"scene": None, "start": start},
                            "obstacle": {"scene": scene, "start": start}}, prior, demos, robot_spec(args), config)
     if not quiet(args):
@@ -342,6 +411,9 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
                             verbose=verbose(args)))
         print(unaware_summary(robot, scene, empty))
         print(trajectory_summary(exported))
+        contact = contact_summary("obstacle", on_trajectory_clock(with_obstacle, exported["obstacle"]))
+        if contact is not None:
+            print(contact)
         print(f"wrote figures and plans to {out}")
     report_failures(args, rows, {"empty scene": exported["empty"], "obstacle": exported["obstacle"]})
     return EXIT_OK if all(record["files"] for record in exported.values()) else EXIT_FAILED
@@ -432,6 +504,9 @@ LEARNING_OPTIONS = {"--topic": "topic", "--frames": "frames", "--num-points": "n
 
 
 def run_plan(args: argparse.Namespace) -> int:
+    if args.clock is not None and not args.figures:
+        raise InvalidParameterError("--clock: only with --figures (the figures' time axis; clamp show "
+                                    "--clock draws them later)")
     if args.prior is not None:
         given = [option for option, name in LEARNING_OPTIONS.items() if getattr(args, name) is not None]
         given += ["--split"] if args.split is not None else []
@@ -443,6 +518,7 @@ def run_plan(args: argparse.Namespace) -> int:
         check_demonstration_args(args)
     if args.scene:
         as_file(args.scene, "--scene", SceneFileError)
+    _config(args)
     with created_output_directory(args.out, args.force) as out:
         return _plan_from_files(args, out)
 
@@ -473,13 +549,17 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     if args.figures:
-        write_figures(out, prior, demos, robot, config, [("result", result, scene)])
+        write_figures(out, prior, demos, robot, config, [("result", result, scene)],
+                      figure_clocks(args.clock, exported))
     save_view_inputs(out, {"plan": {"scene": scene, "start": start, "goal": goal}}, prior, demos,
                      robot_spec(args), config)
     name = Path(args.prior if args.prior is not None else args.demos[0]).stem
     if not quiet(args):
         print(summary_table([(name, result)], {name: exported["result"]}, verbose=verbose(args)))
         print(trajectory_summary(exported))
+        contact = contact_summary(name, on_trajectory_clock(result, exported["result"]))
+        if contact is not None:
+            print(contact)
         print(f"wrote {'figures and ' if args.figures else ''}plan to {out}")
     report_failures(args, [(name, result)], {name: exported["result"]})
     return EXIT_OK if exported["result"]["files"] else EXIT_FAILED
@@ -656,7 +736,9 @@ def parser() -> argparse.ArgumentParser:
     robot_options(demo, default_robot="jaco")
     trajectory_options(demo)
     demo.add_argument("--skill", default="box_closing", help="built-in skill (scenes.SKILLS)")
-    demo.add_argument("--num-points", type=integer_at_least(2), default=250, help="support states T")
+    figure_options(demo)
+    demo.add_argument("--num-points", type=integer_at_least(4), default=250,
+                      help="support states T (at least 4; default 250)")
     demo.set_defaults(run=run_demo)
 
     learn = sub.add_parser("learn", help="learn the prior from demonstrations and save it (plan from it "
@@ -692,6 +774,7 @@ def parser() -> argparse.ArgumentParser:
                       help="also draw the figures (prior, plan 3-D, top view, joints, clearance, "
                            "uncertainty) and the browser animation: seconds more (default: plan and "
                            "trajectory files only; clamp show OUT draws them later)")
+    figure_options(user)
     user.set_defaults(run=run_plan)
     add_batch_parser(sub)
     add_view_parser(sub)

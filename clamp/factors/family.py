@@ -50,15 +50,17 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import gtsam
 import numpy as np
 
 from clamp.errors import InvalidParameterError
 from clamp.validation import as_array, as_count, as_covariance, as_indices, cholesky
 
 from .states import StateWindow
+
+if TYPE_CHECKING:       # the GTSAM face (noise_model) loads GTSAM when it is used
+    import gtsam
 
 
 @dataclass(frozen=True)
@@ -377,6 +379,7 @@ class Family:
 
     def noise_model(self, row: int) -> gtsam.noiseModel.Base:
         """GTSAM noise model of factor ``row`` (isotropic or Gaussian square-root information)."""
+        import gtsam
         w = self.whitening[row]
         if np.ndim(w) == 0:
             return gtsam.noiseModel.Isotropic.Sigma(self.dim, 1.0 / float(w))

@@ -1,18 +1,30 @@
-"""GTSAM keys of the planner's variables and the stacking of their vectors to / from arrays."""
+"""GTSAM keys of the planner's variables and the stacking of their vectors to / from arrays.
+
+The keys are computed without GTSAM (its encoding of a symbol, :func:`symbol_key`): the fast
+solver's problems use them and never load it; the conversions load it when called."""
 from __future__ import annotations
 
 from collections.abc import Sequence
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
-import gtsam
 import numpy as np
+
+if TYPE_CHECKING:
+    import gtsam
 
 STATE_SYMBOL = "x"
 
 
+def symbol_key(character: str, index: int) -> int:
+    """GTSAM's key of the symbol (``character``, ``index``), as ``gtsam.symbol`` makes it: the
+    character's code in the top 8 of 64 bits, the index (0 <= index < 2**56) below."""
+    return (ord(character) << 56) | int(index)
+
+
 def state_key(index: int) -> int:
     """Key of the joint state theta_i = [q, qdot] (2n,) of support state ``index``."""
-    return gtsam.symbol(STATE_SYMBOL, int(index))
+    return symbol_key(STATE_SYMBOL, index)
 
 
 @lru_cache(maxsize=8)
@@ -28,6 +40,7 @@ def values_to_states(values: gtsam.Values | gtsam.VectorValues, keys: Sequence[i
     When ``values`` holds exactly ``keys`` (GTSAM stores them sorted), the vectors are read in
     one C++ call (Values: utilities.extractVectors of the keys' symbol; VectorValues: vector()).
     """
+    import gtsam
     keys = list(keys)
     if values.size() == len(keys) and keys == sorted(keys):
         if isinstance(values, gtsam.VectorValues):
@@ -47,6 +60,7 @@ def values_to_states(values: gtsam.Values | gtsam.VectorValues, keys: Sequence[i
 
 def states_to_values(theta: np.ndarray, keys: Sequence[int]) -> gtsam.Values:
     """GTSAM Values holding row i of theta (T, d) under keys[i]."""
+    import gtsam
     values = gtsam.Values()
     for key, row in zip(keys, theta):
         values.insert(key, row)

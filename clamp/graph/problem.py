@@ -23,16 +23,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import gtsam
 import numpy as np
 
 from clamp.errors import InvalidParameterError
 from clamp.factors.family import Family
-from clamp.graph.gtsam_adapter import SharedStates, gtsam_factors
 from clamp.factors.states import StateWindow
 from clamp.graph.keys import state_keys, states_to_values
 from clamp.validation import as_array
+
+if TYPE_CHECKING:       # the GTSAM face loads GTSAM when it is used: the fast solver never does
+    import gtsam
 
 
 @dataclass(frozen=True)
@@ -82,6 +84,7 @@ class PlanningProblem:
         """State indices of every foreign factor, or None when one is not banded."""
         if not self.foreign:
             return []
+        import gtsam
         position = {k: i for i, k in enumerate(self.keys)}
         out = []
         for k, factor in enumerate(self.foreign):
@@ -134,6 +137,8 @@ class PlanningProblem:
     # ------------------------------------------------------------------------------ GTSAM face
     def graph(self) -> gtsam.NonlinearFactorGraph:
         """A new GTSAM graph: every family's factors (in family order), then the foreign ones."""
+        import gtsam
+        from clamp.graph.gtsam_adapter import SharedStates, gtsam_factors
         shared = SharedStates(self.robot, self.keys)
         graph = gtsam.NonlinearFactorGraph()
         for family in self.families:
@@ -157,6 +162,7 @@ class PlanningProblem:
         return self._window
 
     def _foreign_values(self, theta: np.ndarray, states: Sequence[int]) -> gtsam.Values:
+        import gtsam
         values = gtsam.Values()
         for s in states:
             values.insert(self.keys[s], theta[s])

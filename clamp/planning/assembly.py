@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, Union
+from typing import TYPE_CHECKING, Any, Union
 
-import gtsam
 import numpy as np
 
 from clamp.config import PlannerConfig
@@ -24,13 +23,16 @@ from clamp.graph.problem import PlanningProblem
 from clamp.prior import so3
 from clamp.factors import joint_limits
 from clamp.planning.request import (IK_TOLERANCE, Request, Target, as_extras, as_sdf,
-                                    has_obstacles)
+                                    has_obstacles, is_gtsam_factor)
 from clamp.validation import as_array
 
-PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
+if TYPE_CHECKING:       # a GTSAM factor is only ever met once the caller has loaded GTSAM
+    import gtsam
+
+PerStateFactorMaker = Callable[[int, int, int], Union["gtsam.NonlinearFactor", None]]
 #: what ``extra_factors`` may hold: a family (fast path), any GTSAM factor on the planner's
 #: state keys, or a maker(index, num_states, key) -> factor | None called for every state
-ExtraFactor = Union[Family, gtsam.NonlinearFactor, PerStateFactorMaker]
+ExtraFactor = Union[Family, "gtsam.NonlinearFactor", PerStateFactorMaker]
 
 
 def configured_initialisation(prior: Any, robot: Any, request: Request,
@@ -167,14 +169,14 @@ def split_extras(extra_factors: Sequence[ExtraFactor], T: int, robot: Any = None
                 raise InvalidParameterError(f"extra_factors[{k}]: family {extra.name!r} uses "
                                             f"states outside 0..{T - 1}")
             families.append(extra)
-        elif isinstance(extra, gtsam.NonlinearFactor):
+        elif is_gtsam_factor(extra):
             factors.append(extra)
         elif callable(extra):
             for i in range(T):
                 made = extra(i, T, state_key(i))
                 if made is None:
                     continue
-                if not isinstance(made, gtsam.NonlinearFactor):
+                if not is_gtsam_factor(made):
                     raise InvalidParameterError(f"extra_factors[{k}]: the maker returned "
                                                 f"{type(made).__name__} for state {i}, expected "
                                                 "a gtsam.NonlinearFactor or None")

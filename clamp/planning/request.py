@@ -3,6 +3,7 @@ goal and via points a caller passed, validated once (ClampError naming the argum
 resolved (an end-effector start solved by inverse kinematics)."""
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -97,11 +98,16 @@ def as_sdf(sdf: Any, scene: Any) -> Any:
     return sdf
 
 
+def is_gtsam_factor(value: Any) -> bool:
+    """Whether ``value`` is a ``gtsam.NonlinearFactor``, asked without loading GTSAM (a GTSAM
+    factor exists only once GTSAM is loaded)."""
+    gtsam = sys.modules.get("gtsam")
+    return gtsam is not None and isinstance(value, gtsam.NonlinearFactor)
+
+
 def as_extras(extra_factors: Any) -> list:
     """extra_factors as a list: a sequence as is, a single family / factor / maker wrapped."""
-    import gtsam
-
-    if isinstance(extra_factors, (Family, gtsam.NonlinearFactor)) or callable(extra_factors):
+    if isinstance(extra_factors, Family) or is_gtsam_factor(extra_factors) or callable(extra_factors):
         return [extra_factors]
     return as_sequence(extra_factors, "extra_factors", "a list of clamp Families, GTSAM factors "
                        "or makers", ClampTypeError)

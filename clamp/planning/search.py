@@ -55,6 +55,7 @@ from clamp.optim.solver import WarmStart
 from clamp.planning.assembly import configured_initialisation, without_family
 from clamp.planning.clearance import check_clearance
 from clamp.planning.detours import detour_search, detour_trajectory
+from clamp.planning.progress import SearchProgress, report
 from clamp.planning.reach import reach_radius
 from clamp.planning.request import IK_TOLERANCE
 from clamp.prior.skill import TUBE_RATIO, SkillRegion
@@ -285,6 +286,8 @@ def search(model: Any, judge: Judge, lazy: Lazy, budget: Budget,
             solve_start(start, model.config, judge, ledger, lazy, AL,
                         lambda: budget.late(_judging(ledger)))
             spend.measured(ledger, begun)
+            report(SearchProgress(spend.starts, len(ledger.rounds), ledger.work, spend.limit,
+                                  ledger.feasible is not None))
             if _finished(ledger):
                 break
         else:

@@ -8,6 +8,12 @@
   geometry the verdict judges, and the optimiser's spheres) with the safety distance epsilon
   and contact marked;
 - :func:`plot_plan_uncertainty`: end-effector position against time with its posterior band.
+
+Two clocks: a figure against time is drawn on the skill's clock (the plan's support-state times
+``result.time``: the demonstrations' time, times the time scale k), or, given ``state_times``
+(T,) [s], when the executable trajectory passes each support state (the plan JSON's
+``trajectory.state_times``), on the trajectory's clock; the time axis says which
+(:func:`plan_clock`).
 """
 from __future__ import annotations
 
@@ -20,7 +26,7 @@ from matplotlib.figure import Figure
 
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.planning.request import as_scene, check_robot
-from clamp.validation import as_count, as_scalar
+from clamp.validation import as_array, as_count, as_scalar
 from clamp.viz.prior_plots import covariance_tube
 from scenes.plotting import draw_obstacle, set_equal_axes_3d
 from clamp.factors import OrientationFamily
@@ -29,6 +35,21 @@ from clamp.planning.verdict import sphere_clearance
 
 #: probability mass inside the drawn posterior tube / band
 LEVEL = 0.95
+#: the time axis on each clock (:func:`plan_clock`)
+CLOCK_AXES = {"skill": "skill time [s]", "trajectory": "trajectory time [s]"}
+
+
+def plan_clock(result: Any, state_times: Any = None) -> tuple[np.ndarray, str]:
+    """The times (T,) [s] of a plan's support states and the axis label naming their clock: the
+    skill's (``result.time``) when ``state_times`` is None, else ``state_times`` (T,) [s]: when
+    the executable trajectory passes each state (non-decreasing, from 0), on its clock."""
+    if state_times is None:
+        return np.asarray(result.time, dtype=float), CLOCK_AXES["skill"]
+    times = as_array(state_times, "state_times", (len(result.q),))
+    if times[0] < 0.0 or np.any(np.diff(times) < 0.0):
+        raise InvalidParameterError("state_times: expected non-decreasing times [s] from 0 (when the "
+                                    "trajectory passes each support state)")
+    return times, CLOCK_AXES["trajectory"]
 
 
 def _check_result(result: Any, *fields: str) -> Any:
@@ -99,23 +120,26 @@ def plot_plan_3d(result: Any, robot: Any, scene: Any = None, *, prior: Any = Non
 
 
 def plot_plan_uncertainty(result: Any, path: str | os.PathLike[str] | None = None,
-                          title: str | None = None, dpi: int = 120) -> Figure:
-    """End-effector position x, y, z [m] against time [s] with the posterior 95 % band
-    (+- 1.96 standard deviations from ``result.ee_covariance``), one panel per axis."""
+                          title: str | None = None, dpi: int = 120, *,
+                          state_times: Any = None) -> Figure:
+    """End-effector position x, y, z [m] against time [s] (on the clock of ``state_times``:
+    :func:`plan_clock`) with the posterior 95 % band (+- 1.96 standard deviations from
+    ``result.ee_covariance``), one panel per axis."""
     std = _check_result(result, "ee_std").ee_std
+    t, axis = plan_clock(result, state_times)
     if std is None:
         raise InvalidParameterError("result: no posterior covariance (plan with covariance=True)")
     fig = Figure(figsize=(7.5, 6.0))
     axes = fig.subplots(3, 1, sharex=True)
     z = 1.959963984540054
     for k, (ax, name) in enumerate(zip(axes, "xyz")):
-        ax.fill_between(result.time, result.ee_path[:, k] - z * std[:, k],
+        ax.fill_between(t, result.ee_path[:, k] - z * std[:, k],
                         result.ee_path[:, k] + z * std[:, k], color="tab:orange", alpha=0.3,
                         label=f"posterior {LEVEL:.0%} band")
-        ax.plot(result.time, result.ee_path[:, k], color="tab:orange", lw=1.5, label="plan")
+        ax.plot(t, result.ee_path[:, k], color="tab:orange", lw=1.5, label="plan")
         ax.set_ylabel(f"{name} [m]")
     axes[0].legend(loc="best", fontsize=7)
-    axes[-1].set_xlabel("skill time [s]")
+    axes[-1].set_xlabel(axis)
     axes[0].set_title(title or f"end-effector position and posterior uncertainty "
                       f"(largest std {1e3 * std.max():.2g} mm)", fontsize=9)
     fig.tight_layout()
@@ -126,10 +150,12 @@ def plot_plan_uncertainty(result: Any, path: str | os.PathLike[str] | None = Non
 
 def plot_orientation(result: Any, robot: Any, family: Any,
                      path: str | os.PathLike[str] | None = None, title: str | None = None,
-                     dpi: int = 120) -> Figure:
-    """Angle of the tool from an orientation family's target [deg] against time over the whole
-    plan, with the family's window shaded and its tolerance; writes a PNG to ``path``."""
+                     dpi: int = 120, *, state_times: Any = None) -> Figure:
+    """Angle of the tool from an orientation family's target [deg] against time [s] (on the
+    clock of ``state_times``: :func:`plan_clock`) over the whole plan, with the family's window
+    shaded and its tolerance; writes a PNG to ``path``."""
     _check_inputs(result, robot)
+    t, axis = plan_clock(result, state_times)
     if not isinstance(family, OrientationFamily):
         raise ClampTypeError(f"family: expected a clamp.factors.OrientationFamily, got "
                                 f"{type(family).__name__}")
@@ -139,11 +165,11 @@ def plot_orientation(result: Any, robot: Any, family: Any,
     angles = np.degrees(every.angles(robot, result.q))
     fig = Figure(figsize=(7.5, 3.6))
     ax = fig.add_subplot()
-    window = result.time[family.first]
+    window = t[family.first]
     ax.axvspan(window[0], window[-1], color="tab:green", alpha=0.12, label="constrained window")
     ax.axhline(np.degrees(family.tolerance), color="tab:red", ls="--", lw=1, label="tolerance")
-    ax.plot(result.time, angles, color="tab:blue", lw=1.5, label="angle from target")
-    ax.set_xlabel("skill time [s]")
+    ax.plot(t, angles, color="tab:blue", lw=1.5, label="angle from target")
+    ax.set_xlabel(axis)
     ax.set_ylabel("angle [deg]")
     worst = float(np.max(angles[family.first]))
     ax.set_title(title or f"tool orientation (largest in window {worst:.2f} deg)", fontsize=9)
@@ -213,11 +239,14 @@ def plot_top_view(result: Any, robot: Any, scene: Any = None, *, prior: Any = No
     return fig
 
 
-def plot_joint_angles(result: Any, robot: Any, title: str | None = None) -> Figure:
-    """Every joint angle [rad] against time [s], one panel per joint; the region outside the
-    joint's position limits is shaded (continuous joints: no limits)."""
+def plot_joint_angles(result: Any, robot: Any, title: str | None = None, *,
+                      state_times: Any = None) -> Figure:
+    """Every joint angle [rad] against time [s] (on the clock of ``state_times``:
+    :func:`plan_clock`), one panel per joint; the region outside the joint's position limits
+    is shaded (continuous joints: no limits)."""
     _check_inputs(result, robot)
-    q, t = np.asarray(result.q), np.asarray(result.time)
+    q = np.asarray(result.q)
+    t, axis = plan_clock(result, state_times)
     n = q.shape[1]
     cols = 2 if n <= 8 else 3
     rows = int(np.ceil(n / cols))
@@ -244,7 +273,7 @@ def plot_joint_angles(result: Any, robot: Any, title: str | None = None) -> Figu
     for ax in axes[n:]:
         ax.axis("off")
     for ax in axes[max(n - cols, 0):n]:
-        ax.set_xlabel("skill time [s]")
+        ax.set_xlabel(axis)
         ax.tick_params(labelbottom=True)
     from matplotlib.patches import Patch
     from matplotlib.lines import Line2D
@@ -258,19 +287,20 @@ def plot_joint_angles(result: Any, robot: Any, title: str | None = None) -> Figu
 
 
 def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
-                   title: str | None = None) -> Figure:
+                   title: str | None = None, *, state_times: Any = None) -> Figure:
     """Clearance [m] against time [s] at every support state: the distance between the arm's
     collision geometry (the URDF meshes the verdict judges, :mod:`clamp.planning.clearance`; exact up to
     a cap of max(3 epsilon, 15 cm), drawn at the cap beyond it) and the obstacles, the
     collision spheres' clearance the optimiser works with (dotted), the safety distance
-    ``epsilon`` [m] (the obstacle factors act below it) and contact (0) marked."""
+    ``epsilon`` [m] (the obstacle factors act below it) and contact (0) marked; time on the
+    clock of ``state_times`` (:func:`plan_clock`)."""
     scene = _check_inputs(result, robot, scene)
     epsilon = as_scalar(epsilon, "epsilon", minimum=0.0)
     q = np.asarray(result.q)
     spheres = np.min(sphere_clearance(robot, scene, q), axis=1)
     cap = max(3.0 * epsilon, 0.15)
     clearance, geometry = state_clearance(robot, scene, q, cap)
-    t = np.asarray(result.time)
+    t, axis = plan_clock(result, state_times)
     low = min(clearance.min(), spheres.min(), 0.0) - 0.01
     fig = Figure(figsize=(7.0, 3.6))
     ax = fig.add_subplot()
@@ -284,9 +314,9 @@ def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
             label="collision spheres (the optimiser's model)")
     k = int(np.argmin(clearance))
     ax.scatter(t[k], clearance[k], color="k", s=20, zorder=5,
-               label=f"minimum {clearance[k] * 1e3:.1f} mm at {t[k]:.2f} s")
+               label=f"minimum {clearance[k] * 1e3:.1f} mm at {axis.split(' [')[0]} {t[k]:.2f} s")
     ax.set_ylim(low, max(cap, epsilon) * 1.1 + 0.01)
-    ax.set_xlabel("skill time [s]")
+    ax.set_xlabel(axis)
     ax.set_ylabel("clearance [m]")
     ax.grid(alpha=0.3)
     ax.set_title(title or "distance between the arm and the obstacles", fontsize=10)
@@ -297,16 +327,18 @@ def plot_clearance(result: Any, robot: Any, scene: Any, epsilon: float,
 
 def plot_skill_orientation(result: Any, robot: Any,
                            path: str | os.PathLike[str] | None = None, title: str | None = None,
-                           dpi: int = 120) -> Figure:
+                           dpi: int = 120, *, state_times: Any = None) -> Figure:
     """A plan of a pose prior against the skill's orientation: the angle [deg] of the hand from
     where the skill turns it (the orientation chain conditioned on the plan's start, goal and
     via rotations) at every state, and the verdict's limit (TUBE_RATIO x the demonstrations'
     floored orientation spread, :mod:`clamp.prior.orientation_skill`); writes a PNG to
-    ``path``. InvalidParameterError for a plan of a position-only prior."""
+    ``path``; time on the clock of ``state_times`` (:func:`plan_clock`). InvalidParameterError
+    for a plan of a position-only prior."""
     from clamp.prior import so3
     from clamp.prior.orientation_skill import angle_spread
     from clamp.prior.skill import TUBE_RATIO
     _check_inputs(result, robot)
+    t, axis = plan_clock(result, state_times)
     reference = getattr(result.inputs.model_prior, "orientation", None)
     learned = getattr(result.inputs.prior, "orientation", None)
     if reference is None or learned is None:
@@ -317,10 +349,10 @@ def plot_skill_orientation(result: Any, robot: Any,
     limit = np.degrees(TUBE_RATIO * angle_spread(learned))
     fig = Figure(figsize=(7.5, 3.6))
     ax = fig.add_subplot()
-    ax.fill_between(result.time, 0.0, limit, color="tab:green", alpha=0.12,
+    ax.fill_between(t, 0.0, limit, color="tab:green", alpha=0.12,
                     label=f"the skill ({TUBE_RATIO:g} x the orientation spread)")
-    ax.plot(result.time, angle, color="tab:blue", lw=1.5, label="the hand's angle from the skill")
-    ax.set_xlabel("time [s]")
+    ax.plot(t, angle, color="tab:blue", lw=1.5, label="the hand's angle from the skill")
+    ax.set_xlabel(axis)
     ax.set_ylabel("angle [deg]")
     worst = int(np.argmax(angle / limit))
     ax.set_title(title or f"orientation against the skill (worst {angle[worst]:.1f} deg at state "

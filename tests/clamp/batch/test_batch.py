@@ -168,11 +168,32 @@ def test_command_line(tmp_path):
     again = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
     assert "4 of 4 problems already done" in again.stderr and len(read_results(out)) == 4
     silent = subprocess.run(cmd + ["-q"], capture_output=True, text=True, env=env, timeout=300)
-    assert (silent.returncode, silent.stdout, silent.stderr) == (1, "", "")   # -q: errors only
+    assert (silent.returncode, silent.stdout) == (1, "")                       # -q: errors only:
+    assert silent.stderr.splitlines() == [                                     # the one that failed
+        f"clamp batch: problem {problems[3].id!r}: error: UnknownRobotError: "
+        f"{lines[[r['id'] for r in lines].index(problems[3].id)]['error']['message']}"]
     bad = subprocess.run([sys.executable, "-m", "clamp", "batch", str(tmp_path / "none.jsonl"),
                           "--out", str(out)], capture_output=True, text=True, env=env, timeout=300)
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1 and "none.jsonl" in bad.stderr
+
+
+def test_a_plan_failing_its_verdict_exits_1_with_its_first_reason_on_stderr_under_quiet(tmp_path):
+    problems = start_problems(make_problem("b", SHORT, "jaco", [0.2, -0.47, 0.26]), 2, seed=4)
+    start = np.array(problems[0].start, dtype=float)        # a box around the start: planned, failed
+    problems[0] = problems[0].replace(id="start in a box",
+                                      scene=Scene([Box(start, [0.1, 0.1, 0.1])]).to_dict())
+    path = write_problems(problems, tmp_path / "problems.jsonl")
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    run = subprocess.run([sys.executable, "-m", "clamp", "batch", str(path), "--out", "r.jsonl",
+                          "--trajectories", "none", "-q"], capture_output=True, text=True, env=env,
+                         cwd=tmp_path, timeout=300)
+    records = {r["id"]: r for r in read_results(tmp_path / "r.jsonl")}
+    assert records[problems[1].id]["success"], records[problems[1].id]["reasons"]
+    failed = records["start in a box"]
+    assert failed["status"] == "done" and not failed["success"] and failed["reasons"]
+    assert (run.returncode, run.stdout) == (1, "")
+    assert run.stderr.splitlines() == [f"clamp batch: problem 'start in a box' failed: {failed['reasons'][0]}"]
 
 
 def _on_a_terminal(args: list[str], cwd: Path) -> str:

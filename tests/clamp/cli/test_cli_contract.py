@@ -40,13 +40,14 @@ def work(tmp_path_factory) -> Path:
     return folder
 
 
-def refused(result: subprocess.CompletedProcess, work: Path, flag: str, *words: str) -> str:
-    """Exit 2, one line on stderr naming ``flag`` and ``words``, no traceback, nothing on
-    stdout, no output folder."""
+def refused(result: subprocess.CompletedProcess, work: Path, flag: str, *words: str,
+            command: str = "plan") -> str:
+    """Exit 2, one line on stderr (of ``clamp COMMAND``) naming ``flag`` and ``words``, no
+    traceback, nothing on stdout, no output folder."""
     lines = result.stderr.strip().splitlines()
     assert result.returncode == 2, (result.returncode, result.stderr)
     assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
-    assert lines[0].startswith("clamp plan: error: "), lines[0]
+    assert lines[0].startswith(f"clamp {command}: error: "), lines[0]
     for word in (flag, *words):
         assert word in lines[0], (word, lines[0])
     assert result.stdout == ""
@@ -119,3 +120,33 @@ def test_joint_demonstrations_in_degrees(work, jaco):
     (work / "degrees.csv").write_text("\n".join(rows) + "\n")
     result = clamp(["plan", "--robot", "jaco", "--demos", "degrees.csv", *START, "--out", "out"], work)
     refused(result, work, "--demos:", "degrees.csv", "look like degrees: radians expected")
+
+
+@pytest.mark.parametrize("args, flag, words", [
+    (["--skill", "box_closin"], "--skill:", ["'box_closin'", "box_closing"]),
+    (["--num-points", "3"], "--num-points", ["expected an integer >= 4", "3"]),
+    (["--epsilon", "-0.01"], "--epsilon:", ["expected a number >= 0", "-0.01"]),
+    (["--min-clearance", "-1"], "--min-clearance:", [">= 0"]),
+    (["--robot", "nao"], "--robot:", ["'nao'", "jaco"]),
+    (["--urdf", "missing.urdf", "--end-effector", "tool"], "--urdf:", ["missing.urdf"]),
+    (["--acc-limit", "-2"], "--acc-limit:", ["positive", "-2.0"]),
+    (["--out", "typo.json"], "--out:", ["typo.json", "folder"]),
+])
+def test_demo_refuses_bad_input_before_any_output(work, args, flag, words):
+    result = clamp(["demo", *args] + ([] if "--out" in args else ["--out", "out"]), work)
+    refused(result, work, flag, *words, command="demo")
+
+
+def test_demo_leaves_a_folder_of_the_users_files_alone(work):
+    folder = work / "mine"
+    folder.mkdir(exist_ok=True)
+    (folder / "notes.txt").write_text("the user's")
+    result = clamp(["demo", "--out", "mine", "-q"], work)
+    refused(result, work, "--out:", "'mine'", "not empty", "--force", command="demo")
+    assert sorted(p.name for p in folder.iterdir()) == ["notes.txt"]
+
+
+def test_clock_is_for_the_figures(work):
+    result = clamp(["plan", "--robot", "jaco", "--demos", "demos.npz", *START, "--clock", "skill",
+                    "--out", "out"], work)
+    refused(result, work, "--clock:", "only with --figures", "clamp show")

@@ -67,7 +67,7 @@ CATALOGUE: list[tuple[list[str], str]] = [
     (CLAMP + ["demo", "--max-iterations", "0", "--out", "o"], "--max-iterations"),
     (CLAMP + ["demo", "--epsilon", "nan", "--out", "o"], "finite"),
     (CLAMP + ["demo", "--epsilon", "-0.1", "--out", "o"], "epsilon"),
-    (CLAMP + ["demo", "--sigma-obs", "0", "--out", "o"], "sigma_obs"),
+    (CLAMP + ["demo", "--sigma-obs", "0", "--out", "o"], "--sigma-obs"),
     (CLAMP + ["demo", "--optimizer", "adam", "--out", "o"], "adam"),
     (CLAMP + ["demo", "--init", "random", "--out", "o"], "random"),
     (CLAMP + ["demo", "--robot", "nonexistent_robot", "--out", "o"], "jaco"),

@@ -3,6 +3,7 @@
 - building the parser (``clamp --version``, ``--help``, a usage error) and ``import clamp``
   load none of the heavy libraries (GTSAM, SciPy, Pinocchio, matplotlib, rosbags, viser, Dask,
   TOPP-RA), and the public names still resolve;
+- ``clamp --version`` answers before NumPy loads; retiming loads TOPP-RA without matplotlib;
 - a second ``clamp plan`` on the same URDF arm reads the collision spheres the first one fitted
   (a cache entry shared by processes) and plans the very same q; no figures unless asked for,
   and no warning about ``clamp view`` (the package folders are recorded for it).
@@ -86,7 +87,7 @@ def test_a_second_plan_reads_the_fitted_spheres_and_plans_the_same_q(tmp_path, p
     assert problem["robot"]["package_dirs"] == [str(share.resolve())]
 
 
-def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys):
+def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys, monkeypatch):
     from clamp.cli.main import main
     from scenes import Box, Scene, make_demonstrations
     demos = make_demonstrations("box_closing", num_points=40, seed=1)
@@ -105,3 +106,40 @@ def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys):
     assert main(["show", str(out)]) == 2                            # drawn already: only with --force
     [line] = capsys.readouterr().err.strip().splitlines()
     assert "--force" in line and "plan_result.png" in line
+    import clamp.cli.figures as figures
+    drawn = {}
+    monkeypatch.setattr(figures, "write_figures", lambda *args: drawn.update(args[-1]))
+    recorded = json.loads((out / "plan.json").read_text())["trajectory"]["state_times"]
+    assert main(["show", str(out), "--force"]) == 0                  # on the trajectory's clock
+    assert list(drawn) == ["result"] and np.array_equal(drawn["result"], recorded)
+    drawn.clear()
+    assert main(["show", str(out), "--force", "--clock", "skill"]) == 0 and drawn == {}
+
+
+def test_retiming_loads_toppra_without_matplotlib_and_its_plotting_still_reaches_pyplot(tmp_path):
+    retimed = ("from robots import JointTrajectory, load_robot, retime\nimport numpy as np\n"
+               "robot = load_robot('jaco')\nt = np.linspace(0.0, 2.0, 30)\n"
+               "q = np.linspace(robot.neutral_configuration(), robot.neutral_configuration() + 0.5, 30)\n"
+               "traj = JointTrajectory.from_plan(robot, t, q, np.gradient(q, t, axis=0))\n"
+               "out, report = retime(traj, robot, 2.0, method='toppra')\n"
+               "assert report.method == 'toppra' and out.duration > 0")
+    loaded = loaded_after(retimed, tmp_path)
+    assert "toppra" in loaded and "matplotlib" not in loaded
+    plotting = ("from robots.retiming import import_toppra\nimport_toppra()\n"
+                "import toppra.algorithm.algorithm as algorithm, matplotlib.pyplot as plt\n"
+                "assert algorithm.plt.plot is plt.plot")
+    assert "matplotlib" in loaded_after(plotting, tmp_path)
+
+
+def test_version_answers_before_numpy_loads_as_the_parser_does(tmp_path):
+    code = ("import sys\nfrom clamp.cli import main\nassert main(['--version']) == 0\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'numpy', 'gtsam', 'scipy'}))")
+    done = python(["-c", code], tmp_path)
+    assert done.returncode == 0, done.stderr
+    fast, loaded = done.stdout.strip().splitlines()
+    assert loaded == "[]"
+    parsed = python(["-c", "from clamp.cli.main import parser\nparser().parse_args(['--version'])"], tmp_path)
+    assert parsed.returncode == 0 and parsed.stdout.strip() == fast and fast.startswith("clamp ")
+    entry = python(["-c", "import clamp.cli\nassert clamp.cli.main(['demo', '--skill', 'x']) == 2\n"
+                          "assert callable(clamp.cli.main)"], tmp_path)    # still the entry point
+    assert entry.returncode == 0, entry.stderr

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from clamp import learn_prior, plan
-from clamp.cli.main import state_times, summary_table, write_plan, write_trajectory
+from clamp.cli.main import (contact_summary, on_trajectory_clock, state_times, summary_table, write_plan,
+                            write_trajectory)
 from robots.trajectory import load_trajectory
 from scenes import Box, Scene, make_demonstrations
 
@@ -66,6 +67,18 @@ def test_the_nearest_contact_is_dated_on_both_clocks(planned):
     assert contact["trajectory_time"] == pytest.approx(
         np.interp(contact["index"], np.arange(len(record["state_times"])), record["state_times"]))
     assert 0.0 < contact["trajectory_time"] < record["duration"]
+    assert contact["time_clock"] == "skill" and contact["time"] == contact["skill_time"]
+
+
+def test_the_summary_says_the_nearest_contact_on_both_clocks(planned):
+    result, record, _ = planned
+    contact = on_trajectory_clock(result, record)
+    line = contact_summary("p", contact)
+    assert line == (f"nearest contact p: {result.min_clearance * 1e3:.1f} mm, link {contact['link']} to "
+                    f"{contact['obstacle']} at trajectory time {contact['trajectory_time']:.2f} s "
+                    f"(skill time t = {contact['skill_time']:.2f} s)")
+    assert "trajectory time" not in contact_summary("p", on_trajectory_clock(result, {"files": []}))
+    assert contact_summary("p", None) is None
 
 
 def _identity(result):
