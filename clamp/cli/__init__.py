@@ -1,4 +1,4 @@
-"""The command lines: ``clamp demo`` / ``clamp plan`` (:mod:`.main`), ``clamp view``
+"""The command lines: ``clamp demo`` / ``clamp plan`` (:mod:`.commands`), ``clamp view``
 (:mod:`.viewer`), ``clamp show`` (:mod:`.show`) and ``clamp batch`` (:mod:`.batch`)."""
 from __future__ import annotations
 
@@ -14,14 +14,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``clamp`` (the console script and ``python -m clamp``); returns the exit
     code. ``clamp --version`` alone is answered here, as the parser answers it, before the
     parser and NumPy load (half of its time); everything else runs
-    :func:`clamp.cli.main.main`."""
+    :func:`clamp.cli.commands.main`."""
     arguments = sys.argv[1:] if argv is None else list(argv)
     if arguments == ["--version"]:
         print(f"clamp {package_version()}")
         return 0
-    from clamp.cli.main import main as run
-    globals()["main"] = _ENTRY          # importing the module clamp.cli.main rebinds this name to it
+    from clamp.cli.commands import main as run
     return run(arguments)
-
-
-_ENTRY = main

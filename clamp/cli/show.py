@@ -30,7 +30,7 @@ FIGURE_NAMES = {"plan": "result"}
 
 def recorded_trajectory(folder: Path, name: str) -> dict[str, Any]:
     """The trajectory record of plan ``name`` in the plan JSON of ``folder`` (files, duration,
-    state_times, error; :func:`clamp.cli.main.write_trajectory`); an empty one when the JSON
+    state_times, error; :func:`clamp.cli.commands.write_trajectory`); an empty one when the JSON
     is missing or unreadable (its figures are then on the skill's clock)."""
     path = folder / PLAN_FILES.get(name, f"plan_{name}.json")
     try:

@@ -25,7 +25,7 @@ def plans(jaco, sawyer, prior):
     (free, and around a box under its path), on the Sawyer box_closing moved into its reach,
     around the skill's box."""
     from clamp import learn_prior, plan
-    from clamp.cli.main import DEMO_START_OFFSET, obstacle_below_path
+    from clamp.cli.commands import DEMO_START_OFFSET, obstacle_below_path
     from scenes import Scene, builtin_scene, make_demonstrations
     start = prior.mean[0, :3] + DEMO_START_OFFSET
     free = plan(prior, jaco, None, start)
@@ -198,7 +198,7 @@ def test_plan_result_to_joint_trajectory_with_jerk_limits(plans):
 
 # ----------------------------------------------------------------------------- command line
 def test_cli_plan_with_jerk_limit(tmp_path, capsys):
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     from scenes import make_demonstrations
     demos = make_demonstrations("box_closing", num_points=60, seed=1)
     demos.save_npz(tmp_path / "demos.npz")
@@ -222,7 +222,7 @@ def test_cli_plan_with_jerk_limit(tmp_path, capsys):
 @pytest.mark.parametrize("extra", [["--jerk-limit", "-5"], ["--jerk-limit", "5", "--no-retime"],
                                    ["--jerk-limit", "1", "2"]])
 def test_cli_bad_jerk_limit(tmp_path, capsys, extra):
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     argv = ["plan", "--demos", str(tmp_path / "demos.npz"), "--robot", "jaco", "--start", "0.3", "0", "0.2"]
     from scenes import make_demonstrations
     make_demonstrations("box_closing", num_points=20, seed=1).save_npz(tmp_path / "demos.npz")

@@ -320,7 +320,7 @@ def test_bad_arguments(good, jaco, tmp_path):
 
 # ------------------------------------------------------------------------------ command line
 def test_clamp_plan_bad_bag_is_one_line_and_exit_2(tmp_path, capfd, jaco, good):
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     bag = tmp_path / "broken.mcap"
     bag.write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 50)
     code = main(["plan", "--demos", str(bag), str(good[1]), "--topic", "/joint_states", "--robot", "jaco",
@@ -336,7 +336,7 @@ def test_clamp_plan_learns_from_bags(tmp_path, jaco):
     """``clamp plan --demos a.mcap b.db3 --topic /joint_states --robot jaco`` plans."""
     import json
 
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     demos = make_demonstrations("box_closing", num_demos=4, num_points=60, seed=0)
     q = joint_recordings(jaco, demos)
     bags = [joint_bag(tmp_path / f"rec{m}", jaco, demos.time, q[m], storage=("mcap", "db3")[m % 2],
@@ -381,7 +381,7 @@ def test_auto_split_finds_the_demonstrations_of_a_bag_separated_by_short_rests(j
     assert gap < 1e-3, gap
     # the default command: clamp learn on the same bags says the split and learns that prior
     from clamp import WorkspacePrior
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     capsys.readouterr()
     assert main(["learn", "--demos", *map(str, bags), "--topic", "/joint_states", "--robot", "jaco",
                  "--num-points", str(demos.T), "--out", str(tmp_path / "prior.npz")]) == 0

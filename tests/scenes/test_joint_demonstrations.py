@@ -147,7 +147,7 @@ def test_clamp_plan_takes_joint_space_demonstrations(jaco, tmp_path):
     CSV through the arm's forward kinematics."""
     import json
 
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     demos = make_demonstrations("box_closing", num_demos=6, seed=0, num_points=60)
     path = write_joint_csv(tmp_path / "joints.csv", jaco, demos.time, joint_recordings(jaco, demos))
     out = tmp_path / "out"

@@ -16,7 +16,7 @@ import scipy.io
 from scipy.spatial.transform import Rotation
 
 from bad_input import raises_naming
-from clamp.cli.main import main
+from clamp.cli.commands import main
 from scenes import DemonstrationFileError, Demonstrations, load_demonstrations, make_demonstrations, save_csv
 from scenes.errors import InvalidDemonstrationsError
 from tests.scenes.test_bags import TYPES, joint_bag, write_bag, _header

@@ -219,7 +219,7 @@ def read_only_folder(tmp_path) -> Iterator[Path]:
 
 
 def _main(args: list, capfd) -> tuple[int, str]:
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     code = main([str(a) for a in args])
     return code, capfd.readouterr().err
 

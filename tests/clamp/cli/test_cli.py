@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from clamp.cli.main import main
+from clamp.cli.commands import main
 
 
 @pytest.fixture(scope="module")

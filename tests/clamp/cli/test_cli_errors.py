@@ -160,7 +160,7 @@ CATALOGUE: list[tuple[list[str], str]] = [
 ]
 
 
-MAINS = {"clamp": "clamp.cli.main", "tlgc.cli": "tlgc.cli", "robots.sphere_cli": "robots.sphere_cli",
+MAINS = {"clamp": "clamp.cli.commands", "tlgc.cli": "tlgc.cli", "robots.sphere_cli": "robots.sphere_cli",
          "tlgc.demo_clamp_cylinder": "tlgc.demo_clamp_cylinder"}
 
 
@@ -241,7 +241,7 @@ def test_version_prints_the_package_version(entry, capsys):
 
 
 def test_debug_shows_the_traceback(tmp_path):
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     from clamp.errors import InvalidParameterError
     from bad_input import raises_naming
     with raises_naming(InvalidParameterError, "epsilon"):

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicHermiteSpline
 
-from clamp.cli.main import main
+from clamp.cli.commands import main
 from robots import JointTrajectory, load_robot
 from robots.trajectory import load_schema
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clamp.cli.main import main
+from clamp.cli.commands import main
 from clamp.prior.linear_gaussian import FILE_FORMAT_NAME, FILE_FORMAT_VERSION, WorkspacePrior
 from scenes import Box, Scene, make_demonstrations
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from clamp.cli.main import main, parser
+from clamp.cli.commands import main, parser
 from robots import Robot, URDFParseError
 from robots.registry import example_robot_data_share
 

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-import clamp.cli.main as cli
+import clamp.cli.commands as cli
 from clamp.planning.progress import SearchProgress, report, watching
 
 

@@ -41,7 +41,7 @@ def loaded_after(code: str, tmp_path: Path) -> list[str]:
 
 
 def test_the_parser_loads_no_heavy_library(tmp_path):
-    code = ("from clamp.cli.main import parser\n"
+    code = ("from clamp.cli.commands import parser\n"
             "try:\n    parser().parse_args(['--version'])\nexcept SystemExit:\n    pass")
     assert loaded_after(code, tmp_path) == []
     done = python(["-m", "clamp", "--version"], tmp_path)
@@ -88,7 +88,7 @@ def test_a_second_plan_reads_the_fitted_spheres_and_plans_the_same_q(tmp_path, p
 
 
 def test_clamp_show_draws_the_figures_of_a_saved_plan(tmp_path, capsys, monkeypatch):
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     from scenes import Box, Scene, make_demonstrations
     demos = make_demonstrations("box_closing", num_points=40, seed=1)
     demos.save_npz(tmp_path / "demos.npz")
@@ -138,7 +138,7 @@ def test_version_answers_before_numpy_loads_as_the_parser_does(tmp_path):
     assert done.returncode == 0, done.stderr
     fast, loaded = done.stdout.strip().splitlines()
     assert loaded == "[]"
-    parsed = python(["-c", "from clamp.cli.main import parser\nparser().parse_args(['--version'])"], tmp_path)
+    parsed = python(["-c", "from clamp.cli.commands import parser\nparser().parse_args(['--version'])"], tmp_path)
     assert parsed.returncode == 0 and parsed.stdout.strip() == fast and fast.startswith("clamp ")
     entry = python(["-c", "import clamp.cli\nassert clamp.cli.main(['demo', '--skill', 'x']) == 2\n"
                           "assert callable(clamp.cli.main)"], tmp_path)    # still the entry point

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from clamp import learn_prior, plan
-from clamp.cli.main import (contact_summary, on_trajectory_clock, state_times, summary_table, write_plan,
+from clamp.cli.commands import (contact_summary, on_trajectory_clock, state_times, summary_table, write_plan,
                             write_trajectory)
 from robots.trajectory import load_trajectory
 from scenes import Box, Scene, make_demonstrations

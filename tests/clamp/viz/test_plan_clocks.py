@@ -9,7 +9,7 @@ import pytest
 
 matplotlib.use("Agg")
 
-from clamp.cli.main import write_trajectory                                  # noqa: E402
+from clamp.cli.commands import write_trajectory                                  # noqa: E402
 from clamp.viz.plan_plots import (CLOCK_AXES, plot_clearance, plot_joint_angles,  # noqa: E402
                                   plot_plan_uncertainty)
 

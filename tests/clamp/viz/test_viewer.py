@@ -185,7 +185,7 @@ def test_headless_chromium_sees_the_replanned_arm(planned, tmp_path):
 @pytest.fixture(scope="module")
 def plan_folder(tmp_path_factory):
     """The output folder of ``clamp plan`` (small problem: 60 states, a box off the path)."""
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     folder = tmp_path_factory.mktemp("view")
     make_demonstrations("box_closing", num_demos=6, num_points=60, seed=0).save_npz(folder / "demos_in.npz")
     Scene([Box([-0.4, 0.4, 0.05], [0.08, 0.08, 0.08])]).save(folder / "scene_in.json")
@@ -242,7 +242,7 @@ def test_clamp_view_serves_until_interrupted(plan_folder, tmp_path):
     (["view", "{folder}", "--port", "-1"], "--port"),
 ])
 def test_clamp_view_bad_input_is_one_line_exit_2(plan_folder, tmp_path, capsys, argv, message):
-    from clamp.cli.main import main
+    from clamp.cli.commands import main
     names = {"missing": tmp_path / "missing", "empty": tmp_path, "folder": plan_folder}
     assert main([a.format(**names) for a in argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
