@@ -40,6 +40,10 @@ import numpy as np
 
 from bench_clamp import REFERENCE_BOX, REFERENCE_START
 from harness import median_seconds, print_environment, shared_demonstrations
+from clamp.optim.stopping import StoppingRule
+
+#: the fast solver run to its optimum (the tolerances far below any plan's difference)
+TIGHT = StoppingRule(relative_tol=1e-10, absolute_tol=1e-10, patience=10)
 
 MILESTONES = (("rel 1e-2", "rel", 1e-2), ("rel 1e-4", "rel", 1e-4), ("rel 1e-6", "rel", 1e-6),
               ("1 mm", "gap", 1.0), ("0.1 mm", "gap", 0.1))
@@ -176,7 +180,7 @@ def cost_breakdown(problem, hold: bool, iterations: int = 30) -> dict:
     gtsam_adapter._error = timed
     try:
         config = PlannerConfig().with_(optimizer="gtsam", max_iterations=iterations,
-                                       relative_error_tol=0.0, absolute_error_tol=0.0)
+                                       stopping=StoppingRule(relative_tol=0.0, absolute_tol=0.0))
         current = _CurrentValues()
         optimizer = _gtsam_optimizer(problem, config,
                                      (lambda *_: current.renew()) if hold else None)
@@ -234,8 +238,7 @@ def main() -> None:
     if demos is None:
         return
     prior, robot = learn_prior(demos), load_robot("jaco")
-    tight = PlannerConfig().with_(relative_error_tol=1e-10, absolute_error_tol=1e-10,
-                                  convergence_patience=10, max_iterations=5000)
+    tight = PlannerConfig().with_(stopping=TIGHT, max_iterations=5000)
     scenes = {"empty": lambda: None, "box": lambda: Scene([Box.from_reference(REFERENCE_BOX)])}
     problems = {}
     print(f"\nTable 1: GTSAM optimizers against the fast optimum (budget {args.budget:g} s; "
@@ -260,8 +263,8 @@ def main() -> None:
               f"{default.final_error / best - 1:.1e}, {gap:.3f} mm, {default.iterations} "
               f"iterations, {default_s:.2f} s)")
         for name in args.optimizers.split(","):
-            config = tight.with_(optimizer=name, relative_error_tol=1e-12,
-                                 absolute_error_tol=1e-12, max_iterations=100000)
+            config = tight.with_(optimizer=name, max_iterations=100000,
+                                 stopping=TIGHT.with_(relative_tol=1e-12, absolute_tol=1e-12))
             r = run_to_budget(problem, config, fast.theta, robot, args.budget)
             marks = " ".join(f"{'%d/%.1f' % r['first'][m[0]] if m[0] in r['first'] else '-':>13}"
                              for m in MILESTONES)

@@ -7,13 +7,13 @@ variants. Units: metres, radians, seconds; errors in nats (negative log posterio
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from clamp.errors import ClampTypeError, InvalidParameterError
 from clamp.validation import as_bool, as_count, as_scalar
-from scenes.sdf import DEFAULT_CELL_SIZE
-
+from clamp.optim.stopping import StoppingRule, as_stopping_rule
 
 
 #: the optimizers a config may name ("fast": our Levenberg-Marquardt on the state array; the
@@ -53,13 +53,6 @@ class ModelConfig:
     #: plan with the learned prior conditioned exactly on the start, goal and via positions
     #: (:mod:`clamp.prior.conditioning`) when a goal or via points are given
     condition_on_targets: bool = True
-    #: obstacle factors when the scene has obstacles
-    obstacle_factors: bool = True
-    #: joint position and velocity limit hinges
-    joint_limits: bool = True
-    #: [rad/s] the velocity hinges start this far inside the limits (a plan on a velocity limit
-    #: otherwise ends a hair beyond it between states; see docs/decisions.md#velocity_margin)
-    velocity_margin: float = 0.01
     #: [rad] with obstacles, every state's configuration is tied to the plan the skill makes in
     #: the empty scene (the free plan) with this noise (``clamp.factors.posture``; 0 = off; see
     #: docs/decisions.md#posture_sigma)
@@ -72,8 +65,6 @@ class ModelConfig:
     #: held this near the free plan's (``clamp.factors.posture_velocity``; 0 = off; see
     #: docs/decisions.md#posture_velocity_sigma)
     posture_velocity_sigma: float = 0.03
-    #: [m] grid cell for scenes that need a grid signed distance (primitives are exact)
-    sdf_cell_size: float = 0.01
     #: uniform time scale k >= 1 of the skill (the plan lasts k times the demonstrations; None:
     #: automatic, 1 unless the arm cannot follow the demonstrations' speed, see
     #: :mod:`clamp.planning.time_scale`)
@@ -91,17 +82,13 @@ class OptimizerConfig:
     optimizer: str = "fast"
     #: "prior_mean" (IK of the prior mean moved to the start) or "straight_line" (joint space)
     initialisation: str = "prior_mean"
-    #: initial Levenberg-Marquardt damping (dimensionless, on the Jacobi-scaled system; see
-    #: docs/decisions.md#lambda_initial)
-    lambda_initial: float = 0.1
+    #: when a solve stops: a name of :data:`clamp.optim.stopping.STOPPING_RULES` ("default",
+    #: "fast", "reference") or a :class:`clamp.optim.stopping.StoppingRule` (first damping,
+    #: relative and absolute [nats] tolerances, patience; given to ``with_`` as a mapping of its
+    #: fields, e.g. from a JSON file, it is made one)
+    stopping: str | StoppingRule = "default"
     #: accepted iterations at most
     max_iterations: int = 500
-    #: stop when steps decrease the error by at most this fraction of it ...
-    relative_error_tol: float = 1e-3
-    #: ... or by at most this many nats (1 % change of the posterior density)
-    absolute_error_tol: float = 1e-2
-    #: ... for this many consecutive accepted steps
-    convergence_patience: int = 2
     #: constraints inside the solve (:mod:`clamp.optim.constrained`, an augmented Lagrangian):
     #: at most this many multiplier / penalty updates per start of the search while the
     #: optimum fails a check; 0: the weighted solve only, one start at the configured
@@ -114,6 +101,10 @@ class OptimizerConfig:
     budget: float | None = 50.0
     #: [s] wall-clock deadline of a request's search, from the start of the call (None: none)
     deadline: float | None = None
+
+    def stopping_rule(self) -> StoppingRule:
+        """The :class:`~clamp.optim.stopping.StoppingRule` ``stopping`` names (or is)."""
+        return as_stopping_rule(self.stopping, "config.optimizer.stopping")
 
 
 @dataclass(frozen=True)
@@ -134,12 +125,6 @@ class CheckConfig:
     via_tolerance: float = 0.002
     #: [rad] the hand's rotation error at a goal or via pose (1 deg)
     rotation_tolerance: float = 0.017453292519943295
-    #: [m] IK accuracy required to accept an end-effector start as reachable
-    ik_tolerance: float = 1e-4
-    #: [rad] joint position limits (the limit factors are soft)
-    limit_tolerance: float = 1e-4
-    #: [rad/s] joint velocity limits
-    velocity_tolerance: float = 1e-3
     #: [rad/s^2] joint acceleration limit the automatic time scale also keeps (finite
     #: differences of the plan's velocities; None: velocity limits only, URDFs carry none)
     acceleration_limit: float | None = None
@@ -176,9 +161,14 @@ class PlannerConfig:
         owner = {f.name: g for g, obj in groups.items() for f in fields(obj)}
         updates: dict[str, dict[str, Any]] = {g: {} for g in groups}
         for name, value in changes.items():
+            if name in REMOVED:
+                raise InvalidParameterError(f"config field {name!r} is no longer a setting "
+                                            f"(issue 36): {REMOVED[name]}")
             if name not in owner:
                 raise InvalidParameterError(f"config field: unknown {name!r}; valid: "
                                             f"{', '.join(sorted(owner))}")
+            if name == "stopping" and isinstance(value, Mapping):   # e.g. a saved problem's
+                value = as_stopping_rule(value, "config.optimizer.stopping")
             updates[owner[name]][name] = value
         for group, value in groups.items():
             object.__setattr__(self, group, replace(value, **updates[group]) if updates[group]
@@ -205,37 +195,27 @@ class PlannerConfig:
     def reference(cls, **changes: Any) -> "PlannerConfig":
         """The reference implementation's optimizer: GTSAM's Levenberg-Marquardt with
         lambda0 1e3 and 1e-5 relative / absolute tolerances; ``changes`` override fields."""
-        return cls().with_(**{"optimizer": "gtsam", "lambda_initial": 1e3,
-                              "relative_error_tol": 1e-5, "absolute_error_tol": 1e-5,
-                              "convergence_patience": 1, **changes})
+        return cls().with_(**{"optimizer": "gtsam", "stopping": "reference", **changes})
 
     @classmethod
     def fast(cls, **changes: Any) -> "PlannerConfig":
         """For control loops: a loose stopping rule (one step below a 5 % relative decrease),
         fewer iterations, a less polished plan."""
-        return cls().with_(**{"relative_error_tol": 0.05, "convergence_patience": 1, **changes})
+        return cls().with_(**{"stopping": "fast", **changes})
 
     def validate(self) -> "PlannerConfig":
         """Check every field; raises InvalidParameterError naming the bad one."""
         m, o, c = self.model, self.optimizer, self.checks
-        for name in ("epsilon", "velocity_margin", "posture_sigma", "posture_Qc",
-                     "posture_velocity_sigma"):
+        for name in ("epsilon", "posture_sigma", "posture_Qc", "posture_velocity_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", minimum=0.0)
         for name in ("sigma_obs", "Qc", "goal_sigma"):
             as_scalar(getattr(m, name), f"config.model.{name}", strictly_positive=True)
         if m.Qc_duration is not None:
             as_scalar(m.Qc_duration, "config.model.Qc_duration", strictly_positive=True)
-        as_scalar(m.sdf_cell_size, "config.model.sdf_cell_size", strictly_positive=True,
-                  maximum=DEFAULT_CELL_SIZE)
-        for group, name in (("model", "obstacle_factors"), ("model", "joint_limits"),
-                            ("model", "condition_on_targets")):
-            as_bool(getattr(getattr(self, group), name), f"config.{group}.{name}")
-        for name in ("relative_error_tol", "absolute_error_tol"):
-            as_scalar(getattr(o, name), f"config.optimizer.{name}", minimum=0.0)
-        as_scalar(o.lambda_initial, "config.optimizer.lambda_initial", strictly_positive=True)
+        as_bool(m.condition_on_targets, "config.model.condition_on_targets")
+        o.stopping_rule()
         as_count(o.max_iterations, "config.optimizer.max_iterations", minimum=0)
         as_count(o.constraint_rounds, "config.optimizer.constraint_rounds", minimum=0)
-        as_count(o.convergence_patience, "config.optimizer.convergence_patience", minimum=1)
         for name, valid in (("optimizer", OPTIMIZERS), ("initialisation", INITIALISATIONS)):
             if getattr(o, name) not in valid:
                 raise InvalidParameterError(f"config.optimizer.{name}: unknown "
@@ -245,10 +225,8 @@ class PlannerConfig:
         if c.acceleration_limit is not None:
             as_scalar(c.acceleration_limit, "config.checks.acceleration_limit",
                       strictly_positive=True)
-        for name in ("min_clearance", "limit_tolerance", "velocity_tolerance"):
-            as_scalar(getattr(c, name), f"config.checks.{name}", minimum=0.0)
-        for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "ik_tolerance",
-                     "rotation_tolerance"):
+        as_scalar(c.min_clearance, "config.checks.min_clearance", minimum=0.0)
+        for name in ("start_tolerance", "goal_tolerance", "via_tolerance", "rotation_tolerance"):
             as_scalar(getattr(c, name), f"config.checks.{name}", strictly_positive=True)
         for name in ("budget", "deadline"):
             if getattr(o, name) is not None:
@@ -258,6 +236,28 @@ class PlannerConfig:
 
 #: the groups of a :class:`PlannerConfig`: attribute name -> class
 GROUPS = {"model": ModelConfig, "optimizer": OptimizerConfig, "checks": CheckConfig}
+
+_STOPPING = ("part of the stopping rule: set stopping=\"default\", \"fast\", \"reference\", "
+             "a clamp.optim.stopping.StoppingRule(lambda_initial, relative_tol, absolute_tol, "
+             "patience) or (in a JSON file) a mapping of those fields")
+#: the settings issue 36 removed -> where each went (docs/decisions.md#settings-issue-36): a config
+#: naming one, e.g. an older saved problem file, is refused with this, never silently changed
+REMOVED = {
+    "lambda_initial": _STOPPING, "relative_error_tol": _STOPPING,
+    "absolute_error_tol": _STOPPING, "convergence_patience": _STOPPING,
+    "velocity_margin": "the velocity hinges' margin is clamp.factors.joint_limits.VELOCITY_MARGIN "
+                       "(0.01 rad/s)",
+    "limit_tolerance": "the verdict's joint position tolerance is "
+                       "clamp.factors.joint_limits.LIMIT_TOLERANCE (1e-4 rad)",
+    "velocity_tolerance": "the verdict's joint velocity tolerance is "
+                          "clamp.factors.joint_limits.VELOCITY_TOLERANCE (1e-3 rad/s)",
+    "ik_tolerance": "the start IK's accuracy is clamp.planning.request.IK_TOLERANCE (1e-4 m)",
+    "sdf_cell_size": "a scene that needs a grid uses scenes.sdf.DEFAULT_CELL_SIZE (0.01 m); for "
+                     "another cell pass plan(..., sdf=scene.sdf(cell_size))",
+    "obstacle_factors": "the obstacle family comes with a scene that has obstacles: plan "
+                        "without the scene (scene=None) for a plan unaware of it",
+    "joint_limits": "the joint limit hinges are always built (the verdict checks the limits)",
+}
 
 
 def as_config(config: Any) -> PlannerConfig:

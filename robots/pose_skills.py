@@ -15,11 +15,13 @@ at the first of :data:`PLACES` (distances and heights in fractions of the arm's 
 length) where the arm reaches the skill's nominal keyframes; the start and midway keyframes
 are solved by continuation from the place (one branch of the arm). Each demonstration perturbs
 the start (3 cm, 10 degrees), the place (pouring 5 mm, inserting 1 mm) and the tilt (pouring
-90 +- 4 degrees) with seeded Gaussian noise, solved from the nominal keyframes (a draw that
-branch cannot reach is drawn again), passes a shape-preserving cubic (PCHIP) through its
-keyframes in joint space (knots at fixed phases) and traverses it with the minimum-jerk timing
-of :func:`scenes.synthetic.minimum_jerk_phase`, warped per demonstration (warp uniform in
-[-0.1, 0.1]).
+90 +- 4 degrees) with seeded Gaussian noise, solved from the nominal keyframes, passes a
+shape-preserving cubic (PCHIP) through its keyframes in joint space (knots at fixed phases) and
+traverses it with the minimum-jerk timing of :func:`scenes.synthetic.minimum_jerk_phase`,
+warped per demonstration (warp uniform in [-0.1, 0.1]). A draw that branch cannot reach, or whose motion leaves the joint limits or
+touches the arm itself at any state or between states (the robot's self-collision check,
+:func:`robots.self_collision.self_collision_report`), is drawn again: every demonstration is
+one the arm can make, from a start the planner accepts, and the same seed gives the same set.
 The hand's positions, velocities and rotations are the arm's forward kinematics of that joint
 motion (velocities J(q) qdot, exact).
 """
@@ -39,6 +41,7 @@ from skillplan.validation import as_count, as_positive, as_seed
 from .errors import RobotError
 from .ik import solve_pose_ik
 from .robot import Robot
+from .self_collision import self_collision_report
 
 #: Names of the synthetic pose skills.
 POSE_SKILLS: tuple[str, ...] = ("pouring", "inserting")
@@ -50,7 +53,8 @@ CONTINUATION = 6
 #: random starts of the pose IK of a nominal keyframe
 RESTARTS = 8
 #: draws of a demonstration's variation before giving up (a draw the arm cannot reach on
-#: the nominal keyframes' branch is drawn again)
+#: the nominal keyframes' branch, or whose motion leaves the limits or touches itself, is
+#: drawn again)
 REDRAWS = 20
 #: where a skill may happen: (horizontal distance, height) as fractions of the arm's stretched
 #: length, tried in this order (45 degrees to the right of the base's x axis)
@@ -80,24 +84,46 @@ def make_pose_demonstrations(robot: Robot, skill: str, num_demos: int = 6, num_p
     q = np.empty((M, T, robot.n))
     qdot = np.empty_like(q)
     for m in range(M):
-        for _ in range(REDRAWS):          # a draw out of the nominal branch's reach is redrawn
+        problem = None
+        for _ in range(REDRAWS):          # a draw the arm cannot make is drawn again
             try:
-                knots, keyframes = frame.keyframes(frame, rng)
+                q[m], qdot[m] = _motion(frame, rng, tau, duration)
                 break
             except RobotError as exc:
                 problem = exc
         else:
             raise RobotError(f"{robot.name} {skill}: demonstration {m}: {REDRAWS} draws out of "
-                             f"reach; the last: {problem}")
-        path = PchipInterpolator(knots, keyframes, axis=0)
-        s, ds = minimum_jerk_phase(tau, rng.uniform(-TIMING, TIMING))
-        q[m] = path(s)
-        qdot[m] = path(s, 1) * (ds / duration)[:, None]
+                             f"reach, out of the joint limits or in self-collision; the last: "
+                             f"{problem}")
     kinematics = robot.ee_kinematics(q, qdot, jacobians=False)
     rotations, _ = robot.ee_rotation(q)
     return Demonstrations(kinematics.position, kinematics.velocity, tau * duration, None,
                           f"{skill}_{robot.name}", joint_positions=q, joint_names=robot.joint_names,
                           orientations=quaternions_from_matrices(rotations, "rotations", RobotError))
+
+
+def _motion(frame: _SkillFrame, rng: np.random.Generator, tau: np.ndarray,
+            duration: float) -> tuple[np.ndarray, np.ndarray]:
+    """One demonstration's joint positions and velocities (T, n) at phases ``tau`` (T,) over
+    ``duration`` [s]: seeded keyframes through a PCHIP path, timed by a warped minimum-jerk
+    phase. RobotError when a keyframe is out of reach, or when the motion leaves the joint
+    limits or touches itself anywhere (:func:`robots.self_collision.self_collision_report`,
+    continuous between samples; the message names the state and the links)."""
+    knots, keyframes = frame.keyframes(frame, rng)
+    path = PchipInterpolator(knots, keyframes, axis=0)
+    s, ds = minimum_jerk_phase(tau, rng.uniform(-TIMING, TIMING))
+    q = path(s)
+    robot = frame.robot
+    outside = ~np.asarray(robot.within_limits(q))
+    if outside.any():
+        raise RobotError(f"{robot.name}: the motion leaves the joint limits at state "
+                         f"{int(np.argmax(outside))}")
+    # collision and depth are exact at any tolerance; 1 cm spares the exact mesh queries of a
+    # clear motion (robots.self_collision_report)
+    own = self_collision_report(robot, q, tolerance=0.01)
+    if own.collision:
+        raise RobotError(f"{robot.name}: the motion is in {own.reason}")
+    return q, path(s, 1) * (ds / duration)[:, None]
 
 
 def _noise(rng: np.random.Generator | None, sigma: float, size: int | None = 3) -> Any:

@@ -56,3 +56,22 @@ def test_docs_anchors_exist():
                                               source.read_text(encoding="utf-8"))
                if anchor not in anchors.get(page, set())]
     assert not missing
+
+
+def test_every_setting_is_listed_with_its_default_in_concepts():
+    """docs/concepts.md#settings lists exactly PlannerConfig's fields (at most 25, issue 36), each
+    with its default."""
+    from dataclasses import fields
+
+    from clamp.config import GROUPS, PlannerConfig
+    text = (ROOT / "docs" / "concepts.md").read_text().split("## Settings", 1)[1].split("\n## ", 1)[0]
+    rows = [line.split("|")[1:4] for line in text.splitlines() if line.startswith("| ")][1:]
+    listed = {(group.strip(), name.strip(" `")): default.strip() for group, name, default in rows}
+    config = PlannerConfig()
+    actual = {(group, f.name): getattr(getattr(config, group), f.name)
+              for group in GROUPS for f in fields(GROUPS[group])}
+    assert set(listed) == set(actual)
+    assert len(actual) <= 25
+    for key, value in actual.items():
+        written = listed[key].strip('"')
+        assert written == str(value) or float(written) == pytest.approx(value, rel=1e-3), key

@@ -23,7 +23,9 @@ be stored in a file, sent to another process or machine and kept next to its res
   of a scene file;
 - ``start``, ``goal``: an end-effector position [x, y, z] (m) or a joint configuration (n,)
   (rad), goal null for none; ``via_points``: [[index, [..]], ...];
-- ``config``: planner settings by field name, as ``PlannerConfig().with_(**config)`` takes them;
+- ``config``: planner settings by field name, as ``PlannerConfig().with_(**config)`` takes them
+  (a file naming a setting issue 36 removed is refused when planned, with where it went:
+  ``clamp.config.REMOVED``);
 - ``expected``: null, ``"feasible"`` or ``"impossible"`` (a benchmark's label: e.g. an obstacle
   over the start); ``meta``: free JSON data (what generated the problem), kept with the result.
 

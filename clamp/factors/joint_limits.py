@@ -27,6 +27,16 @@ from robots.trajectory import interpolated_speed
 from .family import CheckContext, Constraint, ConstraintCheck, Family
 from .states import StateWindow
 
+#: [rad] the verdict's tolerance on the joint position limits (the hinges are soft: a plan on a
+#: limit may end this hair beyond it)
+LIMIT_TOLERANCE = 1e-4
+#: [rad/s] the verdict's tolerance on the joint velocity limits (also the time stage's:
+#: :func:`clamp.planning.time_scale.needed_scale`)
+VELOCITY_TOLERANCE = 1e-3
+#: [rad/s] the planner's velocity hinges start this far inside the limits (a plan on a velocity
+#: limit otherwise ends a hair beyond it between states; docs/decisions.md#velocity_margin)
+VELOCITY_MARGIN = 0.01
+
 
 def _worst(excess: np.ndarray) -> tuple[int, int, float] | None:
     """(state, joint, amount) of the largest positive entry of excess (T, n), or None."""
@@ -135,9 +145,9 @@ class JointLimitFamily(Family):
         the largest excess over a limit [rad or rad/s]. The verdict's (``context.final``)
         checks positions and velocities; the solve's judge positions only: velocities are the
         time stage's (:mod:`clamp.planning.time_scale`), never a constraint to repair."""
-        robot, checks = context.robot, context.config.checks
+        robot = context.robot
         q = theta[:, :robot.n]
-        reasons = limit_violations(robot, q, None, checks.limit_tolerance)
+        reasons = limit_violations(robot, q, None, LIMIT_TOLERANCE)
         excess = max(float(np.max(np.asarray(robot.lower_limits) - q)),
                      float(np.max(q - np.asarray(robot.upper_limits))), 0.0)
         record = ConstraintCheck(cls.name, bool(reasons), excess if reasons else 0.0,
@@ -148,9 +158,9 @@ class JointLimitFamily(Family):
     def for_verdict(cls, context: CheckContext, theta: np.ndarray,
                     record: ConstraintCheck) -> ConstraintCheck:
         """The judge's ``record`` (positions) with the velocities between the states checked."""
-        robot, checks = context.robot, context.config.checks
+        robot = context.robot
         q, qdot = theta[:, :robot.n], theta[:, robot.n:]
-        fast = velocity_violations(robot, q, qdot, checks.velocity_tolerance, time=context.time)
+        fast = velocity_violations(robot, q, qdot, VELOCITY_TOLERANCE, time=context.time)
         if not fast:
             return record
         excess = float(np.max(speeds(q, qdot, context.time) - np.asarray(robot.velocity_limits)))

@@ -251,8 +251,8 @@ def _loose(start: Start, problem: PlanningProblem, config: PlannerConfig, al: AL
         return problem, None, start.warm
     loose = [f.reweighted(1.0 / start.soften[f.name]) if f.name in start.soften else f
              for f in problem.families]
-    soft = optimize(problem.with_families(loose, problem.initial),
-                    config.with_(relative_error_tol=al.soft_tolerance, convergence_patience=1),
+    rule = config.optimizer.stopping_rule().with_(relative_tol=al.soft_tolerance, patience=1)
+    soft = optimize(problem.with_families(loose, problem.initial), config.with_(stopping=rule),
                     halt=stop)
     return problem.with_families(problem.families, soft.theta), soft, WarmStart()
 

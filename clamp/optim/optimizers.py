@@ -53,14 +53,14 @@ def gtsam_params(config: PlannerConfig):
     """GTSAM's parameters for ``config`` and the optimizer class they are for: what
     ``optimize`` runs on ``problem.graph()``, for a caller who runs GTSAM by hand
     (``make(problem.graph(), problem.values(), params)``; docs/concepts.md#gtsams-optimizers).
-    The stopping rule is the fast solver's tolerances (``relative_error_tol`` 1e-3,
-    ``absolute_error_tol`` 1e-2 nats): with them GTSAM's Levenberg-Marquardt ends within 0.3 mm
+    The stopping rule is the fast solver's (``OptimizerConfig.stopping``, by default 1e-3
+    relative and 1e-2 nats absolute tolerances, :mod:`clamp.optim.stopping`): with them GTSAM's Levenberg-Marquardt ends within 0.3 mm
     of the fast plan on box_closing; tighter, it goes on towards the graph's optimum, which
     with the box lies 2 mm from the plan (benchmarks/bench_gtsam_parity.py, Table 0)."""
-    opt = config.optimizer
+    opt, rule = config.optimizer, config.optimizer.stopping_rule()
     if opt.optimizer == "gtsam":
         params = gtsam.LevenbergMarquardtParams()
-        params.setlambdaInitial(opt.lambda_initial)
+        params.setlambdaInitial(rule.lambda_initial)
         params.setlambdaUpperBound(LAMBDA_UPPER_BOUND)
         params.setUseFixedLambdaFactor(False)
         # lambda * I, not lambda * diag(H) (Marquardt's scaling): scaled by the stiff learned
@@ -78,8 +78,8 @@ def gtsam_params(config: PlannerConfig):
     params.setLinearSolverType("MULTIFRONTAL_QR")
     params.setOrderingType("COLAMD")      # METIS: the same steps, no faster on the chain
     params.setMaxIterations(opt.max_iterations)
-    params.setRelativeErrorTol(opt.relative_error_tol)
-    params.setAbsoluteErrorTol(opt.absolute_error_tol)
+    params.setRelativeErrorTol(rule.relative_tol)
+    params.setAbsoluteErrorTol(rule.absolute_tol)
     return params, make
 
 
@@ -152,12 +152,9 @@ def optimize(problem: PlanningProblem, config: PlannerConfig | None = None,
         name = "gtsam"
         config = config.with_(optimizer="gtsam")
     if name == "fast":
-        out = levenberg_marquardt(problem, problem.initial, lambda_initial=opt.lambda_initial,
-                                  lambda_max=LAMBDA_UPPER_BOUND,
+        out = levenberg_marquardt(problem, problem.initial, lambda_max=LAMBDA_UPPER_BOUND,
                                   max_iterations=opt.max_iterations,
-                                  relative_tol=opt.relative_error_tol,
-                                  absolute_tol=opt.absolute_error_tol,
-                                  patience=opt.convergence_patience,
+                                  **opt.stopping_rule().solver_arguments(),
                                   warm_start=warm_start, halt=halt)
         return Optimized(out.theta, out.iterations, out.trials, out.initial_error,
                          out.final_error, out.stop_reason, out.timings, name)

@@ -22,7 +22,9 @@ from clamp.graph.keys import state_key
 from clamp.optim.optimizers import optimize
 from clamp.graph.problem import PlanningProblem
 from clamp.prior import so3
-from clamp.planning.request import Request, Target, as_extras, as_sdf, has_obstacles
+from clamp.factors import joint_limits
+from clamp.planning.request import (IK_TOLERANCE, Request, Target, as_extras, as_sdf,
+                                    has_obstacles)
 from clamp.validation import as_array
 
 PerStateFactorMaker = Callable[[int, int, int], Union[gtsam.NonlinearFactor, None]]
@@ -44,7 +46,7 @@ def configured_initialisation(prior: Any, robot: Any, request: Request,
         if goal is not None:
             goal_position = goal.value if goal.kind == "position" else robot.fk(goal.value)
         init = prior_mean_initialisation(robot, mean_path, dt, request.q_start, goal_position,
-                                         True, config.checks.ik_tolerance)
+                                         True, IK_TOLERANCE)
         orientation = getattr(prior, "orientation", None)
         if orientation is None:
             return init
@@ -54,7 +56,7 @@ def configured_initialisation(prior: Any, robot: Any, request: Request,
         last = goal.value
     else:
         end = goal.value if goal is not None else mean_path[-1]
-        last = np.asarray(robot.ik(end, seed=first, tol=config.checks.ik_tolerance).q,
+        last = np.asarray(robot.ik(end, seed=first, tol=IK_TOLERANCE).q,
                           dtype=float)
     return straight_line_initialisation(robot, first, last, T, dt)
 
@@ -72,18 +74,18 @@ def given_initialisation(robot: Any, initial: Any, T: int, dt: float) -> Initial
     return Initialisation(q, qdot, robot.fk(q), np.zeros(T))
 
 
-def distance_query(scene: Any, config: PlannerConfig, sdf: Any = None,
-                   reach: float = math.inf) -> Callable | None:
+def distance_query(scene: Any, sdf: Any = None, reach: float = math.inf) -> Callable | None:
     """The signed-distance query the obstacle family uses: ``sdf.query`` when given, else the
     scene's (exact for primitives, a grid cached by the scene otherwise), clipped at ``reach``
     [m] (the hinge's: epsilon + the largest sphere radius), so that only the obstacles near the
-    arm are evaluated; None without obstacles or with obstacle factors off."""
+    arm are evaluated (a grid: of :data:`scenes.sdf.DEFAULT_CELL_SIZE`; pass ``sdf``, e.g.
+    ``scene.sdf(cell_size)``, for another); None without obstacles."""
     sdf = as_sdf(sdf, scene)
-    if not config.model.obstacle_factors or not has_obstacles(scene):
+    if not has_obstacles(scene):
         return None
     if sdf is not None:
         return sdf.query
-    return scene.distance_query(config.model.sdf_cell_size, max_distance=reach)
+    return scene.distance_query(max_distance=reach)
 
 
 #: [rad] the start configuration's noise: the start is met to about this
@@ -120,10 +122,9 @@ def planner_families(prior: Any, robot: Any, request: Request, config: PlannerCo
     if query is not None:
         families.append(ObstacleFamily(np.arange(T), robot.spheres.radii, query, model.epsilon,
                                        model.sigma_obs))
-    if model.joint_limits:
-        families.append(JointLimitFamily(np.arange(T), robot.lower_limits, robot.upper_limits,
-                                         robot.velocity_limits, LIMIT_SIGMA, 0.0,
-                                         model.velocity_margin))
+    families.append(JointLimitFamily(np.arange(T), robot.lower_limits, robot.upper_limits,
+                                     robot.velocity_limits, LIMIT_SIGMA, 0.0,
+                                     joint_limits.VELOCITY_MARGIN))
     return families
 
 

@@ -172,7 +172,7 @@ def build_model(prior: Any, robot: Any, scene: Any, request: Request, config: Pl
         model_prior = planning_prior(prior, robot, request, config)
     reach = config.model.epsilon + float(np.max(robot.spheres.radii, initial=0.0))
     families = planner_families(model_prior, robot, request, config,
-                                distance_query(scene, config, sdf, reach))
+                                distance_query(scene, sdf, reach))
     init = (configured_initialisation(model_prior, robot, request, config) if initial is None
             else given_initialisation(robot, initial, T, dt))
     problem = PlanningProblem(robot, T, families + extra_families, foreign, init.theta)

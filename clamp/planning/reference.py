@@ -220,11 +220,8 @@ def skill_reference(prior: Any, robot: Any, request: Any, config: Any,
     if all(f.error(window) == 0.0 for f in hand):
         return base, f"{name} (the caller's families hold on it: {names})"
     opt = config.optimizer
-    out = levenberg_marquardt(problem, mean, lambda_initial=opt.lambda_initial,
-                              lambda_max=LAMBDA_UPPER_BOUND,
+    out = levenberg_marquardt(problem, mean, lambda_max=LAMBDA_UPPER_BOUND,
                               max_iterations=opt.max_iterations,
-                              relative_tol=opt.relative_error_tol,
-                              absolute_tol=opt.absolute_error_tol,
-                              patience=opt.convergence_patience, workspace_correction=0)
+                              **opt.stopping_rule().solver_arguments(), workspace_correction=0)
     return (ReferenceUnderFamilies(base, out.theta),
             f"{name}, under the caller's families: {names}")

@@ -22,6 +22,10 @@ from scenes.quaternions import QUATERNION_TOLERANCE
 from scenes.obstacles import Obstacle
 from clamp.factors import Family
 
+#: [m] the inverse kinematics accuracy that makes an end-effector start reachable (at most the
+#: start tolerance) and that the search's IK starts are solved to
+IK_TOLERANCE = 1e-4
+
 
 @dataclass(frozen=True)
 class Target:
@@ -199,8 +203,7 @@ def make_request(prior: Any, robot: Any, start: Any, goal: Any = None, via_point
     elif start_target.kind == "joint":
         q_start = start_target.value
     else:
-        checks = config.checks
-        ik = robot.ik(start_target.value, tol=min(checks.ik_tolerance, checks.start_tolerance))
+        ik = robot.ik(start_target.value, tol=min(IK_TOLERANCE, config.checks.start_tolerance))
         q_start, ik_error = np.asarray(ik.q, dtype=float), float(ik.error)
     position = start_target.value if start_target.kind == "position" else robot.fk(q_start)
     return Request(start_target, goal_target, vias, q_start, position, ik_error)

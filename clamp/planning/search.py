@@ -61,6 +61,7 @@ from clamp.planning.clearance import check_clearance
 from clamp.planning.detours import detour_search, detour_trajectory
 from clamp.planning.initialisation import Initialisation, pose_refined
 from clamp.planning.reach import reach_radius
+from clamp.planning.request import IK_TOLERANCE
 from clamp.prior.skill import TUBE_RATIO, SkillRegion
 from clamp.validation import as_scalar
 from robots.self_collision import self_collision_report
@@ -230,7 +231,7 @@ def joint_path(model: Any, path: np.ndarray, q0: np.ndarray) -> np.ndarray:
     (:func:`clamp.planning.initialisation.pose_refined`): a restart that turns the hand away
     from the skill starts against its orientation chain."""
     dt = float(model.prior.dt)
-    theta = detour_trajectory(model.robot, path, q0, dt, model.config.checks.ik_tolerance)
+    theta = detour_trajectory(model.robot, path, q0, dt, IK_TOLERANCE)
     orientation = getattr(model.model_prior, "orientation", None)
     if orientation is None:
         return theta
@@ -450,9 +451,9 @@ def other_branches(model: Any, count: int) -> list[np.ndarray]:
         if len(out) >= count:
             break
         ik = robot.ik(request.start.value, seed=robot.random_configuration(rng),
-                      tol=config.checks.ik_tolerance, rng=attempt)
+                      tol=IK_TOLERANCE, rng=attempt)
         q0 = np.asarray(ik.q, dtype=float)
-        if (ik.error > config.checks.ik_tolerance
+        if (ik.error > IK_TOLERANCE
                 or not bool(np.all(robot.within_limits(q0[None], tolerance=0.0)))
                 or any(float(np.max(np.abs(q0 - q))) < BRANCH_APART
                        for q in (request.q_start, *out))):

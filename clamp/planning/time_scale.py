@@ -37,7 +37,8 @@ import numpy as np
 
 from clamp.config import QC_FACTOR_LIMIT, as_max_duration, as_time_scale
 from clamp.errors import InvalidParameterError
-from clamp.factors.joint_limits import speeds
+from clamp.factors import joint_limits
+from clamp.factors.joint_limits import VELOCITY_TOLERANCE, speeds
 from clamp.prior.linear_gaussian import WorkspacePrior
 from clamp.prior.orientation_prior import OrientationPrior
 
@@ -169,7 +170,7 @@ def needed_scale(robot: Any, theta: np.ndarray, time: np.ndarray, config: Any,
     """The scale (>= 1) a plan theta (T, 2n) [rad, rad/s] at ``time`` (T,) [s] needs to keep
     the arm's limits: max(peak velocity ratio, sqrt(peak acceleration ratio)) (:func:`peak_ratios`;
     1.0 when within ``config.checks``' tolerances). Where the plan's velocities reach the
-    velocity hinges (``config.model.velocity_margin`` inside the limits: they may have bent it,
+    velocity hinges (``joint_limits.VELOCITY_MARGIN`` inside the limits: they may have bent it,
     hiding the skill's speed), the initial trajectory ``initial_q`` (T, n) (the skill followed
     at the demonstrations' speed) is measured too, and the larger need counts."""
     n, checks = robot.n, config.checks
@@ -178,14 +179,14 @@ def needed_scale(robot: Any, theta: np.ndarray, time: np.ndarray, config: Any,
 
     def need(q: np.ndarray, qdot: np.ndarray) -> float:
         velocity, acceleration = peak_ratios(robot, q, qdot, time, checks.acceleration_limit)
-        if not (np.any(velocity > 1.0 + checks.velocity_tolerance / vmax)
+        if not (np.any(velocity > 1.0 + VELOCITY_TOLERANCE / vmax)
                 or np.any(acceleration > 1.0)):
             return 1.0
         return max(1.0, float(velocity.max()), float(np.sqrt(acceleration.max())))
 
     needed = need(q, qdot)
-    band = vmax - config.model.velocity_margin - checks.velocity_tolerance
-    if initial_q is not None and config.model.joint_limits and np.any(np.abs(qdot) > band):
+    band = vmax - joint_limits.VELOCITY_MARGIN - VELOCITY_TOLERANCE
+    if initial_q is not None and np.any(np.abs(qdot) > band):
         initial = np.asarray(initial_q, dtype=float)
         needed = max(needed, need(initial, np.gradient(initial, time, axis=0)))
     return needed

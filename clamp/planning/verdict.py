@@ -16,6 +16,7 @@ from clamp.planning.clearance import check_clearance
 from clamp.config import PlannerConfig
 from clamp.planning.limit_report import limit_violations
 from clamp.errors import ClampTypeError
+from clamp.factors.joint_limits import LIMIT_TOLERANCE
 from clamp.factors.self_collision import CLEARANCE_TOLERANCE
 from clamp.factors import (JointLimitFamily, ObstacleFamily, SelfCollisionFamily,
                            SkillOrientationFamily, SkillTubeFamily,
@@ -65,8 +66,8 @@ def start_problems(robot: Any, scene: Any, request: Request, config: PlannerConf
                 f"error {request.start_ik_error * 1000:.1f} mm)"]
     reasons = []
     if start.kind == "joint":
-        reasons += limit_violations(robot, request.q_start[None], None,
-                                    config.checks.limit_tolerance, what="start configuration")
+        reasons += limit_violations(robot, request.q_start[None], None, LIMIT_TOLERANCE,
+                                    what="start configuration")
     # collision and depth are exact at any tolerance: the check's (a clearance far from zero
     # then needs no exact mesh query)
     own = self_collision_report(robot, request.q_start[None], tolerance=CLEARANCE_TOLERANCE)

@@ -4,7 +4,8 @@ Lower than both :mod:`clamp.prior.linear_gaussian` (whose ``update`` reads more 
 and :mod:`clamp.prior.learning`: the parsing of a ``scenes.Demonstrations`` or keyword arrays
 into states (M, T, 2A) ``[positions, velocities]`` and time (T,), the obstacle weights of its
 samples, and the assembly of per-group regression blocks into block-structured transitions and
-covariances with the agreement floor (SPREAD_FLOOR, see :mod:`clamp.prior.learning`).
+covariances with the agreement floor (SPREAD_FLOOR, see :mod:`clamp.prior.learning`), and the
+steps where every demonstration holds still (:func:`held_steps`).
 """
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ from clamp.validation import as_array, as_time
 from skillplan.validation import MAX_COORDINATE
 
 __all__ = ["MIN_SPREAD", "SPREAD_FLOOR", "AXIS_FLOOR_RATIO", "stack_states", "demo_arrays", "sample_weights",
-           "scatter_blocks", "assemble_blocks", "block_covariance", "floor_agreement"]
+           "scatter_blocks", "assemble_blocks", "block_covariance", "floor_agreement",
+           "HOLD_TOLERANCE", "held_steps"]
 
 #: Smallest spread (largest standard deviation over the state's coordinates, across the
 #: demonstrations; m, m/s or rad, rad/s) that counts as "the demonstrations differ" at a step.
@@ -38,6 +40,11 @@ SPREAD_FLOOR = 1e-5
 #: squared: two or three demonstrations that happen to share an axis (synthetic0's x and z)
 #: do not make a start or goal off that axis unreachable.
 AXIS_FLOOR_RATIO = 0.1
+
+#: [m, m/s; rad, rad/s in a joint or orientation chain] a step where every demonstration's
+#: positions move at most this much and its velocities stay within it is a held step
+#: (:func:`held_steps`)
+HOLD_TOLERANCE = 1e-9
 
 
 def stack_states(positions: object, velocities: object, time: object, names: tuple[str, str],
@@ -130,3 +137,20 @@ def floor_agreement(cov: np.ndarray, variance: np.ndarray) -> np.ndarray:
             lift[..., kind] = np.where(some, np.maximum(least - part, lift[..., kind]),
                                        lift[..., kind])
     return cov + lift[..., :, None] * np.eye(D)
+
+
+def held_steps(states: np.ndarray) -> np.ndarray:
+    """(T-1,) bool: the steps i -> i+1 where every demonstration holds still where it is: of
+    states (M, T, 2A) ``[positions, velocities]``, every position moves at most HOLD_TOLERANCE
+    and every velocity stays within HOLD_TOLERANCE at both ends, while the demonstrations are
+    apart (some position's variance at x_{i+1} at least SPREAD_FLOOR**2; where they all agree
+    the agreement floor applies instead). A pour turns the hand in place: its positions are
+    held for the last third of the skill. How the learners treat them:
+    :mod:`clamp.prior.learning`."""
+    states = np.asarray(states, dtype=float)
+    A = states.shape[2] // 2
+    still = (np.all(np.abs(np.diff(states[..., :A], axis=1)) <= HOLD_TOLERANCE, axis=(0, 2))
+             & np.all(np.abs(states[:, :-1, A:]) <= HOLD_TOLERANCE, axis=(0, 2))
+             & np.all(np.abs(states[:, 1:, A:]) <= HOLD_TOLERANCE, axis=(0, 2)))
+    apart = np.any(states[:, 1:, :A].var(axis=0) >= SPREAD_FLOOR ** 2, axis=1)
+    return still & apart

@@ -35,6 +35,19 @@ plan from a new start then fails its posterior covariance). Steps where the demo
 differ in some coordinate (e.g. all at rest at different places, as the synthetic skills
 start and end) are learned exactly as before. Only demonstrations identical at every step
 are refused.
+
+Demonstrations that all hold still over a step, each where it is (a pour turns the hand in
+place: every demonstration's position is unchanged for the last third of the skill and its
+velocity zero; :func:`clamp.prior.demonstration_states.held_steps`), are fitted exactly there
+by holding: x_{i+1} = x_i on the positions, zero velocity. The ridge would pull that slope
+towards zero (s^2 / (s^2 + ridge) = 0.97 where the demonstrations hold a few millimetres
+apart), and a start or goal offset would then be carried into the hold only in part: the
+conditioned mean drifted through the held pour by 1-6 mm. A held step is learned as that exact
+fit (Phi holds the positions and zeroes the velocities; the residual, hence Q, is the jitter
+and the agreement floor), and the start shrinkage's fading shapes
+(:mod:`clamp.prior.shrinkage`) fade only while the demonstrations move. Demonstrations that
+never hold still exactly (every recording and every position-only skill of the benchmarks)
+are learned as before, bit for bit.
 """
 from __future__ import annotations
 
@@ -48,8 +61,8 @@ from clamp.errors import (ClampWarning, DegenerateDemonstrationsError,
                           InsufficientDemonstrationsError, InvalidParameterError, ShapeError)
 from clamp.prior.conjugate import ConjugatePosterior
 from clamp.prior.demonstration_states import (MIN_SPREAD, SPREAD_FLOOR, assemble_blocks,
-                                              block_covariance, demo_arrays, sample_weights,
-                                              stack_states)
+                                              block_covariance, demo_arrays, held_steps,
+                                              sample_weights, stack_states)
 from clamp.prior.obstacle_weighting import ObstacleWeighting, as_weighting
 from clamp.prior import so3
 from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
@@ -123,6 +136,9 @@ def fit_transitions(states: np.ndarray, groups: np.ndarray, ridge: float, jitter
     root = np.sqrt(w)
     Xc, Yc = root * (X - x_bar), root * (Y - y_bar)
     B = _ridge_fit(Xc, Yc, ridge)                      # (T-1, G, k, k): Phi_g^T
+    held = held_steps(states)
+    if held.any():                                     # hold exactly (module doc)
+        B = np.where(held[:, None, None, None], np.diag(groups[0] < D // 2).astype(float), B)
     Phi_g = np.swapaxes(B, -1, -2)
     u_g = (y_bar - x_bar @ B)[..., 0, :]               # (T-1, G, k)
     R = Yc - Xc @ B

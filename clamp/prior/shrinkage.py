@@ -18,6 +18,11 @@ derivative; tau the normalised time):
   keep theirs (the synthetic skills lose it within a third of the motion), as a non-increasing
   envelope (a single step where the noisy slope dips ends it);
 
+Where every demonstration holds still (:func:`clamp.prior.demonstration_states.held_steps`,
+e.g. the hand held in place through a pour), tau stands still (:func:`progress`): both shapes
+have faded by the time the hold begins when it lasts to the end, and a held offset stays held.
+Without a held step tau is the normalised time, bit for bit.
+
 blended with non-negative weights of sum at most 1:
 
     R^w_t = R_t + sum_k w_k (F^k_t - R_t)          (t >= 1; R^w_0 = R_0),
@@ -71,6 +76,7 @@ import numpy as np
 
 from clamp.errors import InvalidParameterError
 from clamp.prior.chain import prefix_compose, start_response
+from clamp.prior.demonstration_states import held_steps
 
 __all__ = ["AUTO", "DAMPING", "FEW_DAMPING", "SHAPES", "as_shrinkage", "offset_responses",
            "fading_responses", "fading_shapes", "shrink_start_offsets"]
@@ -112,15 +118,27 @@ def offset_responses(Phi: np.ndarray, u: np.ndarray, mean0: np.ndarray,
     return mean, np.concatenate([start[None], composed @ start])
 
 
+def progress(time: np.ndarray, held: np.ndarray | None = None) -> np.ndarray:
+    """tau (T,): the normalised time, 0 at the start and 1 at the end; with ``held`` (T-1,)
+    bool (:func:`clamp.prior.demonstration_states.held_steps`), counted over the steps where
+    the demonstrations move only (constant through a hold: an offset is made up while they
+    move). Without a held step, (time - time[0]) / (time[-1] - time[0]) exactly."""
+    if held is None or not held.any() or held.all():
+        return (time - time[0]) / float(time[-1] - time[0])
+    moving = np.concatenate([[0.0], np.cumsum(np.where(held, 0.0, np.diff(time)))])
+    return moving / moving[-1]
+
+
 def fading_responses(time: np.ndarray, start: np.ndarray, positions: np.ndarray,
-                     per_axis: bool = True) -> np.ndarray:
+                     per_axis: bool = True, held: np.ndarray | None = None) -> np.ndarray:
     """The fading response F (T, D, A): position offset (1 - tau_t) min(1, s_t / s_0) per axis
     (s_t the demonstrations' standard deviation at step t: an offset never wider, relative to
     the spread, than at the start; where they all pass close it passes close), velocity its
     time derivative; F_0 = ``start`` (the state the start implies). positions (M, T, A);
-    per_axis False: s_t the norm of the standard deviations, the same ratio on every axis."""
+    per_axis False: s_t the norm of the standard deviations, the same ratio on every axis;
+    held (T-1,) the held steps, through which tau stands still (:func:`progress`)."""
     A = start.shape[1]
-    tau = (time - time[0]) / float(time[-1] - time[0])
+    tau = progress(time, held)
     spread = positions.std(axis=0)                                        # (T, A)
     if not per_axis:
         spread = np.repeat(np.linalg.norm(spread, axis=1, keepdims=True), A, axis=1)
@@ -144,11 +162,12 @@ def _as_response(gain: np.ndarray, time: np.ndarray, start: np.ndarray) -> np.nd
     return out
 
 
-def fading_shapes(time: np.ndarray, start: np.ndarray, positions: np.ndarray
-                  ) -> dict[str, np.ndarray]:
+def fading_shapes(time: np.ndarray, start: np.ndarray, positions: np.ndarray,
+                  held: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """The fading responses of SHAPES (each (T, D, A); module doc) for the demonstrations'
-    positions (M, T, A) and the state ``start`` (D, A) the start implies."""
-    tau = (time - time[0]) / float(time[-1] - time[0])
+    positions (M, T, A) and the state ``start`` (D, A) the start implies; held (T-1,) the
+    steps they hold still (:func:`progress`)."""
+    tau = progress(time, held)
     A = start.shape[1]
     remaining = np.repeat((1.0 - tau)[:, None], A, axis=1)
     deviation = positions - positions.mean(axis=0)
@@ -157,7 +176,7 @@ def fading_shapes(time: np.ndarray, start: np.ndarray, positions: np.ndarray
     slope = np.einsum("mta,ma->ta", deviation, offset) / np.where(size > 0, size, np.inf)
     slope[:, size <= 0] = 1.0                             # no start spread: nothing to learn
     kept = np.minimum.accumulate(np.clip(slope, 0.0, 1.0), axis=0)
-    return {"spread": fading_responses(time, start, positions),
+    return {"spread": fading_responses(time, start, positions, held=held),
             "regressed": _as_response(np.minimum(remaining, kept), time, start)}
 
 
@@ -210,10 +229,11 @@ def _normal_part(vectors: np.ndarray, direction: np.ndarray) -> np.ndarray:
     return vectors - np.sum(vectors * unit, axis=1, keepdims=True) * unit
 
 
-def _leave_one_out(positions: np.ndarray, time: np.ndarray, fit: Fit
+def _leave_one_out(states: np.ndarray, time: np.ndarray, fit: Fit
                    ) -> tuple[np.ndarray, float, float]:
     """(weights per SHAPES minimising the leave-one-out squared error normal to the mean path,
-    rms of that error at w = 0 and at the weights) [m]."""
+    rms of that error at w = 0 and at the weights) [m], of the demonstrations' states (M, T, D)."""
+    positions = states[..., :states.shape[2] // 2]
     M = len(positions)
     A = positions.shape[2]
     K = len(SHAPES)
@@ -221,7 +241,8 @@ def _leave_one_out(positions: np.ndarray, time: np.ndarray, fit: Fit
     for m in range(M):
         Phi, u, mean0, cov0 = fit(np.flatnonzero(np.arange(M) != m))
         mean, R = offset_responses(Phi, u, mean0, cov0)
-        shapes = fading_shapes(time, R[0], np.delete(positions, m, axis=0))
+        others = np.delete(states, m, axis=0)
+        shapes = fading_shapes(time, R[0], others[..., :A], held_steps(others))
         offset = positions[m, 0] - mean[0, :A]
         direction = np.gradient(mean[:, :A], axis=0)                      # along the path
         residual = _normal_part(positions[m] - mean[:, :A] - R[:, :A] @ offset, direction)
@@ -257,7 +278,7 @@ def shrink_start_offsets(states: np.ndarray, time: np.ndarray, Phi: np.ndarray, 
                                 "leave-one-out; the spread fading response (on the norm of "
                                 "the spread) is taken whole and followed closely")
         else:
-            weights, plain, chosen = _leave_one_out(states[..., :A], time, fit)
+            weights, plain, chosen = _leave_one_out(states, time, fit)
             record.update(loo_rms_plain=plain, loo_rms=chosen,
                           reason=f"leave-one-out over {M} demonstrations: start-conditioned "
                           f"prediction rms normal to the path {plain:.4g} -> {chosen:.4g} "
@@ -271,10 +292,11 @@ def shrink_start_offsets(states: np.ndarray, time: np.ndarray, Phi: np.ndarray, 
     if not np.any(weights):
         return Phi, u, cov0, record
     mean, R = offset_responses(Phi, u, mean0, cov0)
+    held = held_steps(states)
     if few:
-        target = fading_responses(time, R[0], states[..., :A], per_axis=False)
+        target = fading_responses(time, R[0], states[..., :A], per_axis=False, held=held)
     else:
-        shapes = fading_shapes(time, R[0], states[..., :A])
+        shapes = fading_shapes(time, R[0], states[..., :A], held)
         target = R + sum(w * (shapes[name] - R) for name, w in zip(SHAPES, weights) if w)
     Phi, u = _corrected(Phi, mean, target, FEW_DAMPING if few else DAMPING)
     return Phi, u, _with_start_velocity(cov0, target[0, A:]), record

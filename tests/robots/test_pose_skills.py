@@ -15,6 +15,7 @@ from robots import Robot, RobotError
 from robots.ik import solve_pose_ik
 from robots.pose_skills import POSE_SKILLS, make_pose_demonstrations
 from robots.registry import example_robot_data_share
+from robots.self_collision import self_collision_report
 from scenes import UnknownSkillError
 
 
@@ -131,6 +132,21 @@ def test_inserting_moves_along_the_fixed_tool_axis(arm):
         # along the tool's own axis: the direction is fixed in the hand's frame
         _, R = pinocchio_pose(arm, demos.joint_positions[m, -1])
         assert np.abs(R.T @ direction).max() > 0.999
+
+
+@pytest.mark.parametrize("skill", POSE_SKILLS)
+def test_every_demonstration_is_a_motion_the_arm_can_make(arm, skill):
+    """No demonstration starts or passes in self-collision or outside the joint limits (the
+    Jaco's wrist folds to within a millimetre of its forearm at the pour and the insertion, so
+    draws that touch are redrawn), and the redrawn set is still the seed's."""
+    demos = make_pose_demonstrations(arm, skill, num_demos=6, num_points=200, seed=0)
+    assert arm.within_limits(demos.joint_positions).all()
+    for m in range(demos.M):
+        report = self_collision_report(arm, demos.joint_positions[m], demos.time)
+        assert not report.collision, (m, report.reason)
+        assert not report.states_in_collision.any()
+    again = make_pose_demonstrations(arm, skill, num_demos=6, num_points=200, seed=0)
+    np.testing.assert_array_equal(again.joint_positions, demos.joint_positions)
 
 
 def test_pose_skills_vary_and_are_seeded(sawyer):

@@ -161,3 +161,29 @@ def test_summary_groups_reasons():
                                   "error: UnknownRobotError": 1, "lost (worker died)": 1}
     assert summary["median_s"] == pytest.approx(0.2)
     assert reason_key("goal error 0.03739 exceeds 0.02") == "goal error # exceeds #"
+
+
+def test_a_saved_problem_naming_a_removed_setting_is_refused(tmp_path):
+    """A problem file written before issue 36 (its config naming a setting that is now a
+    constant or part of the stopping rule) is read, and planning it is refused with the
+    setting and its replacement named, not planned with the value silently ignored."""
+    from clamp.batch.runner import resolve
+    old = make_problem("old/1", SHORT, {"name": "jaco"}, [0.2, -0.45, 0.25],
+                       config={"relative_error_tol": 0.05, "sigma_obs": 0.005})
+    [read] = read_problems(write_problems([old], tmp_path / "old.jsonl"))
+    assert read.config_changes() == {"relative_error_tol": 0.05, "sigma_obs": 0.005}
+    with raises_naming(InvalidParameterError, "relative_error_tol", "stopping"):
+        resolve(read, tmp_path)
+
+
+def test_a_saved_problem_gives_its_stopping_rule_as_fields(tmp_path):
+    """What replaces the old tolerances in a file: ``stopping`` as a name or as the rule's
+    fields (the others the default rule's)."""
+    from clamp import PlannerConfig
+    from clamp.batch.runner import resolve
+    problems = [make_problem(f"new/{k}", SHORT, {"name": "jaco"}, [0.2, -0.45, 0.25],
+                             config={"stopping": stopping})
+                for k, stopping in enumerate(("fast", {"relative_tol": 0.05, "patience": 1}))]
+    fast = PlannerConfig.fast().optimizer.stopping_rule()
+    for problem in read_problems(write_problems(problems, tmp_path / "new.jsonl")):
+        assert resolve(problem, tmp_path)["config"].optimizer.stopping_rule() == fast

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from clamp import PlannerConfig, build, learn_prior, plan
+from clamp.factors.joint_limits import VELOCITY_TOLERANCE
 from clamp.planning.clearance import check_clearance, checker
 from clamp.planning.verdict import sphere_clearance
 from robots import Robot
@@ -103,8 +104,6 @@ def test_a_weak_weight_still_gives_a_collision_free_plan(jaco, prior):
     result = plan(prior, jaco, scene, start=START, covariance=False, config=weak)
     assert result.success, result.reasons
     assert brute_force_clearance(jaco, scene, result.q) > 0.0
-    first, *rest = result.attempts
-    assert not first["feasible"] and rest
     feasible = [a for a in result.attempts if a["feasible"]]
     chosen = min(feasible, key=lambda a: a["prior_cost"])
     assert result.min_clearance == pytest.approx(chosen["min_distance"])
@@ -190,25 +189,20 @@ def test_third_party_arm_avoids_a_box_in_the_skill_path(prior):
 
 
 def test_a_velocity_excess_is_a_question_of_time(jaco):
-    """Scene-benchmark problem 115 (synthetic, Jaco): the weighted solve ends a little beyond a
-    velocity limit (the hinge is soft). A velocity is never a constraint the solve repairs
-    (issue 36): at the caller's time scale 1 the verdict names the joint, however many rounds
-    the solve may run; at the automatic scale the time stage slows the skill before the path
-    solve and the plan holds every velocity limit, measured here from the plan's own
+    """two_target_press with a 6 cm cube on its mean path at 50 %: the weighted solve ends a
+    little beyond a velocity limit (the hinge is soft). A velocity is never a constraint the
+    solve repairs (issue 36): at the caller's time scale 1 the verdict names the joint, however
+    many rounds the solve may run; at the automatic scale the time stage slows the skill before
+    the path solve and the plan holds every velocity limit, measured here from the plan's own
     velocities and the finite differences of its positions."""
-    from pathlib import Path
-
-    from clamp.batch.runner import resolve
-    from clamp.batch.problem_sets import scene_benchmark
-    problem = scene_benchmark(116, "jaco")[115]
-    assert problem.expected == "feasible"
-    kwargs = resolve(problem, Path("."))
+    prior = learn_prior(make_demonstrations("two_target_press", num_demos=6, num_points=250,
+                                            seed=0))
+    mean = np.asarray(prior.mean)[:, :3]
     # the configured weight solved directly (no soft start and no posture tie, either of which
-    # happens to avoid the excess, at the safety distance and hinge noise of the time, 5 cm and
-    # 5 mm); the velocity hinges at the limits themselves (velocity_margin 0: with its 0.01 rad/s
-    # margin the weighted solve holds the limit already)
-    kwargs["config"] = kwargs["config"].with_(posture_sigma=0.0, epsilon=0.05,
-                                              sigma_obs=0.005, velocity_margin=0.0)
+    # avoids the excess, at a 5 cm safety distance and 5 mm hinge noise)
+    kwargs = {"prior": prior, "robot": jaco, "start": mean[0],
+              "scene": Scene([Box(mean[int(round(0.5 * (len(mean) - 1)))], [0.06] * 3)]),
+              "config": PlannerConfig(posture_sigma=0.0, epsilon=0.05, sigma_obs=0.005)}
     at_one = plan(**kwargs, covariance=False, time_scale=1.0)
     assert not at_one.success
     assert any("faster than its limit" in r for r in at_one.reasons), at_one.reasons
@@ -216,7 +210,7 @@ def test_a_velocity_excess_is_a_question_of_time(jaco):
     assert timed.success, timed.reasons
     assert timed.time_scale > 1.0
     vmax = np.asarray(jaco.velocity_limits)
-    tolerance = PlannerConfig().checks.velocity_tolerance
+    tolerance = VELOCITY_TOLERANCE
     assert (np.abs(timed.qdot) - vmax).max() <= tolerance
     step = np.abs(np.diff(timed.q, axis=0)) / np.diff(timed.time)[:, None]
     assert (step - vmax).max() <= tolerance

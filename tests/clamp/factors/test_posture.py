@@ -82,30 +82,41 @@ def test_the_motion_tie_is_the_joint_gp_of_the_deviation(jaco):
     assert tie.error(StateWindow(jaco, reference)) == pytest.approx(0.0, abs=1e-18)
 
 
-def _benchmark_problem(index: int) -> dict:
-    """plan() arguments of scene-benchmark problem ``index`` (Jaco, the default config)."""
-    from pathlib import Path
+def _skill_scene(skill: str, at: float, size: float, offset) -> dict:
+    """plan() arguments for the synthetic ``skill`` (6 demonstrations, 250 states, seed 0) on
+    the Jaco: a cube of edge ``size`` [m] centred on the prior's mean path at ``at`` of it, the
+    start ``offset`` (3,) [m] from the demonstrations' mean start, the skill's own end."""
+    from clamp import learn_prior
+    from robots import load_robot
+    from scenes import make_demonstrations
+    prior = learn_prior(make_demonstrations(skill, num_demos=6, num_points=250, seed=0))
+    mean = np.asarray(prior.mean)[:, :3]
+    box = Box(mean[int(round(at * (len(mean) - 1)))], [size] * 3)
+    return {"prior": prior, "robot": load_robot("jaco"), "scene": Scene([box]),
+            "start": mean[0] + np.asarray(offset, dtype=float)}
 
-    from clamp.batch.runner import resolve
-    from clamp.batch.problem_sets import scene_benchmark
-    problem = scene_benchmark(index + 1, "jaco", 0, skills=["box_closing", "reach_from_above",
-                                                             "pick_place", "two_target_press"],
-                              impossible_share=0.0, start_offset=0.08)[index]
-    kwargs = resolve(problem, Path("."))
-    kwargs.pop("config", None)
-    return kwargs
+
+def _collides(robot, scene, q) -> bool:
+    """The URDF collision geometry of q (T, n) meets the scene (independent of the verdict)."""
+    from robots.collision_check import CollisionChecker
+    from scenes.coal_shapes import coal_obstacles
+    return bool(CollisionChecker(robot, coal_obstacles(scene.obstacles)).check(q).collision)
 
 
-def test_the_motion_ties_smooth_the_detour(jaco):
-    """Fidelity-benchmark problem 45 (reach_from_above, Jaco, no goal): without the motion and
-    velocity ties the wrist swings out and back around the box (joint travel ~5x the free
-    plan's); with them the detour is smooth: less joint travel, smaller velocity changes, still
-    collision-free and with the skill."""
-    kwargs = _benchmark_problem(45)
+def test_the_motion_ties_smooth_the_detour():
+    """reach_from_above with a 6 cm cube on its mean path at 50 % and the start 6 cm off: the
+    free plan runs through the cube; without the motion and velocity ties the wrist swings out
+    and back around it; with them the detour is smooth: less joint travel, smaller velocity
+    changes, collision-free and with the skill."""
+    kwargs = _skill_scene("reach_from_above", 0.5, 0.06, [-0.06, 0.0, 0.0])
+    robot, scene = kwargs["robot"], kwargs["scene"]
+    free = plan(**{**kwargs, "scene": None}, covariance=False)
+    assert _collides(robot, scene, free.q)
     smooth = plan(**kwargs, covariance=False)
     swing = plan(**kwargs, covariance=False,
                  config=PlannerConfig().with_(posture_Qc=0.0, posture_velocity_sigma=0.0))
     assert smooth.success, smooth.reasons
+    assert not _collides(robot, scene, smooth.q)
     jerk = lambda r: float(np.abs(np.diff(r.qdot, axis=0)).max())   # rad/s per step
     print(f"joint travel {_travel(smooth.q):.2f} vs {_travel(swing.q):.2f} rad, largest velocity "
           f"change per step {jerk(smooth):.3f} vs {jerk(swing):.3f} rad/s")
@@ -113,20 +124,23 @@ def test_the_motion_ties_smooth_the_detour(jaco):
     assert jerk(smooth) < jerk(swing)
 
 
-def test_a_hand_pushed_out_of_the_skill_gets_the_tube_as_a_constraint(jaco):
-    """Fidelity-benchmark problem 78 (Jaco): the tied problem's optimum touches the box; the
-    untied restart's goes around it with the hand, out of the skill's tube where the
-    demonstrations agree; the tube's hinges join that candidate's constrained solve and its
-    next optimum keeps within the tube, measured by the skill checks on the plan's own
-    end-effector path."""
+def test_a_hand_pushed_out_of_the_skill_keeps_within_its_tube():
+    """pick_place with an 8 cm cube on its mean path at 45 % and the start 3 cm off: the free
+    plan runs through the cube, and going around it pushes the hand towards the edge of the
+    skill's tube where the demonstrations agree (the untied restart's optimum leaves it: the
+    tube's hinges join that solve). The plan completes, clear of the cube on the URDF geometry,
+    and its own end-effector path keeps within the tube, measured by the skill checks."""
     from clamp.planning.pipeline import model
     from clamp.planning.request import make_request
     from clamp.prior.skill import TUBE_RATIO, skill_checks
-    kwargs = {**_benchmark_problem(78), "goal": None, "via_points": ()}  # the skill's own end
+    kwargs = _skill_scene("pick_place", 0.45, 0.08, [-0.03, 0.0, 0.0])
+    prior, robot, scene = kwargs["prior"], kwargs["robot"], kwargs["scene"]
+    free = plan(**{**kwargs, "scene": None}, covariance=False)
+    assert _collides(robot, scene, free.q)
     result = plan(**kwargs, covariance=False)
     assert result.success, result.reasons
-    assert "skill_tube" in [f.name for f in result.problem.families]
-    built = model(kwargs["prior"], jaco, kwargs["scene"],
-                  make_request(kwargs["prior"], jaco, kwargs["start"]), PlannerConfig())
-    check = skill_checks(kwargs["prior"], built.reference, jaco.fk(result.q), False, score=False)
+    assert not _collides(robot, scene, result.q)
+    built = model(prior, robot, scene, make_request(prior, robot, kwargs["start"]),
+                  PlannerConfig())
+    check = skill_checks(prior, built.reference, robot.fk(result.q), False, score=False)
     assert check.max_ratio <= TUBE_RATIO

@@ -149,7 +149,6 @@ def test_a_broken_plane_is_the_verdicts_reason(prior, jaco):
     assert "below the table plane" in reason
     depth = height - sphere_heights(jaco, result.q, between=4).min()
     assert result.violations["table_plane"] == pytest.approx(depth, abs=1e-9)
-    assert [a["violated"] for a in result.attempts] == [("table_plane",)]
 
 
 def test_bad_arguments():

@@ -19,11 +19,12 @@ import pytest
 
 from clamp import PlannerConfig, build, learn_prior, optimize, plan
 from clamp.graph.keys import state_key, values_to_states
+from clamp.optim.stopping import StoppingRule
 from tests.regression.cases import REFERENCE_BOX, REFERENCE_START
 from tests.clamp.factors.test_families import user_factor
 
-TIGHT = PlannerConfig().with_(relative_error_tol=1e-10, absolute_error_tol=1e-10,
-                              convergence_patience=10, max_iterations=5000)
+TIGHT = PlannerConfig().with_(stopping=StoppingRule(relative_tol=1e-10, absolute_tol=1e-10,
+                                                   patience=10), max_iterations=5000)
 
 
 @pytest.fixture(scope="module")
@@ -73,8 +74,9 @@ def test_gtsam_levenberg_marquardt_converges_to_the_fast_optimum(jaco, soft_prio
     LM ~2700 iterations (benchmarks/bench_gtsam_parity.py)."""
     problem = build(soft_prior, jaco, None, soft_prior.mean[0, :3], config=TIGHT)
     fast = optimize(problem, TIGHT)
-    out = optimize(problem, TIGHT.with_(optimizer="gtsam", relative_error_tol=1e-12,
-                                        absolute_error_tol=1e-12, max_iterations=1000))
+    out = optimize(problem, TIGHT.with_(optimizer="gtsam", max_iterations=1000,
+                                        stopping=StoppingRule(relative_tol=1e-12,
+                                                              absolute_tol=1e-12, patience=10)))
     assert out.optimizer == "gtsam" and out.stop_reason == "converged"
     assert out.final_error == pytest.approx(fast.final_error, rel=1e-6)
     moved = np.linalg.norm(jaco.fk(out.theta[:, :jaco.n]) - jaco.fk(fast.theta[:, :jaco.n]), axis=1)

@@ -11,6 +11,7 @@ import pytest
 from clamp import PlannerConfig, build, learn_prior
 from clamp.config import OPTIMIZERS
 from clamp.optim import optimizers
+from clamp.optim.stopping import StoppingRule
 from clamp.graph.keys import values_to_states
 from robots import load_robot
 from scenes import Box, Scene, make_demonstrations
@@ -25,7 +26,8 @@ def problem_and_config():
     prior = learn_prior(make_demonstrations("box_closing", seed=0, num_demos=6, num_points=30))
     scene = Scene([Box([0.36, -0.30, 0.47], [0.05, 0.05, 0.05])])
     problem = build(prior, robot, scene, prior.mean[0, :3])
-    return problem, PlannerConfig().with_(absolute_error_tol=1e-6, max_iterations=40), prior, scene
+    return problem, PlannerConfig().with_(stopping=StoppingRule(absolute_tol=1e-6),
+                                          max_iterations=40), prior, scene
 
 
 @pytest.mark.parametrize("name", GTSAM_OPTIMIZERS)

@@ -12,6 +12,9 @@ from clamp.errors import (ClampError, ClampTypeError, InvalidParameterError, Non
                           ShapeError)
 from clamp.prior.learning import learn_prior
 from clamp import PlannerConfig, build, plan
+from clamp.factors.joint_limits import LIMIT_TOLERANCE
+from clamp.optim.stopping import StoppingRule
+from clamp.planning.clearance import check_clearance
 from clamp.planning.verdict import sphere_clearance
 
 REFERENCE_START = np.array([0.2054, -0.4722, 0.2625])
@@ -58,7 +61,7 @@ def assert_reproduces_skill(result, demos, robot):
     final = demos.positions[:, -1].mean(axis=0)
     assert np.linalg.norm(result.ee_path[-1] - final) <= 0.02
     # the limit factors are soft: allow the success check's tolerance (1e-4 rad)
-    assert np.all(robot.within_limits(result.q, PlannerConfig().checks.limit_tolerance))
+    assert np.all(robot.within_limits(result.q, LIMIT_TOLERANCE))
     assert np.all(np.abs(result.qdot) <= robot.velocity_limits + 1e-3)
     # the reported end-effector path is the forward kinematics of the plan
     np.testing.assert_allclose(result.ee_path, robot.fk(result.q), atol=1e-9)
@@ -98,11 +101,9 @@ def test_box_closing_with_obstacle(jaco, box_closing, obstacle_scene, empty_plan
     plain = levenberg_marquardt(built, built.initial, max_iterations=5, workspace_correction=0,
                                 lambda_initial=1e3)
     assert ours.final_error < 0.5 * plain.final_error
-    # without obstacle factors the same skill runs through the box
+    # the same skill unaware of the box (its plan in the empty scene) runs through it
     assert sphere_clearance(jaco, scene, empty_plan.q).min() < 0.0
-    unaware = plan(prior, jaco, scene, REFERENCE_START,
-                   config=PlannerConfig().with_(obstacle_factors=False))
-    assert not unaware.success and any("collision" in r for r in unaware.reasons)
+    assert check_clearance(jaco, scene, empty_plan.q).collision
 
 
 def test_start_inside_obstacle_fails_with_reason(jaco, synthetic):
@@ -174,9 +175,10 @@ def test_gtsam_optimizer_agrees_with_fast_solver(jaco, synthetic):
     _, prior = synthetic
     start = prior.mean[0, :3]
     # the whole error here is below the default absolute tolerance (0.01): compare converged runs
-    lean = plan(prior, jaco, None, start, config=PlannerConfig().with_(absolute_error_tol=1e-5))
+    lean_rule = StoppingRule(absolute_tol=1e-5)
+    lean = plan(prior, jaco, None, start, config=PlannerConfig(stopping=lean_rule))
     reference = plan(prior, jaco, None, start,
-                     config=PlannerConfig().with_(optimizer="gtsam", absolute_error_tol=1e-5))
+                     config=PlannerConfig(optimizer="gtsam", stopping=lean_rule))
     assert reference.final_error == pytest.approx(lean.final_error, rel=1e-2)
     np.testing.assert_allclose(reference.ee_path, lean.ee_path, atol=2e-3)
 
@@ -220,10 +222,12 @@ def test_extra_factor_maker_called_per_state(jaco, synthetic):
      InvalidParameterError, "optimizer"),
     ({"start": [0.3, -0.3, 0.2], "config": {"sigma_obs": 0.005}}, ClampTypeError, "config"),
     ({"start": [0.3, -0.3, 0.2], "scene": 42}, ClampTypeError, "scene"),
-    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(convergence_patience=0)},
-     InvalidParameterError, "convergence_patience"),
-    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(limit_tolerance=-1.0)},
-     InvalidParameterError, "limit_tolerance"),
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(
+        stopping=StoppingRule(patience=0))}, InvalidParameterError, "stopping.patience"),
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(stopping="quick")},
+     InvalidParameterError, "config.optimizer.stopping"),
+    ({"start": [0.3, -0.3, 0.2], "config": lambda: PlannerConfig().with_(limit_tolerance=1e-3)},
+     InvalidParameterError, "LIMIT_TOLERANCE"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [42]}, InvalidParameterError, "extra_factors[0]"),
     ({"start": [0.3, -0.3, 0.2], "extra_factors": [gtsam.PriorFactorVector(
         gtsam.symbol("y", 0), np.zeros(12), gtsam.noiseModel.Unit.Create(12))]}, InvalidParameterError,

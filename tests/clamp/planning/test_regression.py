@@ -3,7 +3,7 @@ the rewrite by tests/regression/make_fixtures.py): each case's end-effector path
 and joints within 1 mrad, or a graph error no higher than the old plan's on the same graph
 (the old plan's error as pinned, or evaluated on today's graph of the case: the model has
 changed since, e.g. the start factor's velocity, issue 28; on today's graph "no higher" up to
-the solver's own stopping rule, a relative decrease of ``relative_error_tol``: closer than that
+the solver's own stopping rule, a relative decrease of its ``relative_tol``: closer than that
 the solver cannot tell two plans apart), with the same verdict."""
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ def test_plan_matches_the_pre_rewrite_plan(name, request):
         old_theta = np.hstack([old_q, FIXTURES[f"{name}/qdot"]])
         today = clamp.build(**inputs, initial=old_theta).error(old_theta)
         if today != old_error:
-            old_error, tolerance = today, inputs["config"].optimizer.relative_error_tol
+            old_error, tolerance = today, inputs["config"].optimizer.stopping_rule().relative_tol
     assert same or result.final_error <= old_error * (1 + tolerance), (
         f"{name}: end effector {ee_gap * 1e3:.3f} mm, joints {joint_gap * 1e3:.3f} mrad away; "
         f"error {result.final_error:.6g} vs {old_error:.6g}")

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from clamp import PlannerConfig, learn_prior, plan
+from clamp.planning.request import IK_TOLERANCE
 from clamp.planning.search import BRANCH_APART, STRATEGIES, Budget, other_branches
 from clamp.prior.skill import TUBE_RATIO
 from robots import load_robot
@@ -118,7 +119,7 @@ def test_other_ik_branches_of_the_start(skill):
     branches = other_branches(model(skill, robot, scene, request, config), 2)
     assert 1 <= len(branches) <= 2
     for k, q0 in enumerate(branches):
-        assert np.linalg.norm(robot.fk(q0[None])[0] - start) <= config.checks.ik_tolerance
+        assert np.linalg.norm(robot.fk(q0[None])[0] - start) <= IK_TOLERANCE
         assert np.max(np.abs(q0 - request.q_start)) >= BRANCH_APART
         assert all(np.max(np.abs(q0 - q)) >= BRANCH_APART for q in branches[:k])
         assert np.all(robot.within_limits(q0[None]))

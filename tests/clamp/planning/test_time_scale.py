@@ -7,12 +7,12 @@ import pytest
 
 from clamp import PlannerConfig, learn_prior, plan
 from clamp.errors import ClampError
+from clamp.factors.joint_limits import LIMIT_TOLERANCE, VELOCITY_TOLERANCE
 from clamp.planning.time_scale import time_scaled_prior
 from scenes import make_demonstrations
 
 SKILL, STATES, STEP = "reach_from_above", 60, 0.16     # 60 states of 0.16 s: ~9.4 s
 FASTER = 3.0                # the fast demonstrations need this many times the arm's speed
-VELOCITY_TOLERANCE = PlannerConfig().checks.velocity_tolerance      # [rad/s]
 
 
 def _demos(dt: float):
@@ -220,7 +220,7 @@ def _within_limits(robot, result) -> None:
     vmax = np.asarray(robot.velocity_limits)
     assert np.all(np.abs(result.qdot) <= vmax + VELOCITY_TOLERANCE)
     assert np.all(_finite_difference_velocities(result.q, result.time) <= vmax + VELOCITY_TOLERANCE)
-    assert np.all(robot.within_limits(result.q, tolerance=PlannerConfig().checks.limit_tolerance))
+    assert np.all(robot.within_limits(result.q, tolerance=LIMIT_TOLERANCE))
 
 
 def test_with_obstacles_the_scale_is_chosen_before_the_one_path_solve(jaco, fast, solves):

@@ -10,6 +10,7 @@ import scipy.io
 
 from bad_input import raises_naming
 from clamp import errors
+from clamp.prior.conditioning import condition_prior
 from clamp.prior.learning import fit_transitions, learn_joint_prior, learn_prior, state_groups
 from clamp.prior.linear_gaussian import LinearGaussianPrior, WorkspacePrior
 
@@ -356,3 +357,33 @@ def test_only_demonstrations_identical_everywhere_are_refused():
     one_step = same.copy()
     one_step[1, 30, 0] += 1e-3                                      # differ at one step only
     assert learn_prior(positions=one_step, velocities=same_v, time=time).T == 60
+
+
+def test_demonstrations_holding_still_are_learned_holding():
+    """Each demonstration holds still at its own end for the last 20 steps (a pour turns the
+    hand in place). Those steps are learned as holding (the positions carried exactly, zero
+    velocity), and a prior conditioned on a start and a goal 1 cm off the demonstrations' holds
+    its mean still through the hold, as every demonstration does; the steps before are learned
+    as the plain ridge regression."""
+    from clamp.prior.demonstration_states import held_steps
+    positions, velocities, time = synthetic_states(num_demos=6, num_points=80)
+    positions[:, -20:], velocities[:, -20:] = positions[:, -21:-20], 0.0
+    held = held_steps(np.concatenate([positions, velocities], axis=2))
+    assert np.array_equal(np.flatnonzero(held), np.arange(60, 79))
+    prior = learn_prior(positions=positions, velocities=velocities, time=time)
+    hold = np.zeros((6, 6))
+    hold[:3, :3] = np.eye(3)
+    for step in (60, 70, 78):                  # (the start shrinkage's correction: ~1e-16)
+        np.testing.assert_allclose(prior.Phi[step], hold, atol=1e-12)
+    plain = learn_prior(positions=positions[:, :60], velocities=velocities[:, :60],
+                        time=time[:60], start_shrinkage=0.0)
+    np.testing.assert_array_equal(
+        learn_prior(positions=positions, velocities=velocities, time=time,
+                    start_shrinkage=0.0).Phi[:59], plain.Phi)
+    offset = np.array([0.01, -0.01, 0.005])
+    moved = condition_prior(prior, [(0, positions[:, 0].mean(axis=0) + offset),
+                                    (prior.T - 1, positions[:, -1].mean(axis=0) - offset)])
+    through_hold = np.linalg.norm(moved.mean[-20:, :3] - moved.mean[-1, :3], axis=1)
+    assert through_hold.max() < 1e-6, through_hold.max()
+    started = condition_prior(prior, [(0, positions[:, 0].mean(axis=0) + offset)])
+    assert np.linalg.norm(started.mean[-20:, :3] - started.mean[-1, :3], axis=1).max() < 1e-6

@@ -107,3 +107,24 @@ def test_incremental_update_continues_the_orientation(sawyer, demos):
                                first.orientation.tangent(R).mean(axis=0), atol=2e-3)
     with raises_naming(errors.InvalidParameterError, "demos", "orientations"):
         first.update(Demonstrations(more.positions, more.velocities, more.time))
+
+
+def test_a_goal_rotation_never_turns_a_state_farther_than_itself(sawyer):
+    """Three demonstrations fit each step of the orientation chain exactly, so the chain
+    conditioned exactly on a goal rotation 3 deg off carries it back amplified. Capped as a
+    goal position is (clamp.prior.goal_response), no state's tangent coordinates move farther
+    from where the start alone puts them than the goal's did, and start and goal are met."""
+    o = learn_prior(pose_demonstrations(sawyer, num_demos=3, seed=2)).orientation
+    start = [(0, o.mean_rotations[0])]
+    alone = conditioned_orientation(o, start, 1e-5)
+    capped_somewhere = False
+    for axis in np.eye(3):
+        goal = alone.mean_rotations[-1] @ so3.exp_map(np.radians(3.0) * axis)
+        moved = conditioned_orientation(o, start + [(o.T - 1, goal)], 1e-5)
+        offset = np.linalg.norm(moved.mean[-1, :3] - alone.mean[-1, :3])
+        shift = np.linalg.norm(moved.mean[:, :3] - alone.mean[:, :3], axis=1)
+        assert shift.max() <= offset * (1 + 1e-6)
+        assert angles(moved.mean_rotations[-1], goal) <= 1e-3
+        assert angles(moved.mean_rotations[0], o.mean_rotations[0]) <= 1e-3
+        capped_somewhere |= moved.info["goal_response"]["capped_states"] > 0
+    assert capped_somewhere
