@@ -38,19 +38,11 @@ def orientation_state(window: StateWindow, rows: np.ndarray, mean_rotations: np.
 
 
 def rotation_chart(window: StateWindow, reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The hand's rotation and angular velocity in a chart about ``reference`` rotations
-    (K, 3, 3) of all window rows: z (K, 6) = [log(reference^T R), omega] [rad, rad/s] and
-    d z / d theta (K, 6, 2n). An orientation state y is, near the reference, a function of z
-    alone (its angular velocity exactly linear in z's, its rotation to first order), so a
-    trial point on the predicted z is on the predicted y to that order: the solver's
-    correction (:mod:`clamp.optim.solver`) moves trial points onto it. The rotation rows of
-    d z / d q are the chord R^T W (exact at the reference, where the log map's right Jacobian
-    is I; a Gauss-Newton update towards a target a step away needs no more)."""
-    R, W, omega, domega = window.rotation()
-    r = so3.log_map(np.swapaxes(reference, -1, -2) @ R)
-    n = window.n
-    dz = np.zeros((len(R), 6, 2 * n))
-    dz[:, :3, :n] = np.swapaxes(R, -1, -2) @ W          # the chord: exact at r = 0
-    dz[:, 3:, :n] = domega
-    dz[:, 3:, n:] = W
-    return np.concatenate([r, omega], axis=1), dz
+    """The orientation states y (K, 6) of all window rows at the chain's mean rotations
+    ``reference`` (K, 3, 3) and d y / d theta (K, 6, 2n): :func:`orientation_state` of every
+    row. The solver's correction (:mod:`clamp.optim.solver`) moves trial points onto the y its
+    linear model predicts. The orientation families' residuals are linear in y, so a corrected
+    trial point meets their predicted residuals exactly; a chart about the linearization
+    point's own rotations meets them to first order only, which a chain this stiff refuses
+    (docs/decisions.md#pose-prior)."""
+    return orientation_state(window, np.arange(window.q.shape[0]), reference, True)

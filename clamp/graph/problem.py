@@ -106,11 +106,12 @@ class PlanningProblem:
         return self._foreign_states is not None
 
     @property
-    def stiff_rotation(self) -> bool:
-        """Whether a family reads the hand's rotation through a stiff learned chain
-        (:attr:`clamp.factors.Family.stiff_rotation`): the solver's correction then moves trial
-        points onto the predicted rotation as well."""
-        return any(f.stiff_rotation for f in self.families)
+    def rotation_reference(self) -> np.ndarray | None:
+        """The mean rotations (T, 3, 3) of the family that reads the hand's rotation through a
+        stiff learned chain (:attr:`clamp.factors.Family.stiff_rotation`; its ``rotations``,
+        the chain's tangent points), None without one: the solver's correction then moves trial
+        points onto the orientation states that chain reads, as predicted."""
+        return next((f.rotations for f in self.families if f.stiff_rotation), None)
 
     def has(self, name: str) -> bool:
         """Whether a family is called ``name``."""

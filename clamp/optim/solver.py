@@ -139,8 +139,8 @@ class WorkspaceCorrection:
 
     def states(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The corrected states at theta (T, 2n) and their Jacobian: the workspace states,
-        with ``rotations`` (the linearization point's hand rotations (T, 3, 3)) also the
-        rotation chart about them (:func:`clamp.factors.hand_orientation.rotation_chart`)."""
+        with ``rotations`` (a stiff orientation chain's mean rotations (T, 3, 3)) also the
+        orientation states that chain reads (:func:`clamp.factors.hand_orientation.rotation_chart`)."""
         window = self.window_of(theta)
         x, jac = window.workspace()
         if self.rotations is None:
@@ -224,7 +224,7 @@ def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float
         corrector = None
         if correction:
             window = problem.window(theta)
-            rotations = window.rotation()[0] if problem.stiff_rotation else None
+            rotations = problem.rotation_reference
             corrector = WorkspaceCorrection(
                 lambda at: window if at is None else problem.window(at), *window.workspace(),
                 correction, rotations=rotations)

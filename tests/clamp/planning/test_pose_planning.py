@@ -1,6 +1,8 @@
 """Planning with a pose prior (issue 37): the goal pose met on both arms, measured on the
 plan's own kinematics; the skill's orientation check against a plan forced to turn the hand
-away mid-skill, next to today's position-only check of the same plan; bad pose input."""
+away mid-skill, next to today's position-only check of the same plan; a box on the path of a
+pose skill recorded in joint space (a URDF arm), passed with the hand turned as the skill
+turns it; bad pose input."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,6 +13,10 @@ from clamp import errors, learn_prior, plan
 from clamp.factors import OrientationFamily
 from clamp.prior import so3
 from clamp.prior.skill import TUBE_RATIO, skill_checks
+from scenes import Box, Scene, make_demonstrations
+from scenes.joint_demonstrations import from_joint_trajectories
+from tests.clamp.factors.test_pose_factors import panda  # noqa: F401  (the Panda fixture)
+from tests.clamp.planning.test_min_clearance import coal_clearance
 from tests.pose_demos import pose_demonstrations
 
 
@@ -93,3 +99,29 @@ def test_bad_pose_targets_are_named(sawyer):
     pose[:3, 3] = prior.mean[0, :3]
     with raises_naming(errors.InvalidParameterError, "start", "pose"):
         plan(prior, sawyer, None, pose)
+
+
+def test_a_box_on_the_path_of_a_pose_skill_recorded_in_joint_space_is_passed_holding_its_orientation(panda):
+    """Joint recordings of a Panda (a synthetic reach followed by its inverse kinematics) give
+    a pose prior; a box on the prior's mean path half way along it: the plan passes the
+    verdict, clears the box on the arm's own geometry, and turns the hand no further from the
+    skill's rotation than TUBE_RATIO times the demonstrations' own orientation spread."""
+    reach = make_demonstrations("box_closing", num_demos=6, seed=0)
+    joints = [panda.ik_trajectory(path).q for path in reach.positions]
+    demos = from_joint_trajectories(panda, joints, [reach.time] * reach.M)
+    prior = learn_prior(demos)
+    assert prior.orientation is not None
+    mean = np.asarray(prior.mean)[:, :3]
+    box = Box(mean[len(mean) // 2], [0.03, 0.03, 0.03])
+    result = plan(prior, panda, Scene([box]), mean[0], covariance=False)
+    assert result.success, result.reasons
+    assert coal_clearance(panda, box, result.q) > 0.0        # the URDF's meshes, measured here
+    # the hand's angle from the skill's mean rotation, measured on the arm, against the
+    # demonstrations' own angles from it (both from forward kinematics, not from the verdict)
+    reference = so3.from_quaternions(prior.mean_quaternions())
+    planned = np.array([hand_angle(panda, q, R) for q, R in zip(result.q, reference)])
+    shown = np.array([[hand_angle(panda, q, R) for q, R in zip(demo, reference)]
+                      for demo in demos.joint_positions])
+    spread = np.sqrt(np.mean(shown ** 2, axis=0))
+    assert np.max(planned) <= TUBE_RATIO * np.max(spread)
+    assert result.skill["max_angle_ratio"] <= TUBE_RATIO
