@@ -39,17 +39,21 @@ __all__ = ["OrientationPrior", "orientation_states", "orientation_region"]
 def orientation_states(rotations: np.ndarray, mean_rotations: np.ndarray,
                        time: np.ndarray) -> np.ndarray:
     """Orientation states y (M, T, 6) = [log(Rbar_t^T R_t), Rbar_t^T omega_t] of rotations
-    (M, T, 3, 3) at mean rotations (T, 3, 3), sampled at ``time`` (T,) [s]."""
+    (M, T, 3, 3) at mean rotations (T, 3, 3), sampled at ``time`` (T,) [s]. Each
+    demonstration's log follows one branch in time (:func:`clamp.prior.so3.continuous_in_time`):
+    a demonstration turned near pi from the mean would otherwise jump by up to 2 pi between two
+    samples, and the per-step regression would read the jump as the step's motion."""
     rotations = np.asarray(rotations, dtype=float)
     Rbar_T = np.swapaxes(np.asarray(mean_rotations, dtype=float), -1, -2)
-    r = so3.log_map(Rbar_T @ rotations)
+    r = so3.continuous_in_time(so3.log_map(Rbar_T @ rotations))
     w = np.einsum("tij,mtj->mti", Rbar_T, so3.world_rates(rotations, time))
     return np.concatenate([r, w], axis=-1)
 
 
 def orientation_region(states: np.ndarray) -> dict[str, Any]:
     """``info["orientation_region"]`` of orientation states (M, T, 6) (module docstring)."""
-    angle = np.linalg.norm(states[..., :3], axis=-1)                 # (M, T) from the mean
+    turned = np.linalg.norm(states[..., :3], axis=-1) % (2 * np.pi)   # a followed branch's
+    angle = np.minimum(turned, 2 * np.pi - turned)                    # (M, T) from the mean
     return {"radius": angle.max(axis=0).tolist(), "spread": states[..., :3].std(axis=0).tolist(),
             "end_radius": float(angle[:, -1].max()), "num_demos": int(states.shape[0])}
 
