@@ -7,7 +7,15 @@ every step t has a mean rotation Rbar_t (the chordal mean over the M demonstrati
     y^m_t = [r^m_t, w^m_t],   r = log(Rbar_t^T R^m_t) (3,) [rad],   w = Rbar_t^T omega^m_t (3,) [rad/s]
 
 (omega the base-frame angular velocity, :func:`clamp.prior.so3.world_rates`): tangent
-coordinates at the mean rotation and the angular velocity in the mean's frame. These are
+coordinates at the mean rotation and the angular velocity in the mean's frame. Each
+demonstration's r follows one branch of the log map in time
+(:func:`clamp.prior.so3.continuous_in_time`): real recordings can be turned far from the mean
+(wiping_rim: 100-178 deg from the others' mean), and where one passes pi the principal log
+jumps by 2 pi between two samples; the per-step regression read that jump as the step's motion
+and its composed start gain fell to ~0 there, so a start or goal rotation's response faded
+before mid-skill (bench_lfd wiping_rim, conditional mean, start / goal: 32.12 / 26.02 -> 30.23
+/ 24.08 deg, only the fold whose training set has the wrapping demonstration changes: 58.3 /
+44.3 -> 47.0 / 32.6; the pose_synthetic sets never wrap: bit-identical). These are
 ordered [positions, velocities] like a workspace state, so the same linear-Gaussian learner
 (:func:`clamp.prior.learning.learn_orientation`: per-axis ridge regression, start shrinkage,
 the incremental conjugate model, conditioning, sampling) learns an :class:`OrientationPrior`
