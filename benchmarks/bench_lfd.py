@@ -119,6 +119,15 @@ arm 2.33 / 9.84 -> 2.31 / 2.34, mean 2.05 / 10.10 -> 2.31 / 1.94 (CartesianDMP 5
 arm had 7.0 deg before the redraw); wiping_rim start arm 36.15, mean 32.12 (GMR 43.17), goal
 arm 28.74 -> 27.81, mean 27.37 -> 26.02 against ProMP 24.75: the one cell lost (module note in
 docs/benchmarks.md). Position cells: priors bit-identical (no held step in those sets).
+Then (2026-11-29, issue 37, branch wipegoal) the orientation chain's states follow one branch
+of the log map in time (a wiping_rim demonstration passes pi from the others' mean: its 2 pi
+jump had cut the chain's start and goal responses) and its start shrinkage judges errors
+normal to the mean turn: ori start / goal [deg]: wiping_rim mean 32.12 / 26.02 -> 29.49 /
+24.08 (ProMP 48.67 / 24.75: the mean now lowest in every pose cell), arm 36.15 / 27.81 ->
+34.87 / 25.66 (the goal cell still ProMP's: the arm's plan is 8-34 deg and 70-106 mm from the
+prior's mean per fold, the arm's own tracking; at equal times the arm is lowest, 26.89 vs
+27.45); pouring arm 2.31 / 2.34 -> 2.16 / 1.92, mean 2.31 / 1.94 -> 2.16 /
+1.56; inserting 0.37 / 0.37 -> 0.33 / 0.32 (arm and mean). Position-only priors bit-identical.
 """
 from __future__ import annotations
 

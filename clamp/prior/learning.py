@@ -166,10 +166,11 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
            state_names: tuple[str, ...] | None, method: str = "batch",
            weights: np.ndarray | None = None,
            weighting: ObstacleWeighting | None = None,
-           start_shrinkage: str | float = 0.0) -> LinearGaussianPrior:
+           start_shrinkage: str | float = 0.0, along: str = "positions") -> LinearGaussianPrior:
     """Shared learner: states (M, T, D = 2A) ordered [positions, velocities] -> prior.
 
-    weights (M, T) per sample (None: unweighted), weighting the settings that made them."""
+    weights (M, T) per sample (None: unweighted), weighting the settings that made them; along
+    the start shrinkage's path direction (:data:`clamp.prior.shrinkage.PATH_DIRECTIONS`)."""
     ridge = as_scalar(ridge, "ridge", minimum=0.0)
     jitter = as_scalar(jitter, "jitter", minimum=0.0)
     if method not in METHODS:
@@ -209,7 +210,7 @@ def _learn(states: np.ndarray, time: np.ndarray, *, coupled: bool, ridge: float,
         return (*fit_transitions(states[index], groups, ridge, jitter, sub)[:2],
                 *_initial_state(states[index], groups, jitter, sub))
     Phi, u, cov0, info["start_shrinkage"] = shrink_start_offsets(
-        states, time, Phi, u, mean0, cov0, as_shrinkage(start_shrinkage), refit)
+        states, time, Phi, u, mean0, cov0, as_shrinkage(start_shrinkage), refit, along)
     return prior_class(time, Phi, u, Q, mean0, cov0, kind=kind, info={**info, "ridge": ridge},
                        state_names=state_names)
 
@@ -281,7 +282,8 @@ def learn_orientation(orientations: Any, time: Any, *, coupled: bool = False,
     from unit quaternions (M, T, 4) (x, y, z, w) sampled at ``time`` (T,) [s]: the states
     [log(Rbar_t^T R_t), Rbar_t^T omega_t] about the chordal mean rotations Rbar_t, learned with
     the same options as :func:`learn_prior` (no obstacle weighting: the weights are the
-    positions')."""
+    positions'; the start shrinkage reads the mean path's direction from the mean angular
+    velocity, :mod:`clamp.prior.shrinkage`)."""
     q = as_array(orientations, "orientations", (None, None, 4))
     t = as_time(time, "time", q.shape[1])
     rotations = so3.from_quaternions(q / np.linalg.norm(q, axis=-1, keepdims=True))
@@ -289,7 +291,8 @@ def learn_orientation(orientations: Any, time: Any, *, coupled: bool = False,
     states = orientation_states(rotations, mean, t)
     chain = _learn(states, t, coupled=coupled, ridge=ridge, jitter=jitter,
                    prior_class=LinearGaussianPrior, kind=OrientationPrior.default_kind,
-                   state_names=None, method=method, start_shrinkage=start_shrinkage)
+                   state_names=None, method=method, start_shrinkage=start_shrinkage,
+                   along="velocities")
     return OrientationPrior.learned_at(chain, mean, states)
 
 

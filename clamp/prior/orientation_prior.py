@@ -7,7 +7,15 @@ every step t has a mean rotation Rbar_t (the chordal mean over the M demonstrati
     y^m_t = [r^m_t, w^m_t],   r = log(Rbar_t^T R^m_t) (3,) [rad],   w = Rbar_t^T omega^m_t (3,) [rad/s]
 
 (omega the base-frame angular velocity, :func:`clamp.prior.so3.world_rates`): tangent
-coordinates at the mean rotation and the angular velocity in the mean's frame. These are
+coordinates at the mean rotation and the angular velocity in the mean's frame. Each
+demonstration's r follows one branch of the log map in time
+(:func:`clamp.prior.so3.continuous_in_time`): real recordings can be turned far from the mean
+(wiping_rim: 100-178 deg from the others' mean), and where one passes pi the principal log
+jumps by 2 pi between two samples; the per-step regression read that jump as the step's motion
+and its composed start gain fell to ~0 there, so a start or goal rotation's response faded
+before mid-skill (bench_lfd wiping_rim, conditional mean, start / goal: 32.12 / 26.02 -> 30.23
+/ 24.08 deg, only the fold whose training set has the wrapping demonstration changes: 58.3 /
+44.3 -> 47.0 / 32.6; the pose_synthetic sets never wrap: bit-identical). These are
 ordered [positions, velocities] like a workspace state, so the same linear-Gaussian learner
 (:func:`clamp.prior.learning.learn_orientation`: per-axis ridge regression, start shrinkage,
 the incremental conjugate model, conditioning, sampling) learns an :class:`OrientationPrior`
@@ -39,17 +47,21 @@ __all__ = ["OrientationPrior", "orientation_states", "orientation_region"]
 def orientation_states(rotations: np.ndarray, mean_rotations: np.ndarray,
                        time: np.ndarray) -> np.ndarray:
     """Orientation states y (M, T, 6) = [log(Rbar_t^T R_t), Rbar_t^T omega_t] of rotations
-    (M, T, 3, 3) at mean rotations (T, 3, 3), sampled at ``time`` (T,) [s]."""
+    (M, T, 3, 3) at mean rotations (T, 3, 3), sampled at ``time`` (T,) [s]. Each
+    demonstration's log follows one branch in time (:func:`clamp.prior.so3.continuous_in_time`):
+    a demonstration turned near pi from the mean would otherwise jump by up to 2 pi between two
+    samples, and the per-step regression would read the jump as the step's motion."""
     rotations = np.asarray(rotations, dtype=float)
     Rbar_T = np.swapaxes(np.asarray(mean_rotations, dtype=float), -1, -2)
-    r = so3.log_map(Rbar_T @ rotations)
+    r = so3.continuous_in_time(so3.log_map(Rbar_T @ rotations))
     w = np.einsum("tij,mtj->mti", Rbar_T, so3.world_rates(rotations, time))
     return np.concatenate([r, w], axis=-1)
 
 
 def orientation_region(states: np.ndarray) -> dict[str, Any]:
     """``info["orientation_region"]`` of orientation states (M, T, 6) (module docstring)."""
-    angle = np.linalg.norm(states[..., :3], axis=-1)                 # (M, T) from the mean
+    turned = np.linalg.norm(states[..., :3], axis=-1) % (2 * np.pi)   # a followed branch's
+    angle = np.minimum(turned, 2 * np.pi - turned)                    # (M, T) from the mean
     return {"radius": angle.max(axis=0).tolist(), "spread": states[..., :3].std(axis=0).tolist(),
             "end_radius": float(angle[:, -1].max()), "num_demos": int(states.shape[0])}
 

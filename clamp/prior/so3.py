@@ -13,7 +13,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 __all__ = ["log_map", "exp_map", "right_jacobian_inverse", "chordal_mean", "world_rates",
-           "from_quaternions", "to_quaternions", "angle_between"]
+           "from_quaternions", "to_quaternions", "angle_between", "nearest_branch",
+           "continuous_in_time"]
 
 #: [rad] below this angle the inverse right Jacobian uses its Taylor coefficient (1/12)
 _SMALL = 1e-4
@@ -50,6 +51,31 @@ def log_map(R: np.ndarray) -> np.ndarray:
     near_pi = angle > np.pi - _NEAR_PI
     if np.any(near_pi):
         r[near_pi] = Rotation.from_matrix(np.array(R[near_pi])).as_rotvec()
+    return r
+
+
+def nearest_branch(r: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """The rotation vectors (..., 3) [rad] of the rotations Exp(r) nearest ``reference``
+    (..., 3) among r's equivalents r + 2 pi k r / |r| (k integer, the same rotation): the one
+    whose angle along r's axis is closest to the reference's projection on that axis,
+    k = round((n . reference - |r|) / 2 pi), n = r / |r|. Exactly r where k = 0 (and r = 0)."""
+    r = np.asarray(r, dtype=float)
+    angle = np.linalg.norm(r, axis=-1, keepdims=True)
+    axis = np.divide(r, angle, out=np.zeros_like(r), where=angle > 0)
+    turns = np.round((np.sum(axis * reference, axis=-1, keepdims=True) - angle) / (2 * np.pi))
+    return np.where(turns != 0, r + 2 * np.pi * turns * axis, r)
+
+
+def continuous_in_time(r: np.ndarray) -> np.ndarray:
+    """Rotation vectors r (..., T, 3) [rad] of sampled rotations, each made continuous along
+    the time axis -2 (the log map's branch followed from the first sample: every sample the
+    equivalent nearest its predecessor, :func:`nearest_branch`). The principal log wraps where
+    a rotation passes pi from the reference (a jump of up to 2 pi between two samples of a
+    smooth motion); the followed branch does not, and its vectors can exceed pi. Unchanged
+    where no sample wraps."""
+    r = np.array(r, dtype=float)
+    for t in range(1, r.shape[-2]):
+        r[..., t, :] = nearest_branch(r[..., t, :], r[..., t - 1, :])
     return r
 
 

@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from bad_input import raises_naming
 from clamp import errors, learn_prior
+from clamp.prior.learning import learn_orientation
 from clamp.prior import so3
 from clamp.prior.conditioning import conditioned_orientation
 from clamp.prior.linear_gaussian import WorkspacePrior
@@ -128,3 +129,59 @@ def test_a_goal_rotation_never_turns_a_state_farther_than_itself(sawyer):
         assert angles(moved.mean_rotations[0], o.mean_rotations[0]) <= 1e-3
         capped_somewhere |= moved.info["goal_response"]["capped_states"] > 0
     assert capped_somewhere
+
+
+def turning_demonstrations(num_steps: int = 80):
+    """Quaternions (5, T, 4) and time (T,) [s]: five hands turning together about z, four a
+    few degrees apart and one held about 170 deg round from them, wobbling by +-25 deg, so
+    that it passes pi from the mean rotation and back (the principal log wraps there)."""
+    time = np.linspace(0.0, 4.0, num_steps)
+    s = time / time[-1]
+    common = np.radians(90.0) * s
+    offsets = np.radians([[0.0], [8.0], [-6.0], [14.0], [170.0]])
+    wobble = np.radians([[2.0], [-3.0], [4.0], [-2.0], [25.0]]) * np.sin(2 * np.pi * s + [[0.0], [1.0], [2.0], [3.0], [0.5]])
+    angle = common + offsets + wobble                                        # (5, T) about z
+    tilt = np.radians(5.0) * np.cos(np.pi * s + np.arange(5)[:, None])       # about x
+    R = Rotation.from_euler("zx", np.stack([angle, tilt], -1).reshape(-1, 2)).as_matrix()
+    return Rotation.from_matrix(R).as_quat().reshape(5, num_steps, 4), time
+
+
+def test_a_hand_turned_past_pi_from_the_mean_is_learned_continuously():
+    """The log map wraps where a demonstration passes pi from the mean rotation: its tangent
+    coordinates jump by 2 pi between two samples of a smooth turn, and the prior's mean (their
+    average) with them. The learned states follow one branch instead: they are the same
+    rotations, they move between samples by no more than the hand and the mean rotation turn,
+    the prior's mean rotation turns between steps no more than a demonstration does, the
+    spread stays an angle in [0, pi], and the chain conditioned on that demonstration's start
+    rotation follows it within its wobble."""
+    q, time = turning_demonstrations()
+    o = learn_orientation(q, time, start_shrinkage=0.0)
+    R = so3.from_quaternions(q)
+    at_mean = np.swapaxes(o.rotations, -1, -2) @ R
+    step = np.degrees(np.linalg.norm(np.diff(so3.log_map(at_mean), axis=1), axis=-1))
+    assert step.max() > 300.0                                   # the scene does wrap
+    states = o.states_of(q)
+    np.testing.assert_allclose(so3.exp_map(states[..., :3]), at_mean, atol=1e-9)
+    followed = np.degrees(np.linalg.norm(np.diff(states[..., :3], axis=1), axis=-1))
+    turn = angles(R[:, 1:], R[:, :-1]).max()                    # a hand's largest step [deg]
+    assert followed.max() <= turn + angles(o.rotations[1:], o.rotations[:-1]).max()
+    assert angles(o.mean_rotations[1:], o.mean_rotations[:-1]).max() <= turn
+    truth = angles(R, np.broadcast_to(o.rotations, R.shape)).max(axis=0)
+    np.testing.assert_allclose(np.degrees(o.angle_radius), truth, atol=1e-6)
+    c = conditioned_orientation(o, [(0, R[-1, 0])], 1e-5)
+    assert angles(c.mean_rotations, R[-1]).max() <= 25.0        # its wobble is +-25 deg
+
+
+def test_nearest_branch_is_the_same_rotation_nearest_the_reference():
+    rng = np.random.default_rng(3)
+    r = so3.log_map(so3.exp_map(rng.normal(size=(50, 3)) * 2.0))
+    reference = rng.normal(size=(50, 3)) * 6.0
+    near = so3.nearest_branch(r, reference)
+    np.testing.assert_allclose(so3.exp_map(near), so3.exp_map(r), atol=1e-9)
+    axis = r / np.linalg.norm(r, axis=1, keepdims=True)
+    for k in (-2, -1, 1, 2):                       # no other equivalent on the axis is nearer
+        other = near + 2 * np.pi * k * axis
+        assert np.all(np.linalg.norm(near - reference, axis=1)
+                      <= np.linalg.norm(other - reference, axis=1) + 1e-9)
+    assert np.array_equal(so3.nearest_branch(r, r), r)            # unchanged where k = 0
+    assert np.array_equal(so3.nearest_branch(np.zeros(3), reference[0]), np.zeros(3))

@@ -1,11 +1,16 @@
 """Start shrinkage (clamp.prior.shrinkage): the weight is chosen by leave-one-out prediction of the
-demonstrations from their starts, the recorded errors are those predictions' errors, the mean
-stays the demonstrations' mean and a given weight makes a moved start fade as the target says."""
+demonstrations from their starts, the recorded errors are those predictions' errors (normal to
+the mean path: the mean positions' gradient, an orientation chain's mean angular velocity), the
+mean stays the demonstrations' mean and a given weight makes a moved start fade as the target
+says."""
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from clamp import InvalidParameterError, condition_prior, learn_prior
-from clamp.prior.shrinkage import fading_responses
+from clamp.prior.learning import learn_joint_prior, learn_orientation
+from clamp.prior.orientation_prior import orientation_states
+from clamp.prior.shrinkage import fading_responses, shrink_start_offsets
 from scenes import Demonstrations, make_demonstrations
 
 
@@ -178,3 +183,52 @@ def test_an_offset_the_demonstrations_drop_early_is_dropped_early():
     assert record["weights"]["regressed"] > record["weights"]["spread"]
     assert loo_rms(demos) < loo_rms(demos, start_shrinkage=1.0)
     assert loo_rms(demos) < loo_rms(demos, start_shrinkage=0.0)
+
+
+def turning(num_demos=6, T=90, seed=5):
+    """Quaternions (M, T, 4) and time (T,) [s]: hands turning 120 deg about z from scattered
+    starting rotations (offsets about z and x that fade), each at its own pace."""
+    rng = np.random.default_rng(seed)
+    tau = np.linspace(0.0, 1.0, T)
+    angles = []
+    for _ in range(num_demos):
+        pace = tau ** rng.uniform(0.8, 1.25)
+        offset = rng.normal(scale=np.radians(8.0), size=2)
+        angles.append(np.stack([np.radians(120.0) * pace + offset[0] * (1 - tau) ** 2,
+                                offset[1] * (1 - tau), 0.1 * np.sin(np.pi * tau)], axis=1))
+    R = Rotation.from_euler("zxy", np.reshape(angles, (-1, 3)))
+    return R.as_quat().reshape(num_demos, T, 4), 3.0 * tau
+
+
+def test_an_orientation_chain_judges_its_leave_one_out_errors_normal_to_the_mean_turn():
+    """The orientation chain's coordinates are centred on the mean rotation at every step, so
+    the mean path's direction in the leave-one-out error is the mean angular velocity (the
+    chain's velocity part), not the gradient of the coordinates' mean (near 0). The recorded
+    error of the plain chain is that of predicting each demonstration from its start, learned
+    from the others (computed here with the public learner of a chain over given states),
+    normal to the others' mean angular velocity."""
+    q, time = turning()
+    prior = learn_orientation(q, time)
+    record = prior.info["start_shrinkage"]
+    states = orientation_states(Rotation.from_quat(q.reshape(-1, 4)).as_matrix().reshape(
+        q.shape[:2] + (3, 3)), prior.rotations, time)
+    squares, along_mean = [], []
+    for k in range(len(q)):
+        others = np.arange(len(q)) != k
+        chain = learn_joint_prior(states[others, :, :3], states[others, :, 3:], time)
+        error = condition_prior(chain, [(0, states[k, 0, :3])], sigma=1e-9).mean[:, :3] \
+            - states[k, :, :3]
+        for direction, out in ((chain.mean[:, 3:], squares),
+                               (np.gradient(chain.mean[:, :3], axis=0), along_mean)):
+            unit = direction / np.linalg.norm(direction, axis=1, keepdims=True)
+            out.append(np.sum((error - np.sum(error * unit, axis=1, keepdims=True) * unit) ** 2,
+                              axis=1))
+    assert record["loo_rms_plain"] == pytest.approx(np.sqrt(np.mean(squares)), rel=1e-3)
+    assert record["loo_rms_plain"] != pytest.approx(np.sqrt(np.mean(along_mean)), rel=1e-2)
+
+
+def test_an_unknown_path_direction_is_refused():
+    demos = converging(num_demos=4)
+    with pytest.raises(InvalidParameterError, match="along"):
+        shrink_start_offsets(np.concatenate([demos.positions, demos.velocities], axis=2),
+                             demos.time, None, None, None, None, "auto", None, along="speed")
