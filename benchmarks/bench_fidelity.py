@@ -72,6 +72,7 @@ so an interrupted run keeps the problems it finished.
                                         [--quick] [--workers N] [--seed 0] [--no-cache]
                                         [--start-offset 0.08] [--records FILE [--force]]
                                         [--family scene|hard|handwriting|pose] [--shapes ...]
+                                        [--oracle-restarts 20]
 
 Full run (200 problems per arm): about 25 min of CPU for the plans and checks with cold
 caches, plus the oracle on the problems the default plan does not complete (up to ~1 min
@@ -488,13 +489,14 @@ def family_oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str,
     return first + later
 
 
-def oracle(data: dict[str, Any], seed: int = 0) -> dict:
-    """Search for a plan of problem ``data`` that passes the checks (module docstring)."""
+def oracle(data: dict[str, Any], seed: int = 0, limit: int = ORACLE_RESTARTS) -> dict:
+    """Search for a plan of problem ``data`` that passes the checks (module docstring), in up
+    to ``limit`` restarts."""
     from clamp import PlannerConfig
     if "family" in data:
-        return family_oracle(data, seed)
+        return family_oracle(data, seed, limit)
     t0 = time.perf_counter()
-    for attempt, (label, make) in enumerate(oracle_candidates(data, seed), start=1):
+    for attempt, (label, make) in enumerate(oracle_candidates(data, seed)[:limit], start=1):
         try:
             q_start, initial, changes = make()
             config = PlannerConfig().with_(**ORACLE_CONFIG, **changes)
@@ -506,11 +508,11 @@ def oracle(data: dict[str, Any], seed: int = 0) -> dict:
         if not judge(data, result.q, True)["failed"]:
             return {"completable": True, "witness": label, "attempts": attempt,
                     "seconds": time.perf_counter() - t0}
-    return {"completable": False, "witness": None, "attempts": ORACLE_RESTARTS,
+    return {"completable": False, "witness": None, "attempts": limit,
             "seconds": time.perf_counter() - t0}
 
 
-def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
+def family_oracle(data: dict[str, Any], seed: int = 0, limit: int = ORACLE_RESTARTS) -> dict:
     """The oracle of issue 27's families: the first ORACLE_RESTARTS restarts of
     :func:`family_oracle_candidates` that can be made (an IK that fails passes its turn to the
     next), each with the long budget; a plan that fails a velocity limit is planned again with
@@ -523,7 +525,7 @@ def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
     t0 = time.perf_counter()
     plans = restarts = 0
     for label, make in family_oracle_candidates(data, seed):
-        if restarts >= ORACLE_RESTARTS:
+        if restarts >= limit:
             break
         try:
             q_start, initial, changes = make()
@@ -557,10 +559,10 @@ def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
 
 # ------------------------------------------------------------------ one problem
 def run_problem(data: dict[str, Any], free: dict | None, known: dict | None,
-                obstacle: dict | None = None) -> dict:
+                obstacle: dict | None = None, restarts: int = ORACLE_RESTARTS) -> dict:
     """Obstacle plan (``obstacle`` if cached), free plan (``free`` if cached) and
-    completability (``known`` oracle outcome if cached; the oracle runs only when the default
-    plan fails the checks)."""
+    completability (``known`` oracle outcome if cached; the oracle, up to ``restarts``
+    restarts, runs only when the default plan fails the checks)."""
     logging.getLogger("clamp").setLevel(logging.ERROR)
     from skillplan.threads import single_blas_thread
     with single_blas_thread():
@@ -569,7 +571,8 @@ def run_problem(data: dict[str, Any], free: dict | None, known: dict | None,
         if data.get("meta", {}).get("start_blocked"):
             found = {"completable": False, "witness": "start blocked", "attempts": 0, "seconds": 0.0}
         elif obstacle["failed"] or not obstacle["success"]:
-            found = known if known is not None else oracle(data, seed=data["meta"]["index"])
+            found = known if known is not None else oracle(data, data["meta"]["index"],
+                                                            restarts)
         else:
             found = None
     return {"id": data["id"], "obstacle": obstacle, "free": free, "oracle": found}
@@ -866,10 +869,11 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
     fingerprint = clamp_fingerprint()
     free_keys = [problem_key(d, "free", fingerprint) for d in datas]
     obstacle_keys = [problem_key(d, "obstacle", fingerprint) for d in datas]
-    oracle_keys = [problem_key(d, "oracle", ORACLE_RESTARTS, ORACLE_CONFIG,
+    oracle_keys = [problem_key(d, "oracle", args.oracle_restarts, ORACLE_CONFIG,
                                *(["family-oracle", FAMILY_ORACLE_VERSION] if "family" in d else []))
                    for d in datas]
-    jobs = [(d, free_cache.get(fk), oracle_cache.get(ok), obstacle_cache.get(bk))
+    jobs = [(d, free_cache.get(fk), oracle_cache.get(ok), obstacle_cache.get(bk),
+             args.oracle_restarts)
             for d, fk, ok, bk in zip(datas, free_keys, oracle_keys, obstacle_keys)]
     keys = {d["id"]: (fk, ok, bk) for d, fk, ok, bk in zip(datas, free_keys, oracle_keys,
                                                           obstacle_keys)}
@@ -962,6 +966,9 @@ def parser() -> argparse.ArgumentParser:
     out.add_argument("--start-offset", type=number, default=0.08,
                      help="largest start offset per axis [m] (default 0.08: up to ~14 cm)")
     out.add_argument("--seed", type=integer_at_least(0), default=0)
+    out.add_argument("--oracle-restarts", type=integer_at_least(1), default=ORACLE_RESTARTS,
+                     help=f"the oracle's restarts per problem (default {ORACLE_RESTARTS}; fewer: "
+                          "completable is a lower bound)")
     out.add_argument("--workers", type=integer_at_least(1), default=None,
                      help="worker processes (default: plan in this process)")
     out.add_argument("--no-cache", dest="cache", action="store_false",
