@@ -49,6 +49,18 @@ tube / completion radius), the failures on problems the oracle completes (id, th
 first reason, the checks failed, the oracle's witness: the planner's work list), planning
 time ratio to the free plan, against ``FAMILY_TARGETS``.
 
+``--family pose`` (issue 37; ``hard_problems``' pose family: the orientation skills pouring
+and inserting of ``robots.pose_skills`` learned as pose priors, the start a configuration with
+the hand turned as the demonstrations start, boxes as in ``hard``) plans and judges the same way,
+the checks adding the independent orientation check of ``fidelity_orientation`` (Pinocchio's
+forward kinematics of the plan and of the demonstrations' joint recordings; the hand within 4
+of the demonstrations' orientation spreads of their mean rotation at every state, and within 2
+end spreads of their mean end rotation: a success it rejects is a false success, kind
+"orientation"), and reports the added rotation against the free plan (the largest angle between
+the two plans' hand rotations at the same state index, over the problems both plans say
+success) and the independent and the verdict's orientation figures of the successes, against
+``POSE_TARGETS``.
+
 Free and obstacle plans (their measures and checks) are cached in
 ``benchmarks/.cache/fidelity_free.json`` / ``fidelity_obstacle.json`` keyed by the problem and
 a fingerprint of the ``clamp`` sources on the path, so a changed planner plans them again (a
@@ -59,7 +71,8 @@ so an interrupted run keeps the problems it finished.
     python benchmarks/bench_fidelity.py [--problems 200] [--arms jaco sawyer] [--skills ...]
                                         [--quick] [--workers N] [--seed 0] [--no-cache]
                                         [--start-offset 0.08] [--records FILE [--force]]
-                                        [--family scene|hard|handwriting] [--shapes ...]
+                                        [--family scene|hard|handwriting|pose] [--shapes ...]
+                                        [--oracle-restarts 20]
 
 Full run (200 problems per arm): about 25 min of CPU for the plans and checks with cold
 caches, plus the oracle on the problems the default plan does not complete (up to ~1 min
@@ -86,8 +99,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 import fidelity_checks as checks
+import fidelity_orientation as orientation
 from robots.self_collision import self_collision_report
 from harness import exit_with_parent, print_environment
 
@@ -110,6 +125,7 @@ VELOCITY_TOLERANCE = 1e-3        # [rad/s] the verdict's (clamp.config CheckConf
 #: issue 27: a failure is "a hair short" when every failed check is within this of passing
 HAIR = {"depth_m": 0.0015, "limit_share": 0.03, "radius_share": 0.10}
 FAMILY_TARGETS = {"completed": 0.95, "near_miss_share": 0.01, "plan_time_p95": 10.0}
+POSE_TARGETS = {"added_rotation_median": 5.0}    # [deg] issue 37, the pose family
 TARGETS = {"completed": 0.95, "joint_path_median": 1.5, "joint_path_p90": 2.5,
            "added_rotation_median": 15.0, "toppra_median": 1.5, "plan_time_median": 3.0,
            "plan_time_p95": 10.0}
@@ -138,6 +154,17 @@ def _skill_of(spec: dict[str, Any]) -> tuple[Any, np.ndarray]:
         import hard_problems
         return hard_problems.load_skill(spec)
     return _skill(spec["skill"], spec["seed"], spec["num_demos"], spec["num_points"])
+
+
+@lru_cache(maxsize=None)
+def _orientation_skill(spec_json: str) -> orientation.OrientationSkill:
+    """The demonstrations' orientation (``fidelity_orientation``) of a ``pose`` prior spec,
+    from their joint recordings by Pinocchio's forward kinematics."""
+    import hard_problems
+    spec = json.loads(spec_json)
+    demos = hard_problems.pose_demonstrations(spec)
+    return orientation.OrientationSkill.of(
+        orientation.hand_rotations(_robot(spec["robot"]), demos.joint_positions))
 
 
 @lru_cache(maxsize=8)
@@ -191,6 +218,16 @@ def judge(data: dict[str, Any], q: np.ndarray, with_obstacles: bool,
            "mean_end_error_m": float(np.linalg.norm(ee_path[-1] - np.asarray(prior.mean)[-1, :3])),
            "tight_deviation": float(deviation[worst]),
            "leaves_skill": bool(deviation[worst] > checks.TIGHT_SIGMA)}
+    if data["prior"].get("source") == "pose":      # issue 37: the hand turned as the skill
+        rotations = orientation.hand_rotations(robot, q)
+        turned = orientation.judge_orientation(
+            rotations, _orientation_skill(json.dumps(data["prior"], sort_keys=True)))
+        if not turned.passed:
+            failed["orientation"] = "; ".join(turned.failures)
+        out["orientation_ratio"] = max(turned.ratio, turned.end_angle / turned.end_limit)
+        out["orientation_deg"] = float(np.degrees(turned.angle.max()))
+        # for the added rotation against the free plan (x, y, z, w per state)
+        out["hand_quaternions"] = Rotation.from_matrix(rotations).as_quat().round(7).tolist()
     if "family" in data:              # issue 27's families: speed and how far short
         step = float(prior.dt) if dt is None else float(dt)
         vmax = np.asarray(robot.velocity_limits, dtype=float)
@@ -231,14 +268,16 @@ def hair_short(judged: dict) -> str | None:
               "velocity": judged.get("velocity_excess", 1.0) < HAIR["limit_share"],
               "limits": False,
               "completion": judged.get("end_ratio", 9.0) < 1.0 + HAIR["radius_share"],
-              "skill": judged.get("tube_ratio", 9.0) < 1.0 + HAIR["radius_share"]}
+              "skill": judged.get("tube_ratio", 9.0) < 1.0 + HAIR["radius_share"],
+              "orientation": judged.get("orientation_ratio", 9.0) < 1.0 + HAIR["radius_share"]}
     if not all(within.get(kind, False) for kind in judged["failed"]):
         return None
     figures = {"obstacle": f"depth {1e3 * judged.get('depth_m', 0):.2f} mm",
                "self": f"self depth {1e3 * judged.get('self_depth_m', 0):.2f} mm",
                "velocity": f"velocity +{100 * judged.get('velocity_excess', 0):.1f} %",
                "completion": f"end {judged.get('end_ratio', 0):.2f}x radius",
-               "skill": f"tube {judged.get('tube_ratio', 0):.2f}x"}
+               "skill": f"tube {judged.get('tube_ratio', 0):.2f}x",
+               "orientation": f"orientation {judged.get('orientation_ratio', 0):.2f}x limit"}
     return ", ".join(figures[kind] for kind in judged["failed"])
 
 
@@ -290,12 +329,25 @@ def plan_and_judge(data: dict[str, Any], with_obstacles: bool) -> dict:
             **measure(robot, result),
             **judge(data, result.q, with_obstacles, float(np.median(np.diff(result.time)))),
             "time_scale": float(getattr(result, "time_scale", 1.0)),
+            # the verdict's own orientation figure (pose priors), beside the independent one
+            "verdict_angle_ratio": (result.skill or {}).get("max_angle_ratio"),
             # which start of the constrained solve gave the plan, and how many solves it took
             "candidate": None if chosen is None else chosen["candidate"],
             "solves": len(result.attempts)}
 
 
 # ------------------------------------------------------------------ the oracle
+def start_of(data: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """The hand's start position (3,) [m] and the start configuration (n,) of problem
+    ``data``: its start configuration (the ``pose`` family) and its forward kinematics, or its
+    start position and the robot's IK of it (the planner's start configuration)."""
+    robot = _robot(data["robot"]["name"])
+    start = np.asarray(data["start"], float)
+    if start.shape == (robot.n,):
+        return robot.fk(start), start
+    return start, np.asarray(robot.ik(start).q)
+
+
 def _detour_paths(path: np.ndarray, scene: Any) -> list[tuple[str, np.ndarray]]:
     """The path (T, 3) bent over / around / under the obstacles: a smooth bump (sin^2) over
     the states within 15 cm of an obstacle (widened by 20 states), 10 or 20 cm high."""
@@ -334,10 +386,10 @@ def oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str, Any]]:
     from scenes import Scene
     prior, _ = _skill_of(data["prior"])
     robot = _robot(data["robot"]["name"])
-    start, goal = np.asarray(data["start"], float), np.asarray(data["goal"], float)
+    start, q_start = start_of(data)
+    goal = np.asarray(data["goal"], float)
     dt = float(prior.dt)
     rng = np.random.default_rng(seed)
-    q_start = np.asarray(robot.ik(start).q)
     path = shifted_mean_path(np.asarray(prior.mean)[:, :3], start, goal)
 
     def along(target_path: np.ndarray, q0: np.ndarray = q_start) -> Any:
@@ -398,11 +450,11 @@ def family_oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str,
     from scenes import Scene
     prior, _ = _skill_of(data["prior"])
     robot = _robot(data["robot"]["name"])
-    start, goal = np.asarray(data["start"], float), np.asarray(data["goal"], float)
+    start, q_start = start_of(data)
+    goal = np.asarray(data["goal"], float)
     path = shifted_mean_path(np.asarray(prior.mean)[:, :3], start, goal)
     scene = Scene.from_dict(data["scene"])
     base = dict(oracle_candidates(data, seed))          # default, lines, epsilon, perturbed
-    q_start = np.asarray(robot.ik(start).q)
 
     def along(target_path: np.ndarray, q0: Any = None) -> Any:
         def make():
@@ -437,13 +489,14 @@ def family_oracle_candidates(data: dict[str, Any], seed: int) -> list[tuple[str,
     return first + later
 
 
-def oracle(data: dict[str, Any], seed: int = 0) -> dict:
-    """Search for a plan of problem ``data`` that passes the checks (module docstring)."""
+def oracle(data: dict[str, Any], seed: int = 0, limit: int = ORACLE_RESTARTS) -> dict:
+    """Search for a plan of problem ``data`` that passes the checks (module docstring), in up
+    to ``limit`` restarts."""
     from clamp import PlannerConfig
     if "family" in data:
-        return family_oracle(data, seed)
+        return family_oracle(data, seed, limit)
     t0 = time.perf_counter()
-    for attempt, (label, make) in enumerate(oracle_candidates(data, seed), start=1):
+    for attempt, (label, make) in enumerate(oracle_candidates(data, seed)[:limit], start=1):
         try:
             q_start, initial, changes = make()
             config = PlannerConfig().with_(**ORACLE_CONFIG, **changes)
@@ -455,11 +508,11 @@ def oracle(data: dict[str, Any], seed: int = 0) -> dict:
         if not judge(data, result.q, True)["failed"]:
             return {"completable": True, "witness": label, "attempts": attempt,
                     "seconds": time.perf_counter() - t0}
-    return {"completable": False, "witness": None, "attempts": ORACLE_RESTARTS,
+    return {"completable": False, "witness": None, "attempts": limit,
             "seconds": time.perf_counter() - t0}
 
 
-def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
+def family_oracle(data: dict[str, Any], seed: int = 0, limit: int = ORACLE_RESTARTS) -> dict:
     """The oracle of issue 27's families: the first ORACLE_RESTARTS restarts of
     :func:`family_oracle_candidates` that can be made (an IK that fails passes its turn to the
     next), each with the long budget; a plan that fails a velocity limit is planned again with
@@ -472,7 +525,7 @@ def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
     t0 = time.perf_counter()
     plans = restarts = 0
     for label, make in family_oracle_candidates(data, seed):
-        if restarts >= ORACLE_RESTARTS:
+        if restarts >= limit:
             break
         try:
             q_start, initial, changes = make()
@@ -506,10 +559,10 @@ def family_oracle(data: dict[str, Any], seed: int = 0) -> dict:
 
 # ------------------------------------------------------------------ one problem
 def run_problem(data: dict[str, Any], free: dict | None, known: dict | None,
-                obstacle: dict | None = None) -> dict:
+                obstacle: dict | None = None, restarts: int = ORACLE_RESTARTS) -> dict:
     """Obstacle plan (``obstacle`` if cached), free plan (``free`` if cached) and
-    completability (``known`` oracle outcome if cached; the oracle runs only when the default
-    plan fails the checks)."""
+    completability (``known`` oracle outcome if cached; the oracle, up to ``restarts``
+    restarts, runs only when the default plan fails the checks)."""
     logging.getLogger("clamp").setLevel(logging.ERROR)
     from skillplan.threads import single_blas_thread
     with single_blas_thread():
@@ -518,7 +571,8 @@ def run_problem(data: dict[str, Any], free: dict | None, known: dict | None,
         if data.get("meta", {}).get("start_blocked"):
             found = {"completable": False, "witness": "start blocked", "attempts": 0, "seconds": 0.0}
         elif obstacle["failed"] or not obstacle["success"]:
-            found = known if known is not None else oracle(data, seed=data["meta"]["index"])
+            found = known if known is not None else oracle(data, data["meta"]["index"],
+                                                            restarts)
         else:
             found = None
     return {"id": data["id"], "obstacle": obstacle, "free": free, "oracle": found}
@@ -623,7 +677,7 @@ def summarize_family(records: list[dict]) -> dict:
               if r["free"]["plan_s"] and np.isfinite(r["obstacle"]["plan_s"])
               and np.isfinite(r["free"]["plan_s"])]
     scales = [r["obstacle"].get("time_scale", 1.0) for r in rest]
-    return {"problems": len(records), "blocked": len(blocked), "clear": len(rest),
+    return {**_pose_figures(rest), "problems": len(records), "blocked": len(blocked), "clear": len(rest),
             "blocked_success": sum(r["obstacle"]["success"] for r in blocked),
             "completable": len(completable), "completed": len(completed),
             "oracle_runs": sum(r["oracle"] is not None and not r.get("blocked") for r in records),
@@ -642,6 +696,37 @@ def summarize_family(records: list[dict]) -> dict:
                        f"{r['oracle']['witness']}" for r in completable if not ok(r)],
             "plan_time": _quantiles(ratios),
             "scaled": sum(k > 1.0 for k in scales), "largest_scale": max(scales, default=1.0)}
+
+
+def _quaternion_rotations(record: dict) -> np.ndarray:
+    return Rotation.from_quat(np.asarray(record["hand_quaternions"])).as_matrix()
+
+
+def _pose_figures(records: list[dict]) -> dict:
+    """Issue 37's figures of the ``pose`` family's records (empty for the other families):
+    over the problems whose box plan and free plan both say success, the added rotation
+    (:func:`fidelity_orientation.added_rotation`: the largest angle between the two plans' hand
+    rotations at the same state index) [deg]; the independent orientation ratio (angle / limit,
+    the larger of the path's and the end's) and the verdict's (its largest angle ratio / 4) over
+    the box plans that say success; the free plans that say success and fail a check."""
+    pose = [r for r in records if "hand_quaternions" in r["obstacle"]]
+    if not pose:
+        return {}
+    scored = [r for r in pose if r["obstacle"]["success"] and r["free"]["success"]
+              and "hand_quaternions" in r["free"]]
+    added = [orientation.added_rotation(_quaternion_rotations(r["obstacle"]),
+                                        _quaternion_rotations(r["free"])) for r in scored]
+    successes = [r["obstacle"] for r in pose if r["obstacle"]["success"]]
+    verdict = [o["verdict_angle_ratio"] / orientation.TUBE_RATIO for o in successes
+               if o.get("verdict_angle_ratio") is not None]
+    free_false = [r for r in pose if r["free"]["success"] and r["free"]["failed"]]
+    return {"pose_scored": len(scored), "added_rotation": _quantiles(added),
+            "added_rotation_max": max(added, default=float("nan")),
+            "orientation_ratio": _quantiles([o["orientation_ratio"] for o in successes]),
+            "verdict_ratio": _quantiles(verdict),
+            "free_success": sum(r["free"]["success"] for r in pose),
+            "free_false": [f"{r['id']}: " + "; ".join(r["free"]["failed"].values())
+                           for r in free_false]}
 
 
 def _first_reason(o: dict) -> str:
@@ -683,7 +768,22 @@ def report_family(family: str, arm: str, s: dict) -> None:
           f"{s['plan_time'][2]:.2f}x")
     print(f"plans slowed down (time scale > 1)       {s['scaled']} (largest {s['largest_scale']:.2f})")
     share = s["completed"] / s["completable"] if s["completable"] else float("nan")
-    for text, holds in [
+    pose_targets = []
+    if "added_rotation" in s:
+        a = s["added_rotation"]
+        print(f"free plans: success {s['free_success']}, of them failing a check "
+              f"{len(s['free_false'])}")
+        for line in s["free_false"]:
+            print(f"  {line}")
+        print(f"added rotation vs the free plan [deg]    median {a[0]:.1f}, p90 {a[1]:.1f}, max "
+              f"{s['added_rotation_max']:.1f} over {s['pose_scored']} problems (both plans "
+              f"success; largest angle at the same state index)")
+        print(f"orientation / limit of the successes     independent median "
+              f"{s['orientation_ratio'][0]:.2f}, p90 {s['orientation_ratio'][1]:.2f}; verdict "
+              f"median {s['verdict_ratio'][0]:.2f}, p90 {s['verdict_ratio'][1]:.2f}")
+        pose_targets = [(f"added rotation median <= {POSE_TARGETS['added_rotation_median']:.0f} deg "
+                         f"({a[0]:.1f} deg)", a[0] <= POSE_TARGETS["added_rotation_median"])]
+    for text, holds in pose_targets + [
             (f">= {100 * t['completed']:.0f} % of completable completed ({100 * share:.1f} %)",
              share >= t["completed"]),
             (f"0 false successes ({s['false']})", s["false"] == 0),
@@ -756,6 +856,8 @@ def family_problems(args: argparse.Namespace, arm: str) -> list[dict[str, Any]]:
     import hard_problems
     if args.family == "hard":
         return hard_problems.hard_problems(args.problems, arm, args.seed)
+    if args.family == "pose":
+        return hard_problems.pose_problems(args.problems, arm, args.seed)
     return hard_problems.handwriting_problems(args.shapes, arm)
 
 
@@ -767,10 +869,11 @@ def run_arm(arm: str, args: argparse.Namespace, executor: Any) -> dict:
     fingerprint = clamp_fingerprint()
     free_keys = [problem_key(d, "free", fingerprint) for d in datas]
     obstacle_keys = [problem_key(d, "obstacle", fingerprint) for d in datas]
-    oracle_keys = [problem_key(d, "oracle", ORACLE_RESTARTS, ORACLE_CONFIG,
+    oracle_keys = [problem_key(d, "oracle", args.oracle_restarts, ORACLE_CONFIG,
                                *(["family-oracle", FAMILY_ORACLE_VERSION] if "family" in d else []))
                    for d in datas]
-    jobs = [(d, free_cache.get(fk), oracle_cache.get(ok), obstacle_cache.get(bk))
+    jobs = [(d, free_cache.get(fk), oracle_cache.get(ok), obstacle_cache.get(bk),
+             args.oracle_restarts)
             for d, fk, ok, bk in zip(datas, free_keys, oracle_keys, obstacle_keys)]
     keys = {d["id"]: (fk, ok, bk) for d, fk, ok, bk in zip(datas, free_keys, oracle_keys,
                                                           obstacle_keys)}
@@ -850,9 +953,10 @@ def parser() -> argparse.ArgumentParser:
     out = CommandLineParser(prog="bench_fidelity.py", description=__doc__.splitlines()[0])
     out.add_argument("--problems", type=integer_at_least(1), default=200,
                      help="problems per arm (default 200)")
-    out.add_argument("--family", choices=["scene", "hard", "handwriting"], default="scene",
+    out.add_argument("--family", choices=["scene", "hard", "handwriting", "pose"], default="scene",
                      help="problems: scene (default, issue 19), hard or handwriting (issue 27; "
-                          "handwriting is Jaco only, --problems does not apply)")
+                          "handwriting is Jaco only, --problems does not apply), pose (issue 37: "
+                          "the orientation skills pouring and inserting)")
     out.add_argument("--shapes", nargs="+", default=None,
                      help="handwriting: LASA shapes (default: all 13)")
     out.add_argument("--quick", dest="problems", action="store_const", const=20,
@@ -862,6 +966,9 @@ def parser() -> argparse.ArgumentParser:
     out.add_argument("--start-offset", type=number, default=0.08,
                      help="largest start offset per axis [m] (default 0.08: up to ~14 cm)")
     out.add_argument("--seed", type=integer_at_least(0), default=0)
+    out.add_argument("--oracle-restarts", type=integer_at_least(1), default=ORACLE_RESTARTS,
+                     help=f"the oracle's restarts per problem (default {ORACLE_RESTARTS}; fewer: "
+                          "completable is a lower bound)")
     out.add_argument("--workers", type=integer_at_least(1), default=None,
                      help="worker processes (default: plan in this process)")
     out.add_argument("--no-cache", dest="cache", action="store_false",

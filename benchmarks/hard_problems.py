@@ -21,6 +21,18 @@ than :func:`clamp.problem_sets.scene_benchmark` makes, as plain problem dicts
   demonstration's first point, a 4 x 4 x 8 cm block standing on the table top (z = 0.08 m,
   4 cm below the writing height, so it spans z 0.08-0.16 m) centred on the held-out
   demonstration's path at half its duration.
+- ``pose`` (issue 37): the synthetic orientation skills of ``robots.pose_skills`` (skill k % 2
+  of :data:`POSE_SKILLS`, pouring and inserting; 6 joint-space demonstrations through
+  keyframes, seed 0, 200 states), learned as a pose prior; the start is a configuration (the
+  start pose is the arm's): the hand 5-15 cm from the demonstrations' mean start in a uniformly
+  random direction, turned as they start (their mean start rotation turned by up to their
+  start spread about a random axis), by pose IK seeded with the first demonstration's start
+  configurations of the demonstrations (drawn again while none converges clear of
+  self-collision); 1-3 boxes as in ``hard``, the set drawn again (up to 20 times) while it
+  touches the start configuration (on the Jaco the arm stays near the skill's short path: 3 of
+  the first 4 starts touched a box otherwise). A
+  demonstration in self-collision anywhere on its path (URDF geometry, Pinocchio + coal) is
+  left out of the skill with a logged warning.
 
 Seed 0, 200 problems per arm, as ``bench_fidelity`` measured them (clamp c3e6427): the start
 touches a box in 39 Jaco / 60 Sawyer problems; the Jaco's 161 others are all completable, the
@@ -30,18 +42,22 @@ restarts around the boxes stays in the skill's tube and completes it). Handwriti
 touches 8 of the 91 starts; the 83 others are all completable.
 
 A problem dict: ``id``, ``family``, ``prior`` (a spec :func:`load_skill` reads), ``robot``
-``{"name": arm}``, ``scene`` (``scenes.Scene.to_dict``), ``start`` (3,) [m], ``goal`` (3,)
+``{"name": arm}``, ``scene`` (``scenes.Scene.to_dict``), ``start`` (3,) [m] (``pose``: the
+start configuration (n,) [rad]), ``goal`` (3,)
 [m] (the prior's last mean position: for the oracle only, the planner gets no goal), ``meta``
 (skill, index, start_blocked).
 """
 from __future__ import annotations
 
+import logging
 import os
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+log = logging.getLogger("benchmarks.hard_problems")
 
 HARD_SKILLS = ("box_closing", "reach_from_above", "pick_place", "curved_reach")
 SAWYER_SHIFT = (0.3, 0.0, 0.2)       # tests/regression/cases.py: box_closing on the Sawyer
@@ -53,6 +69,9 @@ TABLE_TOP = 0.08                     # [m] the table surface under the writing p
 BLOCK_SIZE = (0.04, 0.04, 0.08)      # [m] the block standing on the table
 NEIGHBOURHOOD = 0.03                 # [m] a hard box overlaps this neighbourhood of the path
 GOAL_CLEAR = 0.02                    # [m] a hard box keeps this far from the mean end point
+POSE_SKILLS = ("pouring", "inserting")
+POSE_STATES = 200
+BOX_REDRAWS = 20                     # pose: box sets drawn while they touch the start
 
 
 def datasets_folder() -> Path:
@@ -102,6 +121,9 @@ def _load_skill(key: str) -> tuple[Any, np.ndarray, np.ndarray]:
         if any(spec.get("shift", (0, 0, 0))):
             demos = demos.translated(np.asarray(spec["shift"], float))
         held = None
+    elif source == "pose":
+        demos = pose_demonstrations(spec)
+        held = None
     elif source == "lasa":
         every = lasa_demonstrations(spec["shape"])
         keep = [m for m in range(len(every.positions)) if m != spec["held_out"]]
@@ -113,6 +135,44 @@ def _load_skill(key: str) -> tuple[Any, np.ndarray, np.ndarray]:
                                     num_points=spec["num_points"], seed=spec["seed"])
         held = None
     return learn_prior(demos), np.asarray(demos.positions), held
+
+
+def pose_demonstrations(spec: dict[str, Any]) -> Any:
+    """The demonstrations of a ``pose`` spec (``robots.pose_skills``; module docstring), those
+    in self-collision left out (logged); at least 2 must stay."""
+    import json
+    return _pose_demonstrations(json.dumps(spec, sort_keys=True))
+
+
+@lru_cache(maxsize=None)
+def _pose_demonstrations(key: str) -> Any:
+    import json
+
+    import fidelity_checks as checks
+    from robots import load_robot
+    from robots.pose_skills import make_pose_demonstrations
+    from scenes import Demonstrations
+    spec = json.loads(key)
+    robot = load_robot(spec["robot"])
+    demos = make_pose_demonstrations(robot, spec["skill"], num_demos=spec["num_demos"],
+                                     num_points=spec["num_points"], seed=spec["seed"])
+    check = checks.GeometryCheck(robot)
+    keep = []
+    for m, q in enumerate(demos.joint_positions):
+        contact = check.first_contacts(q, per_segment=1).get("self")
+        if contact is None:
+            keep.append(m)
+        else:
+            log.warning("pose skill %s on the %s: demonstration %d left out, in self-collision "
+                        "(%s)", spec["skill"], spec["robot"], m, contact)
+    if len(keep) < 2:
+        raise RuntimeError(f"pose skill {spec['skill']} on the {spec['robot']}: only {len(keep)} "
+                           f"of {demos.M} demonstrations free of self-collision")
+    if len(keep) == demos.M:
+        return demos
+    return Demonstrations(demos.positions[keep], demos.velocities[keep], demos.time, None,
+                          demos.name, joint_positions=demos.joint_positions[keep],
+                          joint_names=demos.joint_names, orientations=demos.orientations[keep])
 
 
 def load_skill(spec: dict[str, Any]) -> tuple[Any, np.ndarray]:
@@ -225,4 +285,58 @@ def handwriting_problems(shapes: list[str] | None = None, arm: str = "jaco"
                     "start_blocked": start_blocked(robot, [block], q_start)}
             out.append(_problem(f"handwriting/{arm}/{shape}/{h}", "handwriting", spec, arm,
                                 [block], start, np.asarray(prior.mean)[-1, :3], meta))
+    return out
+
+
+def _pose_start(robot: Any, demos: Any, rng: np.random.Generator) -> np.ndarray:
+    """A start configuration of the ``pose`` family (module docstring): the hand 5-15 cm from
+    the demonstrations' mean start, turned as they start (their mean start rotation turned by
+    up to their start spread)."""
+    from scipy.spatial.transform import Rotation
+
+    import fidelity_checks as checks
+    import fidelity_orientation as orientation
+    from robots.ik import solve_pose_ik
+    self_check = checks.GeometryCheck(robot)
+    rotations = orientation.hand_rotations(robot, demos.joint_positions[:, 0])     # (M, 3, 3)
+    mean = Rotation.from_matrix(rotations).mean()
+    spread = float(orientation.geodesic_angle(mean.as_matrix()[None], rotations).max())
+    centre = np.asarray(demos.positions)[:, 0].mean(axis=0)
+    for _ in range(100):
+        direction = rng.normal(size=3)
+        position = centre + direction / np.linalg.norm(direction) * rng.uniform(0.05, 0.15)
+        axis = rng.normal(size=3)
+        turn = Rotation.from_rotvec(axis / np.linalg.norm(axis) * rng.uniform(0.0, spread))
+        rotation = (turn * mean).as_matrix()
+        for seed in demos.joint_positions[:, 0]:        # the demonstrations' branch
+            result = solve_pose_ik(robot, position, rotation, seed, tol=1e-6, angle_tol=1e-5)
+            if (result.success and robot.within_limits(result.q)
+                    and not self_check.colliding_pairs(result.q).any()):
+                return np.asarray(result.q, float)
+    raise RuntimeError(f"no start pose of the {robot.name} reached clear of self-collision in "
+                       f"100 draws")
+
+
+def pose_problems(count: int, arm: str, seed: int = 0,
+                  skills: tuple[str, ...] = POSE_SKILLS) -> list[dict[str, Any]]:
+    """``count`` seeded problems of the ``pose`` family for ``arm`` (module docstring)."""
+    from robots import load_robot
+    robot = load_robot(arm)
+    rng = np.random.default_rng([seed, 37])
+    out = []
+    for k in range(count):
+        skill = skills[k % len(skills)]
+        spec = {"source": "pose", "skill": skill, "robot": arm, "seed": 0, "num_demos": 6,
+                "num_points": POSE_STATES}
+        prior, _ = load_skill(spec)
+        path = np.asarray(prior.mean)[:, :3]
+        goal = path[-1]
+        q_start = _pose_start(robot, pose_demonstrations(spec), rng)
+        for _ in range(BOX_REDRAWS):      # boxes that leave the start configuration clear
+            boxes = [_hard_box(rng, path, goal) for _ in range(rng.integers(1, 4))]
+            blocked = start_blocked(robot, boxes, q_start)
+            if not blocked:
+                break
+        meta = {"skill": skill, "index": k, "seed": seed, "start_blocked": blocked}
+        out.append(_problem(f"pose/{arm}/{k:04d}", "pose", spec, arm, boxes, q_start, goal, meta))
     return out
