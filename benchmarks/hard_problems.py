@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import logging
 import os
+from collections.abc import Iterator
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -238,15 +239,24 @@ def _hard_box(rng: np.random.Generator, path: np.ndarray, goal: np.ndarray) -> A
     raise RuntimeError("no box overlaps the path point and keeps the goal clear")
 
 
+def _arm_and_draws(arm: str, seed: int, family: int) -> tuple[Any, np.random.Generator]:
+    """The arm's robot and the family's random draws (seeded by ``seed`` and the family's own
+    number, so two families of one seed draw differently)."""
+    from robots import load_robot
+    return load_robot(arm), np.random.default_rng([seed, family])
+
+
+def _cycled(skills: tuple[str, ...], count: int) -> Iterator[tuple[int, str]]:
+    """(index, skill) of ``count`` problems taking the skills in turn."""
+    return ((k, skills[k % len(skills)]) for k in range(count))
+
+
 def hard_problems(count: int, arm: str, seed: int = 0,
                   skills: tuple[str, ...] = HARD_SKILLS) -> list[dict[str, Any]]:
     """``count`` seeded problems of the ``hard`` family for ``arm`` (module docstring)."""
-    from robots import load_robot
-    robot = load_robot(arm)
-    rng = np.random.default_rng([seed, 27])
+    robot, rng = _arm_and_draws(arm, seed, 27)
     out = []
-    for k in range(count):
-        skill = skills[k % len(skills)]
+    for k, skill in _cycled(skills, count):
         spec = _hard_spec(skill, arm)
         prior, _ = load_skill(spec)
         path = np.asarray(prior.mean)[:, :3]
@@ -320,12 +330,9 @@ def _pose_start(robot: Any, demos: Any, rng: np.random.Generator) -> np.ndarray:
 def pose_problems(count: int, arm: str, seed: int = 0,
                   skills: tuple[str, ...] = POSE_SKILLS) -> list[dict[str, Any]]:
     """``count`` seeded problems of the ``pose`` family for ``arm`` (module docstring)."""
-    from robots import load_robot
-    robot = load_robot(arm)
-    rng = np.random.default_rng([seed, 37])
+    robot, rng = _arm_and_draws(arm, seed, 37)
     out = []
-    for k in range(count):
-        skill = skills[k % len(skills)]
+    for k, skill in _cycled(skills, count):
         spec = {"source": "pose", "skill": skill, "robot": arm, "seed": 0, "num_demos": 6,
                 "num_points": POSE_STATES}
         prior, _ = load_skill(spec)

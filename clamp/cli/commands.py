@@ -22,7 +22,7 @@ import json
 import logging
 import math
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Sequence
@@ -375,15 +375,26 @@ def run_demo(args: argparse.Namespace) -> int:
     if args.skill not in SKILLS:          # bad input is refused before the output folder is made
         raise InvalidParameterError(f"--skill: unknown skill {args.skill!r}; expected one of the "
                                     f"built-in skills: {', '.join(SKILLS)}")
+    return _in_output_folder(args, _demo)
+
+
+def _in_output_folder(args: argparse.Namespace, run: Callable[[argparse.Namespace, Path], int]) -> int:
+    """``run(args, out)`` in the output folder ``--out`` made for it, once the planner settings
+    are checked (bad settings leave no folder behind)."""
     _config(args)
     with created_output_directory(args.out, args.force) as out:
-        return _demo(args, out)
+        return run(args, out)
+
+
+def _robot_and_limits(args: argparse.Namespace) -> tuple[Any, Any, Any]:
+    """The robot the arguments name, its acceleration limits and its jerk limits."""
+    robot = load_robot_from_args(args)
+    return robot, acceleration_limits(args, robot), jerk_limits(args, robot)
 
 
 def _demo(args: argparse.Namespace, out: Path) -> int:
     from scenes import Scene, make_demonstrations
-    robot = load_robot_from_args(args)
-    limits, jerk = acceleration_limits(args, robot), jerk_limits(args, robot)
+    robot, limits, jerk = _robot_and_limits(args)
     demos = make_demonstrations(args.skill, num_demos=6, num_points=args.num_points)
     prior = learned_prior(demos)
     start = prior.mean[0, :3] + DEMO_START_OFFSET
@@ -518,15 +529,12 @@ def run_plan(args: argparse.Namespace) -> int:
         check_demonstration_args(args)
     if args.scene:
         as_file(args.scene, "--scene", SceneFileError)
-    _config(args)
-    with created_output_directory(args.out, args.force) as out:
-        return _plan_from_files(args, out)
+    return _in_output_folder(args, _plan_from_files)
 
 
 def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     from scenes import Scene
-    robot = load_robot_from_args(args)
-    limits, jerk = acceleration_limits(args, robot), jerk_limits(args, robot)
+    robot, limits, jerk = _robot_and_limits(args)
     start = _start(args, robot)
     if args.prior is not None:        # figures from the prior alone: no demonstrations drawn
         demos, prior = None, load_prior_from_args(args)
