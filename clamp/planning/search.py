@@ -22,8 +22,7 @@ and what each start may spend (its augmented-Lagrangian updates and polish round
 9. ``wide``: the same starts from their last optimum as new problems whose obstacle safety
    distance is :data:`WIDE_MARGIN` times the model's.
 
-The fresh restarts 5-7 begin with their obstacle hinges at the stiffest penalty an earlier start
-reached (:func:`restart`), and for a pose prior along trajectories turned towards its mean
+The fresh restarts 5-7 of a pose prior begin along trajectories turned towards its mean
 rotations (:func:`joint_path`; docs/decisions.md#restarts-keep-the-penalty).
 
 Strategies 2-7 run only with obstacles; every strategy after the first only while no start
@@ -184,15 +183,15 @@ def _detours(context: Context) -> Iterator[Made]:
                            focus(context.ledger.closest))
     for name, path, _ in ranked[:DETOURS]:
         theta = joint_path(model, path, model.request.q_start)
-        yield f"detour_{name}", restart(context, context.untied.families, theta), "", False
+        yield f"detour_{name}", context.untied.with_families(context.untied.families, theta), "", False
 
 
 def _ik_branches(context: Context) -> Iterator[Made]:
     model, untied = context.model, context.untied
     for k, q0 in enumerate(other_branches(model, IK_BRANCHES)):
         theta = joint_path(model, model.initialisation.path, q0)
-        yield f"ik_branch_{k}", restart(context, [started_at(f, q0) for f in untied.families],
-                                        theta), "", False
+        yield f"ik_branch_{k}", untied.with_families([started_at(f, q0) for f in untied.families],
+                                                     theta), "", False
 
 
 def _straight_line(context: Context) -> Iterator[Made]:
@@ -200,7 +199,7 @@ def _straight_line(context: Context) -> Iterator[Made]:
     if model.config.optimizer.initialisation != "straight_line":
         line = configured_initialisation(model.prior, model.robot, model.request,
                                          model.config.with_(initialisation="straight_line"))
-        yield "straight_line", restart(context, context.untied.families, line.theta), "", False
+        yield "straight_line", context.untied.with_families(context.untied.families, line.theta), "", False
 
 
 def _tied_resumed(context: Context) -> Iterator[Made]:
@@ -239,29 +238,6 @@ def joint_path(model: Any, path: np.ndarray, q0: np.ndarray) -> np.ndarray:
     n = model.robot.n
     guess = Initialisation(theta[:, :n], theta[:, n:], path, np.zeros(len(path)))
     return pose_refined(model.robot, guess, orientation.mean_rotations, dt).theta
-
-
-def restart(context: Context, families: list, theta: np.ndarray) -> PlanningProblem:
-    """A fresh restart's problem: ``families`` at theta (T, 2n), its obstacle hinges at the
-    stiffest penalty a start of this search has needed so far (:func:`reached_penalty`):
-    at the configured one the prior pulls a trajectory begun beside an obstacle back into it,
-    to where the earlier starts were stuck (docs/decisions.md#restarts-keep-the-penalty)."""
-    factor = reached_penalty(context.ledger, families)
-    if factor > 1.0:
-        families = [f.reweighted(factor) if f.name == ObstacleFamily.name else f
-                    for f in families]
-    return context.untied.with_families(families, theta)
-
-
-def reached_penalty(ledger: Ledger, families: list) -> float:
-    """How many times stiffer (>= 1) the stiffest obstacle hinges of the judged optima in
-    ``ledger`` are than the obstacle family among ``families`` (1.0 without either)."""
-    own = next((f for f in families if f.name == ObstacleFamily.name), None)
-    reached = [float(np.max(r.problem.family(ObstacleFamily.name).whitening))
-               for r in ledger.rounds if r.problem.has(ObstacleFamily.name)]
-    if own is None or not reached:
-        return 1.0
-    return max(1.0, max(reached) / float(np.max(own.whitening)))
 
 
 #: the search, in order (module docstring)
