@@ -118,6 +118,54 @@ def test_bad_arguments_raise_clear_errors():
         sphere_coverage(model, geometry, {"radii": [1.0]})
 
 
+def _hand_model():
+    """A palm (20 x 6 x 6 cm) with two fingers (2 x 2 x 5 cm) 14 cm apart below it: a gripper."""
+    palm = pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.03]))
+    left, right = (pin.SE3(np.eye(3), np.array([0.0, y, 0.085])) for y in (0.07, -0.07))
+    return one_link_model({"palm": (coal.Box(0.06, 0.2, 0.06), palm), "left": (coal.Box(0.02, 0.02, 0.05), left),
+                           "right": (coal.Box(0.02, 0.02, 0.05), right)})
+
+
+def _cube_distances(model, geometry, spheres, side, positions):
+    """Signed distances [m] of an axis-aligned cube of edge `side` centred at each of `positions`
+    (P, 3) to the geometry (coal) and to the spheres grown by their inflation (exact cube SDF)."""
+    cube, half = coal.Box(side, side, side), np.full(3, side / 2)
+    request = coal.DistanceRequest()
+    request.enable_signed_distance = True
+    on_geometry = []
+    for position in positions:
+        distances = []
+        for obj in geometry.geometryObjects:
+            result = coal.DistanceResult()
+            coal.distance(obj.geometry, coal.Transform3s(obj.placement.rotation, obj.placement.translation),
+                          cube, coal.Transform3s(np.eye(3), position), request, result)
+            distances.append(result.min_distance)
+        on_geometry.append(min(distances))
+    q = np.abs(spheres.centres[None] - positions[:, None]) - half
+    cube_sdf = np.linalg.norm(np.maximum(q, 0.0), axis=2) + np.minimum(q.max(axis=2), 0.0)
+    on_spheres = np.min(cube_sdf - spheres.radii[None] - spheres.inflation, axis=1)
+    return np.array(on_geometry), on_spheres
+
+
+@pytest.mark.parametrize("build", [_box_model, _hand_model], ids=["box", "hand"])
+def test_spheres_cover_the_volume_not_only_the_surface(build):
+    """A small cube anywhere through the link: wherever it overlaps the geometry the spheres
+    overlap it too, by about as much (the fit covers the solid, so no obstacle slips between
+    two spheres while the geometry hits it)."""
+    model, geometry = build()
+    spheres = fit_spheres(model, geometry, inflation=0.01, rng=0)
+    report = sphere_coverage(model, geometry, spheres, inflation=0.01, samples=20000, rng=5)
+    points = np.vstack([obj.placement.act(corner) for obj in geometry.geometryObjects
+                        for corner in np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+                        * obj.geometry.halfSide])
+    rng = np.random.default_rng(7)
+    positions = rng.uniform(points.min(axis=0) - 0.02, points.max(axis=0) + 0.02, (400, 3))
+    on_geometry, on_spheres = _cube_distances(model, geometry, spheres, 0.03, positions)
+    hit = on_geometry < 0.0
+    assert hit.sum() > 50                                       # the cube goes through the link
+    assert np.all(on_spheres[hit] <= on_geometry[hit] + report.max_gap + 1e-4)
+
+
 @pytest.mark.parametrize("name", ["jaco", "sawyer"])
 def test_builtin_robots_are_covered_by_at_most_40_spheres(name):
     model, geometry = builtin_models(name)
