@@ -11,6 +11,7 @@ import pytest
 
 from robots import Robot, spheres
 from robots.sphere_cache import CACHE_ENV, cache_folder
+from tests.two_joint_arm import two_joint_arm_urdf
 
 CUBE_FACES = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
               (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
@@ -29,17 +30,8 @@ def write_cube(path: Path, half: float) -> None:
 def write_arm(folder: Path, length: float = 0.3) -> Path:
     """A two-joint arm: a cylinder of ``length`` [m] on its upper link, the cube mesh on its tool."""
     urdf = folder / "arm.urdf"
-    urdf.write_text(f"""<robot name="arm">
-  <link name="base"/>
-  <link name="upper"><collision><origin xyz="0 0 {length / 2}"/><geometry><cylinder radius="0.04" length="{length}"/>
-    </geometry></collision></link>
-  <link name="tool"><collision><geometry><mesh filename="{folder / 'cube.stl'}"/></geometry></collision></link>
-  <joint name="j1" type="revolute"><parent link="base"/><child link="upper"/>
-    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><parent link="upper"/><child link="tool"/><origin xyz="0 0 {length}"/>
-    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-</robot>
-""")
+    mesh = folder / "cube.stl"
+    urdf.write_text(two_joint_arm_urdf("arm", f'<mesh filename="{mesh}"/>', length))
     return urdf
 
 

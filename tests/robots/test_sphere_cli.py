@@ -14,6 +14,7 @@ from robots import Robot
 from robots.sphere_cache import CACHE_ENV
 from robots.sphere_model import load_sphere_file
 from test_sphere_cache import write_cube
+from tests.two_joint_arm import two_joint_arm_urdf
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -28,21 +29,14 @@ def write_hand(folder: Path, mesh: str) -> Path:
     """An arm whose tool carries a finger on a prismatic joint (beyond the end effector "tool");
     the tool's geometry is the mesh ``mesh`` (a path or a package:// URI)."""
     urdf = folder / "hand.urdf"
-    urdf.write_text(f"""<robot name="hand">
-  <link name="base"/>
-  <link name="upper"><collision><origin xyz="0 0 0.15"/><geometry><cylinder radius="0.04" length="0.3"/>
-    </geometry></collision></link>
-  <link name="tool"><collision><geometry><mesh filename="{mesh}"/></geometry></collision></link>
-  <link name="finger"><collision><origin xyz="0 0 0.04"/><geometry><box size="0.01 0.02 0.08"/></geometry>
+    finger = """  <link name="finger"><collision><origin xyz="0 0 0.04"/><geometry><box size="0.01 0.02 0.08"/></geometry>
     </collision></link>
-  <joint name="j1" type="revolute"><parent link="base"/><child link="upper"/>
-    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><parent link="upper"/><child link="tool"/><origin xyz="0 0 0.3"/>
-    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-  <joint name="finger_joint" type="prismatic"><parent link="tool"/><child link="finger"/>
+"""
+    finger_joint = """  <joint name="finger_joint" type="prismatic"><parent link="tool"/><child link="finger"/>
     <origin xyz="0.02 0 0.03"/><axis xyz="1 0 0"/><limit lower="0" upper="0.04" effort="1" velocity="1"/></joint>
-</robot>
-""")
+"""
+    urdf.write_text(two_joint_arm_urdf("hand", f'<mesh filename="{mesh}"/>', links=finger,
+                                       joints=finger_joint))
     return urdf
 
 
