@@ -183,7 +183,8 @@ def _detours(context: Context) -> Iterator[Made]:
                            focus(context.ledger.closest))
     for name, path, _ in ranked[:DETOURS]:
         theta = joint_path(model, path, model.request.q_start)
-        yield f"detour_{name}", context.untied.with_families(context.untied.families, theta), "", False
+        yield f"detour_{name}", context.untied.with_families(context.untied.families, theta), \
+            "", False
 
 
 def _ik_branches(context: Context) -> Iterator[Made]:
@@ -199,7 +200,8 @@ def _straight_line(context: Context) -> Iterator[Made]:
     if model.config.optimizer.initialisation != "straight_line":
         line = configured_initialisation(model.prior, model.robot, model.request,
                                          model.config.with_(initialisation="straight_line"))
-        yield "straight_line", context.untied.with_families(context.untied.families, line.theta), "", False
+        yield "straight_line", context.untied.with_families(context.untied.families,
+                                                            line.theta), "", False
 
 
 def _tied_resumed(context: Context) -> Iterator[Made]:

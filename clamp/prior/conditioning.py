@@ -26,10 +26,7 @@ One exception to exactness: where the chain would carry a goal offset to a state
 the goal itself moved (a few demonstrations fitted exactly), that state's response is capped
 to the goal's (:mod:`clamp.prior.goal_response`; recorded in ``info["goal_response"]``). The
 orientation chain of a pose prior, conditioned on a goal rotation, is capped alike (in its
-tangent coordinates): on bench_lfd's wiping_rim goal setting the prior mean's orientation error
-27.4 -> 26.0 deg (one fold 35.7 -> 27.3: a gain of 2 capped); with the orientation states on a
-followed branch and the start shrinkage judged along the mean turn, 25.42 uncapped -> 24.08
-capped (the same fold 35.2 -> 27.1).
+tangent coordinates; measured in docs/decisions.md#pose-prior).
 """
 from __future__ import annotations
 

@@ -13,9 +13,7 @@ demonstration's r follows one branch of the log map in time
 (wiping_rim: 100-178 deg from the others' mean), and where one passes pi the principal log
 jumps by 2 pi between two samples; the per-step regression read that jump as the step's motion
 and its composed start gain fell to ~0 there, so a start or goal rotation's response faded
-before mid-skill (bench_lfd wiping_rim, conditional mean, start / goal: 32.12 / 26.02 -> 30.23
-/ 24.08 deg, only the fold whose training set has the wrapping demonstration changes: 58.3 /
-44.3 -> 47.0 / 32.6; the pose_synthetic sets never wrap: bit-identical). These are
+before mid-skill (measured in docs/decisions.md#pose-prior). These are
 ordered [positions, velocities] like a workspace state, so the same linear-Gaussian learner
 (:func:`clamp.prior.learning.learn_orientation`: per-axis ridge regression, start shrinkage,
 the incremental conjugate model, conditioning, sampling) learns an :class:`OrientationPrior`
