@@ -33,7 +33,7 @@ from clamp.config import PlannerConfig
 from clamp.errors import InvalidParameterError, PriorFileError
 from clamp.config import INITIALISATIONS, OPTIMIZERS
 from clamp.cli.batch import add_batch_parser
-from clamp.cli.figures import figure_clocks, figure_options, write_figures
+from clamp.cli.figures import figure_clocks, figure_options, plan_json, write_figures
 from clamp.cli.show import add_show_parser
 from clamp.cli.viewer import add_view_parser, robot_spec, save_view_inputs
 from skillplan.command_line import (EXIT_FAILED, EXIT_OK, CommandLineParser, atomic_write_text,
@@ -406,9 +406,9 @@ def _demo(args: argparse.Namespace, out: Path) -> int:
     rows = [("empty scene", empty), ("obstacle", with_obstacle)]
     exported = {name: write_trajectory(out, name, result, robot, limits, not args.no_retime, jerk)
                 for name, result in (("empty", empty), ("obstacle", with_obstacle))}
-    write_plan(empty, out / "plan_empty.json", robot=robot.name, skill=args.skill,
+    write_plan(empty, out / plan_json("empty"), robot=robot.name, skill=args.skill,
                trajectory=exported["empty"])
-    write_plan(with_obstacle, out / "plan_obstacle.json", robot=robot.name, skill=args.skill,
+    write_plan(with_obstacle, out / plan_json("obstacle"), robot=robot.name, skill=args.skill,
                scene=scene.to_dict(), trajectory=exported["obstacle"])
     write_figures(out, prior, demos, robot, config,
                   [("empty", empty, None), ("obstacle", with_obstacle, scene)],
@@ -553,7 +553,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     refuse_unstartable(args, result)
     exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime, jerk)}
     source = {"prior": str(args.prior)} if args.prior is not None else {"demos": " ".join(args.demos)}
-    write_plan(result, out / "plan.json", robot=robot.name, **source,
+    write_plan(result, out / plan_json("plan"), robot=robot.name, **source,
                urdf=None if args.urdf is None else str(args.urdf),
                scene=None if scene is None else scene.to_dict(), trajectory=exported["result"])
     if args.figures:

@@ -23,6 +23,12 @@ log = logging.getLogger(__name__)
 CLOCKS = ("trajectory", "skill")
 
 
+def plan_json(name: str) -> str:
+    """The file name of plan ``name``'s JSON in an output folder: ``clamp plan`` writes its one
+    plan (``name`` "plan") as plan.json, ``clamp demo`` each plan as plan_NAME.json."""
+    return "plan.json" if name == "plan" else f"plan_{name}.json"
+
+
 def figure_clocks(clock: str | None, exported: Mapping[str, Mapping[str, Any]]) -> dict[str, np.ndarray]:
     """The trajectory-clock times of the plans whose figures are drawn on it: plan name ->
     ``state_times`` (T,) [s] of its trajectory record (``exported[name]``). ``clock``

@@ -14,14 +14,10 @@ import json
 from pathlib import Path
 from typing import Any
 
-from clamp.cli.figures import figure_clocks, figure_options
+from clamp.cli.figures import figure_clocks, figure_options, plan_json
 from clamp.cli.viewer import replan_recorded
 from skillplan.command_line import EXIT_OK, quiet
 from skillplan.errors import OutputPathError
-
-#: the plan JSON ``clamp plan`` writes (its problem recorded as ``plan``); ``clamp demo``'s
-#: plans: plan_NAME.json
-PLAN_FILES = {"plan": "plan.json"}
 
 #: the name of a recorded plan's figures where it differs from the plan's: ``clamp plan``
 #: records its problem as ``plan`` and names its figures and trajectory ``result``
@@ -32,7 +28,7 @@ def recorded_trajectory(folder: Path, name: str) -> dict[str, Any]:
     """The trajectory record of plan ``name`` in the plan JSON of ``folder`` (files, duration,
     state_times, error; :func:`clamp.cli.commands.write_trajectory`); an empty one when the JSON
     is missing or unreadable (its figures are then on the skill's clock)."""
-    path = folder / PLAN_FILES.get(name, f"plan_{name}.json")
+    path = folder / plan_json(name)
     try:
         record = json.loads(path.read_text(encoding="utf-8")).get("trajectory")
     except (OSError, ValueError, AttributeError):
