@@ -92,6 +92,15 @@ def test_the_plan_ends_at_a_goal_pose_given_on_the_command_line(work, arm, reque
     column = head.split().index("goal")                                # "goal mm", "goal deg"
     assert head.split()[column + 2:column + 4] == ["goal", "deg"]
     assert f"{record['goal_rotation_error_deg']:.2f}" in row.split()
+    # clamp view plans the folder's recorded problem again: the same goal pose, its handle at
+    # the goal's position, and dragging it keeps the rotation
+    from clamp.cli.viewer import replan_recorded
+    from clamp.viz.viewer import goal_position, moved_goal
+    _, inputs, again, _ = replan_recorded(work / out)
+    assert again.success and np.degrees(again.goal_rotation_error) <= 1.0
+    np.testing.assert_allclose(goal_position(inputs["goal"], again.ee_path[-1]), position)
+    moved = moved_goal(again.inputs.goal, position + 0.01)
+    assert (Rotation.from_quat(moved[1]).inv() * Rotation.from_quat(quaternion)).magnitude() < 1e-9
 
 
 def test_wrong_count_of_quaternion_numbers(work):
