@@ -126,7 +126,7 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]],
         orientation = r.violations.get("orientation")
         duration = exported.get(name, {}).get("duration")
         line = (f"{name:<22} {'success' if r.success else 'FAILED':<8} {_mm(r.min_clearance):>8} "
-                f"{_mm(r.skill.get('end_distance')):>7} {_goal(r):>7} {_degrees(r.goal_rotation_error):>8} "
+                f"{_end(r):>7} {_goal(r):>7} {_degrees(r.goal_rotation_error):>8} "
                 f"{'-' if orientation is None else f'{np.degrees(orientation):.1f}':>10} "
                 f"{r.time_scale:>5.2f} {'-' if duration is None else f'{duration:.2f}':>7}")
         if verbose:
@@ -134,6 +134,13 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]],
                      f"{r.final_error:>10.4g} {r.log_likelihood:>10.4g} {r.plausibility:>6.3f}")
         lines.append(line + f"  {'; '.join(r.reasons)}")
     return "\n".join(lines)
+
+
+def _end(result: PlanResult) -> str:
+    """The end error in mm from where the demonstrations end; "-" with a goal (the goal error
+    says how the plan ends)."""
+    goal = None if result.inputs is None else result.inputs.goal
+    return "-" if goal is not None else _mm(result.skill.get("end_distance"))
 
 
 def _goal(result: PlanResult) -> str:

@@ -88,10 +88,10 @@ def test_the_plan_ends_at_a_goal_pose_given_on_the_command_line(work, arm, reque
     assert angle <= 1.0
     record = json.loads((work / out / "plan.json").read_text())
     assert record["goal_rotation_error_deg"] == pytest.approx(angle, abs=1e-3)
-    head, _, row = result.stdout.splitlines()[:3]                       # the summary's row
-    column = head.split().index("goal")                                # "goal mm", "goal deg"
-    assert head.split()[column + 2:column + 4] == ["goal", "deg"]
-    assert f"{record['goal_rotation_error_deg']:.2f}" in row.split()
+    head, _, row = result.stdout.splitlines()[:3]                       # the summary
+    assert head.split()[:10] == ["plan", "verdict", "clear", "mm", "end", "mm", "goal", "mm", "goal", "deg"]
+    assert row.split()[3:6] == ["-", f"{record['goal_error'] * 1e3:.1f}",
+                                f"{record['goal_rotation_error_deg']:.2f}"]
     # clamp view plans the folder's recorded problem again: the same goal pose, its handle at
     # the goal's position, and dragging it keeps the rotation
     from clamp.cli.viewer import replan_recorded
