@@ -103,7 +103,10 @@ def test_readme_file_formats_load(tmp_path):
     from robots import JointTrajectory
     from robots.trajectory import load_schema
     from scenes import Scene, load_demonstrations
-    scene_text, plan_text, trajectory_text, ros2_text = _blocks("json")
+    from clamp.batch.problems import Problem
+    scene_text, problem_text, plan_text, trajectory_text, ros2_text = _blocks("json")
+    goal = Problem.from_json(" ".join(problem_text.split())).to_dict()["goal"]
+    assert set(goal) == {"position", "quaternion"} and len(goal["quaternion"]) == 4
     (tmp_path / "scene.json").write_text(scene_text)
     scene = Scene.load(tmp_path / "scene.json")
     assert [o.kind for o in scene.obstacles] == ["box", "box", "sphere", "cylinder"]

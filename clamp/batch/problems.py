@@ -22,7 +22,9 @@ be stored in a file, sent to another process or machine and kept next to its res
 - ``scene``: null, a scene object in the scene-file format of :mod:`scenes.scene`, or the path
   of a scene file;
 - ``start``, ``goal``: an end-effector position [x, y, z] (m) or a joint configuration (n,)
-  (rad), goal null for none; ``via_points``: [[index, [..]], ...];
+  (rad), goal null for none; the goal may be a pose ``{"position": [x, y, z], "quaternion":
+  [qx, qy, qz, qw]}`` (a unit quaternion, x y z w as ROS ``geometry_msgs/Quaternion``; only for
+  a prior learned with orientation); ``via_points``: [[index, [..]], ...];
 - ``config``: planner settings by field name, as ``PlannerConfig().with_(**config)`` takes them
   (a file naming a setting issue 36 removed is refused when planned, with where it went:
   ``clamp.config.REMOVED``);
@@ -102,6 +104,28 @@ def _object(value: Any, where: str) -> Mapping[str, Any]:
     return value
 
 
+#: the fields of a goal pose, and how many numbers each holds
+GOAL_POSE = {"position": 3, "quaternion": 4}
+
+
+def _goal(value: Any, where: str) -> tuple[float, ...] | _Frozen:
+    """A goal: a list of numbers (a position or a configuration), or a pose object
+    ``{"position": [x, y, z], "quaternion": [qx, qy, qz, qw]}`` (its values, such as the
+    quaternion's length, are checked when planned)."""
+    if not isinstance(value, Mapping):
+        return _numbers(value, where)
+    if set(value) != set(GOAL_POSE):
+        raise ProblemFormatError(f"{where}: expected a pose {{\"position\": [x, y, z], "
+                                 f"\"quaternion\": [qx, qy, qz, qw]}}, got fields {sorted(value)}")
+    pose = {}
+    for key, size in GOAL_POSE.items():
+        pose[key] = _numbers(value[key], f"{where}.{key}")
+        if len(pose[key]) != size:
+            raise ProblemFormatError(f"{where}.{key}: expected {size} numbers, got "
+                                     f"{len(pose[key])}: {list(pose[key])}")
+    return _freeze(pose)
+
+
 def _prior_spec(value: Any, where: str) -> _Frozen:
     spec = dict(_object(value, where))
     kinds = [k for k in _PRIOR_KINDS if k in spec]
@@ -168,7 +192,7 @@ class Problem:
     robot: Any
     start: tuple[float, ...]
     scene: Any = None
-    goal: tuple[float, ...] | None = None
+    goal: tuple[float, ...] | _Frozen | None = None
     via_points: tuple[tuple[int, tuple[float, ...]], ...] = ()
     config: Any = field(default_factory=_Frozen)
     expected: str | None = None
@@ -180,7 +204,8 @@ class Problem:
         scene = self.scene if self.scene is None or isinstance(self.scene, str) else _thaw(self.scene)
         return {"format": FORMAT, "version": VERSION, "id": self.id, "prior": _thaw(self.prior),
                 "robot": _thaw(self.robot), "scene": scene, "start": list(self.start),
-                "goal": None if self.goal is None else list(self.goal),
+                "goal": None if self.goal is None else _thaw(self.goal) if isinstance(
+                    self.goal, _Frozen) else list(self.goal),
                 "via_points": [[i, list(v)] for i, v in self.via_points],
                 "config": _thaw(self.config), "expected": self.expected, "meta": _thaw(self.meta)}
 
@@ -232,7 +257,7 @@ class Problem:
         return cls(id=data["id"], prior=_prior_spec(data["prior"], f"{where}.prior"),
                    robot=_robot_spec(data["robot"], f"{where}.robot"),
                    start=_numbers(data["start"], f"{where}.start"), scene=scene,
-                   goal=None if goal is None else _numbers(goal, f"{where}.goal"),
+                   goal=None if goal is None else _goal(goal, f"{where}.goal"),
                    via_points=tuple(vias),
                    config=_freeze(_object(data.get("config") or {}, f"{where}.config")),
                    expected=expected,
@@ -262,19 +287,31 @@ class Problem:
 
 
 def make_problem(id: str, prior: Any, robot: Any, start: Sequence[float], scene: Any = None,
-                 goal: Sequence[float] | None = None, via_points: Sequence = (),
+                 goal: Any = None, via_points: Sequence = (),
                  config: Mapping[str, Any] | None = None, expected: str | None = None,
                  meta: Mapping[str, Any] | None = None) -> Problem:
     """A :class:`Problem` from Python values: ``scene`` may also be a ``scenes.Scene`` (stored
-    inline), numbers may be numpy arrays."""
+    inline), numbers may be numpy arrays, ``goal`` a pose as ``clamp.plan`` takes it: a pair
+    (position (3,) [m], quaternion (4,) x, y, z, w)."""
     if hasattr(scene, "to_dict"):
         scene = scene.to_dict()
+    if (isinstance(goal, (tuple, list)) and len(goal) == 2
+            and [_length(part) for part in goal] == list(GOAL_POSE.values())):
+        goal = dict(zip(GOAL_POSE, goal))
     via_points = as_sequence(via_points, "via_points", "a list of pairs (index, values)",
                              ClampTypeError)
     data = {"id": id, "prior": prior, "robot": robot, "scene": scene, "start": start,
             "goal": goal, "via_points": via_points, "config": config or {},
             "expected": expected, "meta": meta or {}}
     return Problem.from_dict({key: _json_value(value, key) for key, value in data.items()})
+
+
+def _length(value: Any) -> int | None:
+    """The length of a flat list or 1-D array, None for anything else."""
+    shape = getattr(value, "shape", None)
+    if shape is not None:
+        return shape[0] if len(shape) == 1 else None
+    return len(value) if isinstance(value, (list, tuple)) else None
 
 
 def _json_value(value: Any, name: str) -> Any:

@@ -79,6 +79,7 @@ from robots import resolve_robot
 from clamp.config import PlannerConfig
 from scenes import Scene
 from clamp.planning.planner import plan
+from clamp.planning.request import check_rotation_learned
 from scenes.errors import InvalidArgumentError
 from skillplan.threads import single_blas_thread
 
@@ -148,8 +149,14 @@ def resolve(problem: Problem, base: Path) -> dict[str, Any]:
         scene = Scene.load(_path(scene, base))
     elif scene is not None:
         scene = Scene.from_dict(scene, source=f"problem {problem.id!r} scene", folder=base)
+    goal = data["goal"]
+    if isinstance(goal, dict):                    # a pose: (position, quaternion) as plan takes it
+        check_rotation_learned(prior, "goal.quaternion")
+        goal = (np.array(goal["position"]), np.array(goal["quaternion"]))
+    elif goal is not None:
+        goal = np.array(goal)
     return {"prior": prior, "robot": robot, "scene": scene, "start": np.array(problem.start),
-            "goal": None if problem.goal is None else np.array(problem.goal),
+            "goal": goal,
             "via_points": [(i, np.array(v)) for i, v in problem.via_points],
             "config": PlannerConfig().with_(**problem.config_changes())}
 

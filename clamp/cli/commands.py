@@ -85,10 +85,13 @@ def _config(args: argparse.Namespace) -> PlannerConfig:
 
 
 def write_plan(result: PlanResult, path: Path, **extra: Any) -> None:
-    """Plan and metrics as JSON (arrays as lists; +inf as null), written atomically; with the
-    ``trajectory`` record in ``extra``, the nearest contact is dated on both clocks
+    """Plan and metrics as JSON (arrays as lists; +inf as null), written atomically, with the
+    goal orientation error in degrees (``goal_rotation_error_deg``) when a goal rotation was
+    given; with the ``trajectory`` record in ``extra``, the nearest contact is dated on both clocks
     (:func:`on_trajectory_clock`)."""
     data = result.to_dict()
+    if result.goal_rotation_error is not None:
+        data["goal_rotation_error_deg"] = float(np.degrees(result.goal_rotation_error))
     data.update(extra)
     if "trajectory" in extra:
         data["nearest_contact"] = on_trajectory_clock(result, extra["trajectory"])
@@ -106,13 +109,14 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]],
                   exported: dict[str, dict[str, Any]] | None = None, verbose: bool = False) -> str:
     """Plain-text table, one row per plan: its verdict, clearance [mm] (on the robot's collision
     geometry), end error [mm] (from where the demonstrations end; without a goal) and goal
-    error [mm] (or rad for a joint goal), orientation error [deg] where one was asked, the time
+    error [mm] (or rad for a joint goal), the hand's angle from a goal pose's rotation [deg]
+    ("-" without a goal rotation), orientation error [deg] where one was asked, the time
     scale k (the plan lasts k times the skill), the executable trajectory's duration [s] on its
     own clock (``exported[name]["duration"]``: "-" when none was written) and the reasons.
     ``verbose`` adds the solver's figures: iterations, build and optimisation time [s], the
     final graph error and the log-likelihood [nats], the plausibility."""
     head = (f"{'plan':<22} {'verdict':<8} {'clear mm':>8} {'end mm':>7} {'goal mm':>7} "
-            f"{'orient deg':>10} {'k':>5} {'traj s':>7}")
+            f"{'goal deg':>8} {'orient deg':>10} {'k':>5} {'traj s':>7}")
     if verbose:
         head += f" {'iters':>5} {'build s':>8} {'opt s':>7} {'final err':>10} {'log-lik':>10} {'plaus':>6}"
     head += "  reasons"
@@ -122,7 +126,7 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]],
         orientation = r.violations.get("orientation")
         duration = exported.get(name, {}).get("duration")
         line = (f"{name:<22} {'success' if r.success else 'FAILED':<8} {_mm(r.min_clearance):>8} "
-                f"{_mm(r.skill.get('end_distance')):>7} {_goal(r):>7} "
+                f"{_end(r):>7} {_goal(r):>7} {_degrees(r.goal_rotation_error):>8} "
                 f"{'-' if orientation is None else f'{np.degrees(orientation):.1f}':>10} "
                 f"{r.time_scale:>5.2f} {'-' if duration is None else f'{duration:.2f}':>7}")
         if verbose:
@@ -132,12 +136,25 @@ def summary_table(rows: Sequence[tuple[str, PlanResult]],
     return "\n".join(lines)
 
 
+def _end(result: PlanResult) -> str:
+    """The end error in mm from where the demonstrations end; "-" with a goal (the goal error
+    says how the plan ends)."""
+    goal = None if result.inputs is None else result.inputs.goal
+    return "-" if goal is not None else _mm(result.skill.get("end_distance"))
+
+
 def _goal(result: PlanResult) -> str:
     """The goal error in mm, or in rad (suffix "r") for a joint goal; "-" without a goal."""
     goal = None if result.inputs is None else result.inputs.goal
     if result.goal_error is None or goal is None:
         return "-"
-    return _mm(result.goal_error) if np.size(goal) == 3 else f"{result.goal_error:.4f}r"
+    position = isinstance(goal, tuple) or np.size(goal) == 3      # a pose: (position, quaternion)
+    return _mm(result.goal_error) if position else f"{result.goal_error:.4f}r"
+
+
+def _degrees(angle: float | None) -> str:
+    """An angle [rad] in degrees for the summary ("-" for none)."""
+    return "-" if angle is None else f"{np.degrees(angle):.2f}"
 
 
 def report_failures(args: argparse.Namespace, rows: Sequence[tuple[str, PlanResult]],
@@ -529,6 +546,7 @@ def run_plan(args: argparse.Namespace) -> int:
         check_demonstration_args(args)
     if args.scene:
         as_file(args.scene, "--scene", SceneFileError)
+    goal_quaternion(args)
     return _in_output_folder(args, _plan_from_files)
 
 
@@ -548,7 +566,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     except SceneFileError as exc:
         raise flagged(exc, "--scene") from None
     config = _config(args)
-    goal = None if args.goal is None else joint_values(args.goal, "--goal", robot)
+    goal = goal_from_args(args, robot, prior)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
     refuse_unstartable(args, result)
     exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime, jerk)}
@@ -597,6 +615,53 @@ def refuse_unstartable(args: argparse.Namespace, result: PlanResult) -> None:
               "--start-joints" if args.start_joints is not None else "--start")
     more = f" (and {len(result.reasons) - 1} more)" if len(result.reasons) > 1 else ""
     raise InvalidParameterError(f"{option}: {reason}{more}; expected {STARTABLE[option]}")
+
+
+def goal_quaternion(args: argparse.Namespace) -> np.ndarray | None:
+    """--goal-quaternion qx qy qz qw (None when not given), checked before any work: four
+    numbers, a unit quaternion within scenes.quaternions.QUATERNION_TOLERANCE, with --goal."""
+    from scenes.quaternions import QUATERNION_TOLERANCE
+    if args.goal_quaternion is None:
+        return None
+    values = np.array(args.goal_quaternion, dtype=float)
+    given = f"{len(values)} number{'s' if len(values) != 1 else ''} {np.round(values, 4).tolist()}"
+    if len(values) != 4:
+        raise InvalidParameterError(f"--goal-quaternion: expected 4 numbers qx qy qz qw (a unit "
+                                    f"quaternion, x y z w), got {given}")
+    norm = float(np.linalg.norm(values))
+    if abs(norm - 1.0) > QUATERNION_TOLERANCE:
+        raise InvalidParameterError(f"--goal-quaternion: expected a unit quaternion qx qy qz qw "
+                                    f"(length 1 within {QUATERNION_TOLERANCE:g}), got length "
+                                    f"{norm:.4g}: {np.round(values, 4).tolist()}")
+    if args.goal is None:
+        raise InvalidParameterError("--goal-quaternion: only with --goal x y z (the goal's position "
+                                    "[m]); got no --goal")
+    return values
+
+
+def goal_from_args(args: argparse.Namespace, robot: Any, prior: Any) -> Any:
+    """The goal of --goal (a position x y z [m] or robot.n joint values [rad]) and
+    --goal-quaternion: None, an array, or a pose (position (3,), quaternion (4,)) as
+    :func:`clamp.plan` takes it. InvalidParameterError naming the flag for a wrong count, a
+    rotation with a joint goal, or a rotation for a prior learned without orientation."""
+    from clamp.planning.request import check_rotation_learned
+    if args.goal is None:
+        return None
+    goal = joint_values(args.goal, "--goal", robot)
+    quaternion = goal_quaternion(args)
+    if len(goal) not in (3, robot.n):
+        hint = ("; a goal rotation is --goal-quaternion qx qy qz qw" if len(goal) == 7 else "")
+        raise InvalidParameterError(f"--goal: expected a position x y z [m] or {robot.n} joint values "
+                                    f"[rad] for {robot.name}, got {len(goal)} numbers "
+                                    f"{np.round(goal, 4).tolist()}{hint}")
+    if quaternion is None:
+        return goal
+    if len(goal) == robot.n:
+        raise InvalidParameterError(f"--goal-quaternion: only with a goal position --goal x y z; "
+                                    f"--goal gives {robot.n} joint values, which fix the hand's "
+                                    "rotation already")
+    check_rotation_learned(prior, "--goal-quaternion")
+    return goal, quaternion
 
 
 def _start(args: argparse.Namespace, robot: Any) -> np.ndarray:
@@ -776,7 +841,14 @@ def parser() -> argparse.ArgumentParser:
                         help="start: the robot's measured joint configuration q1 .. qn [rad], "
                              "e.g. from /joint_states")
     user.add_argument("--goal", type=number, nargs="+", default=None,
-                      help="goal: end-effector position x y z [m] or a joint configuration")
+                      help="goal: end-effector position x y z [m] (a pose with --goal-quaternion) or a "
+                           "joint configuration q1 .. qn [rad]")
+    user.add_argument("--goal-quaternion", type=number, nargs="+", default=None,
+                      metavar="Q",
+                      help="with --goal x y z: the hand's rotation at the goal, 4 numbers: a unit "
+                           "quaternion qx qy qz qw (the order of ROS geometry_msgs/Quaternion, as tf2_echo "
+                           "prints it), in the planning frame; for a skill learned with the hand's "
+                           "rotation"),
     user.add_argument("--scene", default=None, help="scene JSON file (scenes.Scene.save)")
     user.add_argument("--figures", action="store_true",
                       help="also draw the figures (prior, plan 3-D, top view, joints, clearance, "

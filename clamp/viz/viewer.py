@@ -180,6 +180,24 @@ def load_urdf(robot: Any) -> tuple[Any, str]:
                          "(no visual or collision elements, or their meshes were not found)")
 
 
+def goal_position(goal: Any, end: np.ndarray) -> np.ndarray:
+    """Where the goal's drag handle goes: a goal position (3,) [m], a goal pose's position (a
+    pair (position, quaternion), as ``PlanResult.inputs.goal`` holds it), ``end`` (the plan's
+    last end-effector position) without a goal; a joint goal as given (no handle)."""
+    if goal is None:
+        return np.asarray(end, dtype=float)
+    if isinstance(goal, tuple) and len(goal) == 2:
+        return np.asarray(goal[0], dtype=float)
+    return np.asarray(goal, dtype=float)
+
+
+def moved_goal(goal: Any, position: np.ndarray) -> Any:
+    """The goal moved to ``position`` (3,) [m]: a goal pose keeps its rotation."""
+    if isinstance(goal, tuple) and len(goal) == 2:
+        return (position, goal[1])
+    return position
+
+
 def _segments(points: np.ndarray) -> np.ndarray:
     """(N, 3) polyline -> (N-1, 2, 3) segments for viser's line segments."""
     return np.stack([points[:-1], points[1:]], axis=1)
@@ -325,8 +343,9 @@ class PlanViewer:
         return self._replan(scene=Scene(moved))
 
     def move_goal(self, goal: Any) -> Any:
-        """Replan to end-effector goal ``goal`` (3,) [m] and show the new plan; returns it."""
-        return self._replan(goal=as_vector(goal, "goal", 3, InvalidParameterError))
+        """Replan to end-effector goal ``goal`` (3,) [m] (a goal pose keeps its rotation) and
+        show the new plan; returns it."""
+        return self._replan(goal=moved_goal(self._goal, as_vector(goal, "goal", 3, InvalidParameterError)))
 
     def close(self) -> None:
         """Stop playback and the server (its port is free afterwards); idempotent."""
@@ -399,7 +418,7 @@ class PlanViewer:
     def _draw_goal(self) -> Any | None:
         """A drag handle at the goal (the plan's last end-effector position when none was given;
         none for a joint-space goal)."""
-        goal = np.asarray(self._result.ee_path[-1] if self._goal is None else self._goal, dtype=float)
+        goal = goal_position(self._goal, self._result.ee_path[-1])
         if goal.shape != (3,):
             return None
         control = self._server.scene.add_transform_controls("/goal", scale=0.1, disable_rotations=True,
@@ -481,8 +500,7 @@ class PlanViewer:
                 for control, obstacle in zip(self._obstacle_controls, self._scene.obstacles):
                     control.position = obstacle_anchor(obstacle)
             if self._goal_control is not None:
-                self._goal_control.position = np.asarray(self._result.ee_path[-1] if self._goal is None
-                                                         else self._goal, dtype=float)
+                self._goal_control.position = goal_position(self._goal, self._result.ee_path[-1])
             self._slider.max = max(self.duration, 1e-3)
             self._draw_plan()
             self.set_time(min(self._time, self.duration))

@@ -187,3 +187,20 @@ def test_a_saved_problem_gives_its_stopping_rule_as_fields(tmp_path):
     fast = PlannerConfig.fast().optimizer.stopping_rule()
     for problem in read_problems(write_problems(problems, tmp_path / "new.jsonl")):
         assert resolve(problem, tmp_path)["config"].optimizer.stopping_rule() == fast
+
+
+def test_a_goal_pose_reads_writes_and_hashes_as_a_pose():
+    """A goal pose {"position", "quaternion"} round-trips exactly, from make_problem's pair
+    (position, quaternion) as clamp.plan takes it; a wrong count names the field; a goal
+    position keeps its list form."""
+    pair = (np.array([0.4, -0.3, 0.2]), np.array([0.0, 0.0, 0.6, 0.8]))
+    problem = make_problem("pose", SHORT, "jaco", [0.1, 0.2, 0.3], goal=pair)
+    assert problem.to_dict()["goal"] == {"position": [0.4, -0.3, 0.2], "quaternion": [0.0, 0.0, 0.6, 0.8]}
+    again = Problem.from_json(problem.to_json())
+    assert again == problem and again.hash == problem.hash
+    position = make_problem("pose", SHORT, "jaco", [0.1, 0.2, 0.3], goal=pair[0])
+    assert position.to_dict()["goal"] == [0.4, -0.3, 0.2] and position.hash != problem.hash
+    with raises_naming(ProblemFormatError, "goal.quaternion", "expected 4 numbers", "got 3"):
+        problem.replace(goal={"position": [0.4, -0.3, 0.2], "quaternion": [0.0, 0.6, 0.8]})
+    with raises_naming(ProblemFormatError, "goal", "position", "quaternion", "['position']"):
+        problem.replace(goal={"position": [0.4, -0.3, 0.2]})

@@ -33,13 +33,13 @@ def test_summary_columns_and_verbose_figures(planned):
     result, record, _ = planned
     table = summary_table([("p", result)], {"p": record})
     head, _, row = table.splitlines()
-    for column in ("verdict", "clear mm", "end mm", "goal mm", "orient deg", "k", "traj s"):
+    for column in ("verdict", "clear mm", "end mm", "goal mm", "goal deg", "orient deg", "k", "traj s"):
         assert column in head, head
     assert "log-lik" not in head and "final err" not in head
     fields = row.split()
     assert fields[:3] == ["p", "success", f"{result.min_clearance * 1e3:.1f}"], row
-    assert fields[3] == f"{result.skill['end_distance'] * 1e3:.1f}" and fields[4] == "-"
-    assert fields[6] == f"{result.time_scale:.2f}" and fields[7] == f"{record['duration']:.2f}"
+    assert fields[3] == f"{result.skill['end_distance'] * 1e3:.1f}" and fields[4:7] == ["-"] * 3
+    assert fields[7] == f"{result.time_scale:.2f}" and fields[8] == f"{record['duration']:.2f}"
     verbose = summary_table([("p", result)], {"p": record}, verbose=True)
     assert "log-lik" in verbose.splitlines()[0] and f"{result.log_likelihood:.4g}" in verbose
 
