@@ -848,7 +848,7 @@ def parser() -> argparse.ArgumentParser:
                       help="with --goal x y z: the hand's rotation at the goal, 4 numbers: a unit "
                            "quaternion qx qy qz qw (the order of ROS geometry_msgs/Quaternion, as tf2_echo "
                            "prints it), in the planning frame; for a skill learned with the hand's "
-                           "rotation"),
+                           "rotation")
     user.add_argument("--scene", default=None, help="scene JSON file (scenes.Scene.save)")
     user.add_argument("--figures", action="store_true",
                       help="also draw the figures (prior, plan 3-D, top view, joints, clearance, "
