@@ -140,7 +140,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--samples", type=int, default=200,
                         help="hand points per state for the arm's witnesses (0: none)")
     args = parser.parse_args(argv)
-    args.skills, args.start_offset, args.shapes = None, 0.08, None
+    from clamp.batch.problem_sets import BENCHMARK_SKILLS
+    args.skills, args.start_offset, args.shapes = list(BENCHMARK_SKILLS), 0.08, None
     from scenes import Scene
     print_environment()
     for arm in args.arms:
