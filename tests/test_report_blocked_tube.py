@@ -37,7 +37,7 @@ def bounds(prior, robot, scene):
             rbt.end_bound(scene, prior, points), limit, points)
 
 
-def test_the_hand_geometry_is_rigid_with_the_end_effector(jaco):
+def test_the_hand_points_lie_on_the_hand_near_its_end_effector_point(jaco):
     points = rbt.hand_points(jaco)
     assert points.shape[1] == 3 and 0 < len(points) <= rbt.MAX_POINTS
     assert np.all(np.isfinite(points))
