@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import time
 import warnings
 
 import numpy as np
@@ -38,13 +39,19 @@ SAWYER_OFFSET = np.array([0.3, 0.0, 0.2])
 
 
 def median_plan(make_call, repeats: int):
-    """Run make_call()() ``repeats`` times (after two warm-ups); last result, median timings."""
+    """Run make_call()() ``repeats`` times (after two warm-ups); last result, median timings
+    (the plan's own, wall clock) and under "cpu" the median CPU time [s] of the process per
+    call (what other processes sharing the cores change least)."""
     make_call()()
     make_call()()
-    results = [make_call()() for _ in range(repeats)]
+    results, cpu = [], []
+    for _ in range(repeats):
+        started = time.process_time()
+        results.append(make_call()())
+        cpu.append(time.process_time() - started)
     keys = set().union(*(r.timings for r in results))
-    return results[-1], {k: statistics.median(r.timings.get(k, 0.0) for r in results)
-                         for k in keys}
+    timings = {k: statistics.median(r.timings.get(k, 0.0) for r in results) for k in keys}
+    return results[-1], {**timings, "cpu": statistics.median(cpu)}
 
 
 HEADER = (f"{'case':<30} {'ok':<3} {'total ms':>9} {'x C++':>6} {'iters':>5} {'trials':>6} "
@@ -82,8 +89,8 @@ def pose_table(repeats: int) -> None:
     from tests.pose_demos import pose_demonstrations
 
     print(f"\nPose prior vs position-only prior (synthetic pour, medians of {repeats}); "
-          "x pos = pose total / position-only total")
-    print(HEADER + "  x pos")
+          "x pos = pose total / position-only total, wall clock and the process's CPU time")
+    print(HEADER + "  x pos (wall, cpu)")
     for arm in ("jaco", "sawyer"):
         robot = load_robot(arm)
         demos = pose_demonstrations(robot, duration=5.0)
@@ -99,7 +106,8 @@ def pose_table(repeats: int) -> None:
                                                         goal=position_goal), repeats)
             print(row(f"{arm} {case} position-only", base, tb))
             r, t = median_plan(lambda: lambda: plan(pose, robot, None, start, goal=goal), repeats)
-            print(row(f"{arm} {case} pose", r, t) + f"  {t['total'] / tb['total']:.2f}")
+            print(row(f"{arm} {case} pose", r, t) + f"  {t['total'] / tb['total']:.2f}, "
+                  f"{t['cpu'] / tb['cpu']:.2f}")
 
 
 def main() -> None:

@@ -232,12 +232,13 @@ class Robot:
     def ee_kinematics(self, q, qdot=None, jacobians: bool = True) -> EndEffectorKinematics:
         """End-effector position, linear velocity J(q) qdot and their Jacobians, for q (..., n).
 
-        qdot (..., n) or None (velocity zero). Returns EndEffectorKinematics with position,
-        velocity (..., 3), jacobian and velocity_jacobian (..., 3, n) (None if not jacobians).
+        qdot (..., n) or None (velocity zero, and with ``jacobians`` its Jacobian zero, neither
+        computed). Returns EndEffectorKinematics with position, velocity (..., 3), jacobian and
+        velocity_jacobian (..., 3, n) (None if not jacobians).
         """
         flat, lead = self._batch(q, "q")
         if qdot is None:
-            qdot_flat = np.zeros_like(flat)
+            qdot_flat = None
         else:
             qdot_flat, lead_dot = self._batch(qdot, "qdot")
             if lead_dot != lead:
@@ -246,6 +247,10 @@ class Robot:
         frames = self.chain.joint_frames(flat)
         pos, columns, angular = self.chain.point(frames, self._ee.joint, self._ee.translation, True)
         shape3, shape3n = lead + (3,), lead + (3, self.n)
+        if qdot_flat is None:  # at rest: the velocity and its derivative vanish
+            jacobian = columns.transpose(0, 2, 1).reshape(shape3n) if jacobians else None
+            return EndEffectorKinematics(pos.reshape(shape3), np.zeros(shape3), jacobian,
+                                         np.zeros(shape3n) if jacobians else None)
         if not jacobians:  # J qdot only: no derivative of the velocity
             velocity = np.einsum("bnk,bn->bk", columns, qdot_flat)
             return EndEffectorKinematics(pos.reshape(shape3), velocity.reshape(shape3), None, None)

@@ -17,7 +17,7 @@ import numpy as np
 class StateWindow:
     """Joint states theta (K, 2n) of support states first .. first + K - 1 of ``robot``."""
 
-    __slots__ = ("robot", "theta", "first", "_workspace", "_centres", "_rotation")
+    __slots__ = ("robot", "theta", "first", "_workspace", "_centres", "_rotation", "_chains")
 
     def __init__(self, robot: Any, theta: np.ndarray, first: int = 0):
         self.robot = robot
@@ -26,6 +26,7 @@ class StateWindow:
         self._workspace: tuple[np.ndarray, np.ndarray] | None = None
         self._centres: np.ndarray | None = None
         self._rotation: tuple[np.ndarray, ...] | None = None
+        self._chains: dict[int, tuple[Any, dict[str, Any]]] = {}
 
     @property
     def n(self) -> int:
@@ -83,6 +84,17 @@ class StateWindow:
                                W[:, 0] * after[:, 1] - W[:, 1] * after[:, 0]], axis=1)
             self._rotation = (R, W, omega, domega)
         return self._rotation
+
+    def chain_cache(self, chain: Any) -> dict[str, Any]:
+        """A dict this window keeps for ``chain`` (an object compared by identity, e.g. a learned
+        chain's mean rotations): what a family computes of every state for that chain, kept
+        for the other families, the solver's correction and the error at the same states
+        (:func:`clamp.factors.hand_orientation.chain_states`)."""
+        entry = self._chains.get(id(chain))
+        if entry is None or entry[0] is not chain:
+            entry = (chain, {})
+            self._chains[id(chain)] = entry
+        return entry[1]
 
     def sphere_centres(self) -> np.ndarray:
         """Collision-sphere centres (K, S, 3) [m] of every state (no Jacobians)."""

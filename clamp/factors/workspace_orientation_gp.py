@@ -2,7 +2,7 @@
 per step (theta_i, theta_{i+1}), i = 0 .. T-2.
 
 e_i = y(theta_{i+1}) - Phi_i y(theta_i) - u_i (6,), y the hand's orientation state at the
-step's mean rotation (:func:`clamp.factors.hand_orientation.orientation_state`), noise Q_i:
+step's mean rotation (:func:`clamp.factors.hand_orientation.chain_states`), noise Q_i:
 the rotation counterpart of :mod:`clamp.factors.workspace_gp` (the residual is the prior's own
 :func:`clamp.prior.linear_gaussian.transition_residuals`). Jacobians: d e / d theta_i =
 -Phi_i dy_i, d e / d theta_{i+1} = dy_{i+1}.
@@ -17,7 +17,7 @@ from clamp.prior.linear_gaussian import transition_residuals
 from clamp.validation import as_array
 
 from .family import Family, Linearization, covariance_root
-from .hand_orientation import orientation_state
+from .hand_orientation import chain_states
 from .states import StateWindow
 
 
@@ -43,10 +43,9 @@ class OrientationGPFamily(Family):
         return cls(orientation.rotations, orientation.Phi, orientation.u, orientation.Q)
 
     def residual(self, window: StateWindow, rows: np.ndarray, jacobians: bool) -> Linearization:
-        i = window.local(self.first[rows])
-        span = np.arange(i.min(), i.max() + 2)              # every state once: i and i + 1
-        y, dy = orientation_state(window, span, self.rotations[window.first + span], jacobians)
-        before, after = i - span[0], i + 1 - span[0]
+        before = window.local(self.first[rows])
+        after = before + 1
+        y, dy = chain_states(window, self.rotations, jacobians)     # every state of the window
         error = transition_residuals(self.Phi[rows], self.u[rows], y[before], y[after])
         if not jacobians:
             return Linearization(rows, error, None)

@@ -40,7 +40,7 @@ import numpy as np
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 from clamp.optim.banded import band_layout
-from clamp.factors.hand_orientation import rotation_chart
+from clamp.factors.hand_orientation import chain_states
 from clamp.graph.problem import NormalEquations, PlanningProblem
 from skillplan.threads import single_blas_thread
 
@@ -130,22 +130,27 @@ class WorkspaceCorrection:
         self.window_of = window_of
         self.rotations = rotations
         if rotations is not None:           # the hand's rotation too (a pose prior's chain)
-            z, dz = rotation_chart(window_of(None), rotations)
+            z, dz = chain_states(window_of(None), rotations, True)
             x, jacobian = np.concatenate([x, z], axis=1), np.concatenate([jacobian, dz], axis=1)
         self.x, self.jacobian = x, jacobian
         self.iterations = iterations
         self.damping = damping * np.eye(x.shape[1])
         self.tolerance = tolerance
 
-    def states(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def states(self, theta: np.ndarray, jacobians: bool = True
+               ) -> tuple[np.ndarray, np.ndarray | None]:
         """The corrected states at theta (T, 2n) and their Jacobian: the workspace states,
         with ``rotations`` (a stiff orientation chain's mean rotations (T, 3, 3)) also the
-        orientation states that chain reads (:func:`clamp.factors.hand_orientation.rotation_chart`)."""
+        orientation states that chain reads (:func:`clamp.factors.hand_orientation.chain_states`);
+        without ``jacobians`` the orientation states' Jacobian is not computed (None: the
+        states of a point that is not updated further)."""
         window = self.window_of(theta)
         x, jac = window.workspace()
         if self.rotations is None:
             return x, jac
-        z, dz = rotation_chart(window, self.rotations)
+        z, dz = chain_states(window, self.rotations, jacobians)
+        if not jacobians:
+            return np.concatenate([x, z], axis=1), None
         return np.concatenate([x, z], axis=1), np.concatenate([jac, dz], axis=1)
 
     def apply(self, theta: np.ndarray, delta: np.ndarray) -> np.ndarray:
@@ -153,7 +158,7 @@ class WorkspaceCorrection:
         target = self.x + np.einsum("tij,tj->ti", self.jacobian, delta)
         out = theta + delta
         for k in range(self.iterations + 1):
-            x, jac = self.states(out)
+            x, jac = self.states(out, jacobians=k < self.iterations)
             residual = target - x
             if k == self.iterations or np.max(np.abs(residual)) <= self.tolerance:
                 break

@@ -139,12 +139,14 @@ def _wrapped(robot, dq: np.ndarray) -> np.ndarray:
 #: [m / rad] how much a radian of the hand's rotation error weighs against a metre of position
 #: in :func:`pose_refined` (the position stays first: 0.1 m per rad, 1.7 mm per degree)
 ROTATION_WEIGHT = 0.1
-#: [rad] the largest joint change of one step of :func:`pose_refined`
-MAX_STEP = 0.1
+#: [rad] the largest joint change of one step of :func:`pose_refined` (3 steps of 0.3 rad:
+#: as few LM iterations as 6 of 0.1 rad, or fewer, on 20 free pose plans and the bench_clamp
+#: --pose cases, at half the cost; docs/decisions.md#pose-prior)
+MAX_STEP = 0.3
 
 
 def pose_refined(robot, initialisation: Initialisation, rotations: np.ndarray, dt: float,
-                 iterations: int = 6, damping: float = 1e-3) -> Initialisation:
+                 iterations: int = 3, damping: float = 1e-3) -> Initialisation:
     """``initialisation`` (IK of a position path) turned towards the hand's rotations
     (T, 3, 3) (a pose prior's conditioned mean): damped least squares on the pose error
     [p(q_i) - path_i, ROTATION_WEIGHT log(R_i^T R(q_i))] of every state but the first (the

@@ -41,10 +41,12 @@ def log_map(R: np.ndarray) -> np.ndarray:
     """Rotation vectors r (..., 3) [rad] with Exp(r) = R (..., 3, 3), |r| <= pi: the angle
     from the trace and the skew part, r = a / (2 sin a) vee(R - R^T); near pi, scipy's."""
     R = np.asarray(R, dtype=float)
-    vee = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
-                    R[..., 1, 0] - R[..., 0, 1]], axis=-1)
-    sine2 = np.linalg.norm(vee, axis=-1)                                  # 2 sin a
-    angle = np.arctan2(sine2, np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    vee = np.empty(R.shape[:-2] + (3,))
+    np.subtract(R[..., 2, 1], R[..., 1, 2], out=vee[..., 0])
+    np.subtract(R[..., 0, 2], R[..., 2, 0], out=vee[..., 1])
+    np.subtract(R[..., 1, 0], R[..., 0, 1], out=vee[..., 2])
+    sine2 = np.sqrt(np.einsum("...i,...i->...", vee, vee))               # 2 sin a
+    angle = np.arctan2(sine2, R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0)
     small = sine2 < 1e-12
     scale = np.where(small, 0.5, angle / np.where(small, 1.0, sine2))
     r = scale[..., None] * vee
@@ -85,23 +87,28 @@ def exp_map(r: np.ndarray) -> np.ndarray:
     return Rotation.from_rotvec(r.reshape(-1, 3)).as_matrix().reshape(r.shape[:-1] + (3, 3))
 
 
-def _hat(r: np.ndarray) -> np.ndarray:
-    out = np.zeros(r.shape[:-1] + (3, 3))
-    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
-    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
-    return out
-
-
 def right_jacobian_inverse(r: np.ndarray) -> np.ndarray:
     """Jr^-1(r) (..., 3, 3) of rotation vectors r (..., 3) [rad] (module docstring)."""
     r = np.asarray(r, dtype=float)
-    a = np.linalg.norm(r, axis=-1)
+    a2 = np.einsum("...i,...i->...", r, r)
+    a = np.sqrt(a2)
     small = a < _SMALL
     safe = np.where(small, 1.0, a)
     coefficient = np.where(small, 1.0 / 12.0,
                            1.0 / safe**2 - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)))
-    K = _hat(r)
-    return np.eye(3) + 0.5 * K + coefficient[..., None, None] * (K @ K)
+    # [r]x^2 = r r^T - |r|^2 I: no batched 3x3 product
+    out = coefficient[..., None, None] * (r[..., :, None] * r[..., None, :])
+    diagonal = 1.0 - coefficient * a2
+    for i in range(3):
+        out[..., i, i] += diagonal
+    half = 0.5 * r
+    out[..., 0, 1] -= half[..., 2]
+    out[..., 0, 2] += half[..., 1]
+    out[..., 1, 2] -= half[..., 0]
+    out[..., 1, 0] += half[..., 2]
+    out[..., 2, 0] -= half[..., 1]
+    out[..., 2, 1] += half[..., 0]
+    return out
 
 
 def chordal_mean(R: np.ndarray) -> np.ndarray:

@@ -65,6 +65,10 @@ def test_velocity_is_jacobian_times_qdot(robot):
     still = robot.ee_kinematics(q)
     np.testing.assert_array_equal(still.velocity, 0.0)
     np.testing.assert_array_equal(still.velocity_jacobian, 0.0)
+    at_rest = robot.ee_kinematics(q, np.zeros_like(q))     # the same arm, its velocity computed
+    np.testing.assert_array_equal(still.position, at_rest.position)
+    np.testing.assert_array_equal(still.jacobian, at_rest.jacobian)
+    np.testing.assert_array_equal(still.velocity_jacobian, at_rest.velocity_jacobian)
 
 
 def test_sphere_centre_jacobians_match_finite_differences(robot):
