@@ -1,5 +1,6 @@
 """Inverse kinematics of the end-effector position (and, for one configuration, of its whole
-pose): damped least squares within joint limits.
+pose, or of its position turned as near a rotation as reachable there): damped least squares
+within joint limits.
 
 The solver works on a batch of B independent problems at once (restarts, or all steps of a
 path), so a whole trajectory is refined in one vectorized loop over iterations.
@@ -235,3 +236,38 @@ def solve_pose_ik(robot, position, rotation, seed, tol: float = 1e-6, angle_tol:
     return PoseIKResult(q[0], position_error, angle_error,
                         position_error <= tol and angle_error <= angle_tol)
 
+
+
+def solve_ik_turned(robot, target, rotation, seed=None, tol: float = 1e-4, max_iter: int = 200,
+                    restarts: int = 8, rng: np.random.Generator | int | None = 0) -> IKResult:
+    """Joint values (n,) that put the end effector at ``target`` (3,) [m] within ``tol``, the
+    hand turned as near ``rotation`` (3, 3) as is reachable there (within the limits).
+
+    :func:`solve_ik` (same arguments) gives a configuration at the position, on whatever branch
+    its seed leads to; :func:`solve_pose_ik` then seeks the whole pose from that configuration
+    and from ``seed`` (default: the middle of the limits), and where the rotation is out of
+    reach at the position (the pose solve stops at a compromise) position steps
+    (:func:`damped_least_squares`) bring it back onto the position. Of the configurations at
+    the position, the one whose hand is nearest ``rotation`` (geodesic angle) is returned;
+    :func:`solve_ik`'s when none is nearer or none reaches the position.
+    """
+    target = as_point(target, "target")
+    goal = as_array(rotation, "rotation", (3, 3), max_leading=0)
+    first = solve_ik(robot, target, seed=seed, tol=tol, max_iter=max_iter, restarts=restarts,
+                     rng=rng)
+    seeds = [first.q, robot.neutral_configuration() if seed is None
+             else as_joint_array(seed, "seed", robot.n)]
+
+    def angle(q: np.ndarray) -> float:
+        return float(np.linalg.norm(pin.log3(goal.T @ robot.ee_rotation(q)[0])))
+
+    best, best_angle = first, angle(first.q)
+    for start in seeds:
+        pose = solve_pose_ik(robot, target, goal, start, tol=tol, max_iter=max_iter)
+        q, errors = damped_least_squares(robot, target[None], pose.q[None], tol, max_iter)
+        turned = angle(q[0])
+        if errors[0] <= tol and turned < best_angle:
+            best, best_angle = IKResult(q[0], float(errors[0]), True), turned
+        if best_angle <= 1e-6:
+            break
+    return best

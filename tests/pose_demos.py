@@ -15,13 +15,15 @@ JACO_HOME = np.radians([275.0, 167.5, 57.5, 240.0, 82.5, 75.0])
 
 
 def pose_demonstrations(robot, num_demos: int = 6, T: int = 60, duration: float = 3.0,
-                        seed: int = 0, tilt: float = 0.8, spread: float = 0.08) -> Demonstrations:
+                        seed: int = 0, tilt: float = 0.8, spread: float = 0.08,
+                        base: np.ndarray | None = None) -> Demonstrations:
     """``num_demos`` demonstrations (T steps over ``duration`` s) of ``robot``: three joint
-    keyframes about its home (the Jaco) or neutral configuration, jittered by ``spread`` [rad]
-    per demonstration, the wrist's second-last joint turned by ``tilt`` [rad] towards the end
-    (the hand tilts as it pours)."""
+    keyframes about ``base`` (n,) [rad] (default: its home (the Jaco) or neutral
+    configuration), jittered by ``spread`` [rad] per demonstration, the wrist's second-last
+    joint turned by ``tilt`` [rad] towards the end (the hand tilts as it pours)."""
     rng = np.random.default_rng(seed)
-    base = JACO_HOME if robot.name == "jaco" else robot.neutral_configuration()
+    if base is None:
+        base = JACO_HOME if robot.name == "jaco" else robot.neutral_configuration()
     n = robot.n
     offsets = np.array([np.zeros(n), 0.25 * np.sin(np.arange(n) + 1.0),
                         0.35 * np.cos(np.arange(n) + 0.5)])

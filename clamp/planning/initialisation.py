@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pinocchio as pin
 
 from clamp.errors import ShapeError
 from clamp.prior import so3
@@ -143,31 +144,77 @@ ROTATION_WEIGHT = 0.1
 #: as few LM iterations as 6 of 0.1 rad, or fewer, on 20 free pose plans and the bench_clamp
 #: --pose cases, at half the cost; docs/decisions.md#pose-prior)
 MAX_STEP = 0.3
+#: :func:`pose_refined`'s pass along the path: every STRIDE-th state, at most SEQUENTIAL_STEPS
+#: steps each from the one before, until no joint moves more than SETTLED [rad] in a step
+STRIDE, SEQUENTIAL_STEPS, SETTLED = 8, 10, 1e-3
 
 
 def pose_refined(robot, initialisation: Initialisation, rotations: np.ndarray, dt: float,
                  iterations: int = 3, damping: float = 1e-3) -> Initialisation:
     """``initialisation`` (IK of a position path) turned towards the hand's rotations
     (T, 3, 3) (a pose prior's conditioned mean): damped least squares on the pose error
-    [p(q_i) - path_i, ROTATION_WEIGHT log(R_i^T R(q_i))] of every state but the first (the
-    arm's start), all states at once, ``iterations`` steps within the joint limits; velocities
-    from the new joint path. The planner's initial guess only: the solve does the rest."""
+    [p(q_i) - path_i, ROTATION_WEIGHT log(R_i^T R(q_i))], first along the path from the arm's
+    start (every STRIDE-th state, SEQUENTIAL_STEPS steps each from the state before; joint-space
+    interpolation in between), then ``iterations`` steps of every state but the first at once,
+    within the joint limits; velocities from the new joint path. The planner's initial guess
+    only: the solve does the rest.
+
+    The pass along the path keeps the arm on one branch as the hand turns: position IK may
+    put the arm's wrist on a branch that turns the hand up to 180 deg from the rotations (a
+    start turned far from the skill's, a UR5's flipped wrist), and per-state steps from there
+    stop in a local minimum of the rotation error (docs/decisions.md#a-position-start-of-a-pose-skill)."""
     q = np.array(initialisation.q, dtype=float)
     path = np.asarray(initialisation.path, dtype=float)
-    targets = np.swapaxes(np.asarray(rotations, dtype=float), -1, -2)[1:]
+    targets = np.swapaxes(np.asarray(rotations, dtype=float), -1, -2)
+    coarse = np.unique(np.append(np.arange(0, len(q), STRIDE), len(q) - 1))
+    for before, after in zip(coarse[:-1], coarse[1:]):
+        q[after] = _pose_steps(robot, q[before][None], path[after][None], targets[after][None],
+                               SEQUENTIAL_STEPS, damping, SETTLED)[0]
+    steps = np.arange(len(q))
+    q = np.column_stack([np.interp(steps, coarse, q[coarse, j]) for j in range(robot.n)])
+    q[1:] = _pose_steps(robot, q[1:], path[1:], targets[1:], iterations, damping)
+    return Initialisation(q, joint_velocities(q, dt), path,
+                          np.linalg.norm(robot.fk(q) - path, axis=1))
+
+
+
+def _pose_steps(robot, q: np.ndarray, path: np.ndarray, targets: np.ndarray, iterations: int,
+                damping: float, settled: float = 0.0) -> np.ndarray:
+    """q (B, n) after ``iterations`` damped least-squares steps of :func:`pose_refined`'s pose
+    error towards positions ``path`` (B, 3) [m] and transposed rotations ``targets`` (B, 3, 3),
+    every step at most MAX_STEP rad per joint, within the joint limits; fewer once a step moves
+    no joint more than ``settled`` [rad]. One configuration (B = 1) goes through the robot's
+    C++ kinematics (the many small calls of the pass along the path)."""
+    q = np.array(q, dtype=float)
     eye = damping * np.eye(6)
     for _ in range(iterations):
-        kin = robot.ee_kinematics(q[1:], None, jacobians=True)
-        R, W = robot.ee_rotation(q[1:], jacobians=True)
-        r = so3.log_map(targets @ R)
-        error = np.concatenate([kin.position - path[1:], ROTATION_WEIGHT * r], axis=1)
-        jac = np.concatenate([kin.jacobian, ROTATION_WEIGHT * so3.right_jacobian_inverse(r)
-                              @ np.swapaxes(R, -1, -2) @ W], axis=1)                 # (T-1, 6, n)
+        error, jac = _pose_error(robot, q, path, targets)
         step = np.swapaxes(jac, -1, -2) @ np.linalg.solve(jac @ np.swapaxes(jac, -1, -2) + eye,
                                                           error[..., None])
         step = step[..., 0]
         largest = np.abs(step).max(axis=1, keepdims=True)
-        q[1:] = robot.clip_to_limits(q[1:] - step * np.minimum(1.0, MAX_STEP / np.maximum(
+        q = robot.clip_to_limits(q - step * np.minimum(1.0, MAX_STEP / np.maximum(
             largest, 1e-12)))
-    return Initialisation(q, joint_velocities(q, dt), path,
-                          np.linalg.norm(robot.fk(q) - path, axis=1))
+        if largest.max() <= settled:
+            break
+    return q
+
+
+def _pose_error(robot, q: np.ndarray, path: np.ndarray,
+                targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pose_refined`'s pose error (B, 6) of q (B, n) and its Jacobian (B, 6, n)."""
+    if len(q) == 1:           # Pinocchio's log and its Jacobian: 50x less overhead for one
+        position, R, jacobian = robot.ee_pose_jacobian(q[0])
+        turn = targets[0] @ R
+        r, inverse = pin.log3(turn)[None], pin.Jlog3(turn)[None]
+        position, R, linear, W = position[None], R[None], jacobian[None, :3], jacobian[None, 3:]
+    else:
+        kin = robot.ee_kinematics(q, None, jacobians=True)
+        R, W = robot.ee_rotation(q, jacobians=True)
+        position, linear = kin.position, kin.jacobian
+        r = so3.log_map(targets @ R)
+        inverse = so3.right_jacobian_inverse(r)
+    error = np.concatenate([position - path, ROTATION_WEIGHT * r], axis=1)
+    jac = np.concatenate([linear, ROTATION_WEIGHT * inverse @ np.swapaxes(R, -1, -2) @ W],
+                         axis=1)                                                     # (B, 6, n)
+    return error, jac

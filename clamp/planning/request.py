@@ -1,6 +1,7 @@
 """A planning request checked at the boundary: the prior, robot, scene, configuration, start,
 goal and via points a caller passed, validated once (ClampError naming the argument) and
-resolved (an end-effector start solved by inverse kinematics)."""
+resolved (an end-effector start solved by inverse kinematics; with a pose prior, the hand
+turned as the skill starts)."""
 from __future__ import annotations
 
 import sys
@@ -22,6 +23,7 @@ from scenes import Scene
 from scenes.quaternions import QUATERNION_TOLERANCE
 from scenes.obstacles import Obstacle
 from clamp.factors import Family
+from robots.ik import solve_ik_turned
 
 #: [m] the inverse kinematics accuracy that makes an end-effector start reachable (at most the
 #: start tolerance) and that the search's IK starts are solved to
@@ -200,7 +202,7 @@ def make_request(prior: Any, robot: Any, start: Any, goal: Any = None, via_point
     joints and the prior's T states; the start configuration is ``q_start`` (n,) [rad] when
     given (a replan keeps its previous one), the joint start itself, or inverse kinematics of
     the start position (``config.checks`` tolerances, None: the defaults; its error is
-    ``start_ik_error`` [m])."""
+    ``start_ik_error`` [m]): :func:`start_configuration`."""
     check_prior(prior, workspace=True)
     check_robot(robot)
     config = as_config(config)
@@ -222,7 +224,25 @@ def make_request(prior: Any, robot: Any, start: Any, goal: Any = None, via_point
     elif start_target.kind == "joint":
         q_start = start_target.value
     else:
-        ik = robot.ik(start_target.value, tol=min(IK_TOLERANCE, config.checks.start_tolerance))
-        q_start, ik_error = np.asarray(ik.q, dtype=float), float(ik.error)
+        q_start, ik_error = start_configuration(
+            prior, robot, start_target.value, min(IK_TOLERANCE, config.checks.start_tolerance))
     position = start_target.value if start_target.kind == "position" else robot.fk(q_start)
     return Request(start_target, goal_target, vias, q_start, position, ik_error)
+
+
+def start_configuration(prior: Any, robot: Any, position: np.ndarray,
+                        tolerance: float) -> tuple[np.ndarray, float]:
+    """The arm's start configuration (n,) [rad] for an end-effector start ``position`` (3,)
+    [m], and its IK error [m] (``tolerance`` [m] the IK's). A position-only prior: position
+    IK (``robot.ik``). A pose prior: the hand also turned as near the skill's start rotation
+    (its orientation chain's mean at step 0) as is reachable there
+    (:func:`robots.ik.solve_ik_turned`). The start pose is the arm's (the orientation chain is
+    conditioned on it), so a start on another IK branch would ask the plan to turn the hand
+    back by up to 180 deg against the skill (a UR5 whose position IK turned it 149 deg away
+    failed its free plan, docs/decisions.md#a-position-start-of-a-pose-skill)."""
+    orientation = getattr(prior, "orientation", None)
+    if orientation is None:
+        ik = robot.ik(position, tol=tolerance)
+    else:
+        ik = solve_ik_turned(robot, position, orientation.mean_rotations[0], tol=tolerance)
+    return np.asarray(ik.q, dtype=float), float(ik.error)

@@ -85,3 +85,33 @@ def test_ik_rejects_bad_input(robot):
         robot.ik([0.1, 0.2, 0.3], tol=-1.0)
     with raises_naming(RobotError, "rng"):
         robot.ik([0.1, 0.2, 0.3], rng="seed")
+
+
+
+def _angle(robot, q, rotation) -> float:
+    """[rad] between the hand's rotation at q and ``rotation`` (3, 3)."""
+    turn = robot.ee_rotation(q)[0].T @ rotation
+    return float(np.arccos(np.clip(0.5 * (np.trace(turn) - 1.0), -1.0, 1.0)))
+
+
+def test_ik_turned_reaches_the_position_with_the_hand_turned_as_asked_where_it_can(robot):
+    """solve_ik_turned: at a pose the arm can take, the position within tol and the rotation
+    met (to 0.01 deg); with any rotation, the position met and the hand no further from the
+    rotation than plain position IK leaves it."""
+    from robots.ik import solve_ik_turned
+    from scipy.spatial.transform import Rotation
+    rng = np.random.default_rng(13)
+    for _ in range(4):
+        q = robot.random_configuration(rng)
+        position, rotation = robot.fk(q), robot.ee_rotation(q)[0]
+        result = solve_ik_turned(robot, position, rotation, tol=1e-5)
+        assert result.success and np.linalg.norm(robot.fk(result.q) - position) <= 1e-5
+        assert robot.within_limits(result.q)
+        assert np.degrees(_angle(robot, result.q, rotation)) <= 0.01
+
+        rotation = Rotation.random(random_state=rng.integers(1 << 31)).as_matrix()
+        plain = robot.ik(position, tol=1e-5)
+        result = solve_ik_turned(robot, position, rotation, tol=1e-5)
+        assert result.success and np.linalg.norm(robot.fk(result.q) - position) <= 1e-5
+        assert robot.within_limits(result.q)
+        assert _angle(robot, result.q, rotation) <= _angle(robot, plain.q, rotation) + 1e-12
