@@ -144,6 +144,10 @@ ROTATION_WEIGHT = 0.1
 #: as few LM iterations as 6 of 0.1 rad, or fewer, on 20 free pose plans and the bench_clamp
 #: --pose cases, at half the cost; docs/decisions.md#pose-prior)
 MAX_STEP = 0.3
+#: [rad] a state of :func:`pose_refined`'s per-state steps turned farther than this from its
+#: rotation is on another branch of the arm (a flipped wrist: 79-90 deg on the UR5, a few
+#: degrees where the steps converge), and the refinement goes along the path instead
+STUCK = np.radians(45.0)
 #: :func:`pose_refined`'s pass along the path: every STRIDE-th state, at most SEQUENTIAL_STEPS
 #: steps each from the one before, until no joint moves more than SETTLED [rad] in a step
 STRIDE, SEQUENTIAL_STEPS, SETTLED = 8, 10, 1e-3
@@ -153,29 +157,32 @@ def pose_refined(robot, initialisation: Initialisation, rotations: np.ndarray, d
                  iterations: int = 3, damping: float = 1e-3) -> Initialisation:
     """``initialisation`` (IK of a position path) turned towards the hand's rotations
     (T, 3, 3) (a pose prior's conditioned mean): damped least squares on the pose error
-    [p(q_i) - path_i, ROTATION_WEIGHT log(R_i^T R(q_i))], first along the path from the arm's
-    start (every STRIDE-th state, SEQUENTIAL_STEPS steps each from the state before; joint-space
-    interpolation in between), then ``iterations`` steps of every state but the first at once,
-    within the joint limits; velocities from the new joint path. The planner's initial guess
-    only: the solve does the rest.
+    [p(q_i) - path_i, ROTATION_WEIGHT log(R_i^T R(q_i))], ``iterations`` steps of every state
+    but the first (the arm's start) at once, within the joint limits; velocities from the new
+    joint path. The planner's initial guess only: the solve does the rest.
 
-    The pass along the path keeps the arm on one branch as the hand turns: position IK may
-    put the arm's wrist on a branch that turns the hand up to 180 deg from the rotations (a
-    start turned far from the skill's, a UR5's flipped wrist), and per-state steps from there
-    stop in a local minimum of the rotation error (docs/decisions.md#a-position-start-of-a-pose-skill)."""
+    Where a state is then still turned more than STUCK [rad] from its rotation, the per-state
+    steps stopped in a local minimum of the rotation error: position IK may put the arm's
+    wrist on a branch that turns the hand up to 180 deg from the rotations (a start turned far
+    from the skill's, a UR5's flipped wrist). Then the refinement is done again, first along
+    the path from the arm's start (every STRIDE-th state, SEQUENTIAL_STEPS steps each from the
+    state before; joint-space interpolation in between), which keeps the arm on one branch as
+    the hand turns (docs/decisions.md#a-position-start-of-a-pose-skill)."""
     q = np.array(initialisation.q, dtype=float)
     path = np.asarray(initialisation.path, dtype=float)
     targets = np.swapaxes(np.asarray(rotations, dtype=float), -1, -2)
-    coarse = np.unique(np.append(np.arange(0, len(q), STRIDE), len(q) - 1))
-    for before, after in zip(coarse[:-1], coarse[1:]):
-        q[after] = _pose_steps(robot, q[before][None], path[after][None], targets[after][None],
-                               SEQUENTIAL_STEPS, damping, SETTLED)[0]
-    steps = np.arange(len(q))
-    q = np.column_stack([np.interp(steps, coarse, q[coarse, j]) for j in range(robot.n)])
-    q[1:] = _pose_steps(robot, q[1:], path[1:], targets[1:], iterations, damping)
-    return Initialisation(q, joint_velocities(q, dt), path,
-                          np.linalg.norm(robot.fk(q) - path, axis=1))
-
+    refined = q.copy()
+    refined[1:] = _pose_steps(robot, q[1:], path[1:], targets[1:], iterations, damping)
+    if np.max(so3.angle_between(rotations, robot.ee_rotation(refined)[0])) > STUCK:
+        coarse = np.unique(np.append(np.arange(0, len(q), STRIDE), len(q) - 1))
+        for before, after in zip(coarse[:-1], coarse[1:]):
+            q[after] = _pose_steps(robot, q[before][None], path[after][None], targets[after][None],
+                                   SEQUENTIAL_STEPS, damping, SETTLED)[0]
+        steps = np.arange(len(q))
+        refined = np.column_stack([np.interp(steps, coarse, q[coarse, j]) for j in range(robot.n)])
+        refined[1:] = _pose_steps(robot, refined[1:], path[1:], targets[1:], iterations, damping)
+    return Initialisation(refined, joint_velocities(refined, dt), path,
+                          np.linalg.norm(robot.fk(refined) - path, axis=1))
 
 
 def _pose_steps(robot, q: np.ndarray, path: np.ndarray, targets: np.ndarray, iterations: int,

@@ -58,12 +58,16 @@ def test_an_end_effector_start_is_turned_as_the_skill_starts_and_the_plan_comple
     assert_completes_the_skill(ur5, demos, result)
 
 
-def test_from_a_joint_start_turned_far_from_the_skill_the_free_plan_completes_it(ur5):
+@pytest.mark.parametrize("base", [UR_HOME + [0.0, 0.0, 0.0, 0.0, 0.0, 0.5],
+                                  UR_HOME + [0.0, 0.37, -0.37, -0.03, 0.0, 0.0]],
+                         ids=["home, flange turned", "forearm lowered"])
+def test_from_a_joint_start_turned_far_from_the_skill_the_free_plan_completes_it(ur5, base):
     """The start configuration is the one position IK gives (the hand turned > 90 deg from the
-    skill's start; the skill about UR_HOME with the tool flange turned 0.5 rad): the
+    skill's start; the skill about UR_HOME with the tool flange turned, or with the forearm
+    lowered, where the initial guess's per-state steps stop on the flipped wrist): the
     conditioned orientation chain turns the hand back, and the plan follows it on the start's
     branch."""
-    demos = pose_demonstrations(ur5, base=UR_HOME + [0.0, 0.0, 0.0, 0.0, 0.0, 0.5])
+    demos = pose_demonstrations(ur5, base=base)
     prior = learn_prior(demos)
     start = ur5.ik(prior.mean[0, :3]).q
     start_rotation = Rotation.from_quat(demos.orientations[:, 0]).mean().as_matrix()
