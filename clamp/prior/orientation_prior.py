@@ -37,7 +37,11 @@ planner's conditioning noise) or the residual (1e-6 rad and less). The chain's e
 is as certain as the goal observation itself (inserting) or more (pouring's held axes), and a goal
 rotation away from the demonstrations' mean was met only in part: a fixed fraction of the ask
 (half for inserting on both arms, 99 % missed on the Jaco's pouring; issue 37). With the floor
-(100x the conditioning noise) the goal takes 1 - 1e-4 of the weight. Position chains keep their
+(100x the conditioning noise) the goal takes 1 - 1e-4 of the weight (a 10 deg turn is met to
+0.001 deg). The floor also softens the chain wherever its learned noise was smaller: 3e-4 rad cost
+less orientation error in bench_lfd's pouring goal cell (0.25 deg more than without a floor, 1e-3:
+0.63 deg more) but the Jaco then missed goal positions moved 2 cm more often
+(docs/decisions.md#pose-prior). Position chains keep their
 own noise (their plans bit-identical): demonstrations rarely agree on positions to micrometres.
 """
 from __future__ import annotations
