@@ -21,7 +21,7 @@ from skillplan.validation import MAX_COORDINATE
 
 __all__ = ["MIN_SPREAD", "SPREAD_FLOOR", "AXIS_FLOOR_RATIO", "stack_states", "demo_arrays", "sample_weights",
            "scatter_blocks", "assemble_blocks", "block_covariance", "floor_agreement",
-           "HOLD_TOLERANCE", "held_steps"]
+           "HOLD_TOLERANCE", "held_steps", "floor_noise"]
 
 #: Smallest spread (largest standard deviation over the state's coordinates, across the
 #: demonstrations; m, m/s or rad, rad/s) that counts as "the demonstrations differ" at a step.
@@ -154,3 +154,16 @@ def held_steps(states: np.ndarray) -> np.ndarray:
              & np.all(np.abs(states[:, 1:, A:]) <= HOLD_TOLERANCE, axis=(0, 2)))
     apart = np.any(states[:, 1:, :A].var(axis=0) >= SPREAD_FLOOR ** 2, axis=1)
     return still & apart
+
+
+def floor_noise(cov: np.ndarray, floor: float) -> np.ndarray:
+    """Covariances (..., D, D) over ``[positions (D/2), velocities (D/2)]`` with the positions'
+    diagonal entries raised to at least ``floor``**2 (a non-negative diagonal added: still
+    symmetric positive semi-definite); the velocities' and the off-diagonal entries as they are.
+    The floor of a chain whose targets are observed much more closely than its demonstrations
+    vary: see :data:`clamp.prior.orientation_prior.ROTATION_NOISE_FLOOR`."""
+    A = cov.shape[-1] // 2
+    diagonal = np.einsum("...ii->...i", cov)[..., :A]
+    lift = np.zeros(cov.shape[:-1])
+    lift[..., :A] = np.maximum(floor ** 2 - diagonal, 0.0)
+    return cov + lift[..., :, None] * np.eye(cov.shape[-1])

@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from scipy.spatial.transform import Rotation
+
 from bad_input import raises_naming
 from clamp import errors, learn_prior, plan
 from clamp.factors import OrientationFamily
@@ -15,6 +17,8 @@ from clamp.prior import so3
 from clamp.prior.skill import TUBE_RATIO, skill_checks
 from scenes import Box, Scene, make_demonstrations
 from scenes.joint_demonstrations import from_joint_trajectories
+from robots.pose_skills import make_pose_demonstrations
+from tests.clamp.cli.test_cli_goal_pose import hand_pose
 from tests.clamp.factors.test_pose_factors import panda  # noqa: F401  (the Panda fixture)
 from tests.clamp.planning.test_min_clearance import coal_clearance
 from tests.pose_demos import pose_demonstrations
@@ -41,6 +45,28 @@ def test_the_plan_ends_at_the_goal_pose(arm, request):
     assert np.linalg.norm(robot.fk(result.q[-1]) - position) <= 1e-3
     assert hand_angle(robot, result.q[-1], rotation) <= 1.0
     assert result.goal_rotation_error is not None and np.degrees(result.goal_rotation_error) <= 1.0
+
+
+@pytest.mark.parametrize("skill", ["pouring", "inserting"])
+@pytest.mark.parametrize("arm", ["jaco", "sawyer"])
+def test_a_goal_turned_beyond_the_demonstrations_is_met(arm, skill, request):
+    """The synthetic pose skills' demonstrations agree on the hand's end rotation to 1e-7 rad
+    in some axes (inserting in all three, pouring in the two it does not tilt about); a goal
+    turned 10 deg from their mean end rotation, about an axis of the hand across those, and
+    moved 2 cm, is met within 1 mm and 1 deg (issue 37: was met in part, 5-9.9 deg off).
+    Measured by Pinocchio's forward kinematics of the plan's last configuration and scipy."""
+    robot = request.getfixturevalue(arm)
+    demos = make_pose_demonstrations(robot, skill, num_demos=6, num_points=40, seed=0)
+    end = Rotation.from_quat(demos.orientations[:, -1]).mean()
+    turned = end * Rotation.from_rotvec(np.radians(10.0) * np.array([0.0, 0.6, 0.8]))
+    position = demos.positions[:, -1].mean(axis=0) + np.array([0.02, 0.0, 0.0])
+    prior = learn_prior(demos)
+    result = plan(prior, robot, None, demos.joint_positions[0, 0],
+                  goal=(position, turned.as_quat()), covariance=False)
+    assert result.success, result.reasons
+    reached, rotation = hand_pose(robot, result.q[-1])
+    assert np.linalg.norm(reached - position) <= 1e-3
+    assert np.degrees((rotation.inv() * turned).magnitude()) <= 1.0
 
 
 def test_a_hand_turned_60_degrees_mid_skill_fails_the_orientation_check(sawyer):
