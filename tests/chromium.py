@@ -5,8 +5,10 @@ import base64
 import io
 import itertools
 import json
+import os
 import re
 import shutil
+import signal
 import subprocess
 import tempfile
 import time
@@ -55,10 +57,13 @@ def _virtual_time_shot(url: str, out: Path, size: tuple[int, int]) -> np.ndarray
 def _shot_when_ready(url: str, out: Path, size: tuple[int, int], ready: Callable[[np.ndarray], bool],
                      deadline_s: float) -> np.ndarray:
     from websockets.sync.client import connect   # a dependency of viser, which the live pages need
-    with tempfile.TemporaryDirectory() as profile, open(Path(profile) / "stderr.txt", "w+") as stderr:
-        # stderr to a file, not a pipe nobody reads while the browser runs (a full pipe blocks it)
+    # the profile's cleanup tolerates files the browser's last processes were still writing
+    with tempfile.TemporaryDirectory(ignore_cleanup_errors=True) as profile, \
+            open(Path(profile) / "stderr.txt", "w+") as stderr:
+        # stderr to a file, not a pipe nobody reads while the browser runs (a full pipe blocks
+        # it); a session of its own, so that its renderer and GPU processes end with it
         browser = subprocess.Popen([*_browser(size), "--remote-debugging-port=0", f"--user-data-dir={profile}", url],
-                                   stdout=subprocess.DEVNULL, stderr=stderr)
+                                   stdout=subprocess.DEVNULL, stderr=stderr, start_new_session=True)
         try:
             port = _devtools_port(browser, Path(stderr.name))
             with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=30) as reply:
@@ -77,7 +82,7 @@ def _shot_when_ready(url: str, out: Path, size: tuple[int, int], ready: Callable
                     last = image
                     time.sleep(1.0)
         finally:
-            browser.kill()
+            os.killpg(browser.pid, signal.SIGKILL)
             browser.wait()
 
 
