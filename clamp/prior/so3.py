@@ -37,14 +37,21 @@ def to_quaternions(R: np.ndarray) -> np.ndarray:
 _NEAR_PI = 1e-3
 
 
-def log_map(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors r (..., 3) [rad] with Exp(r) = R (..., 3, 3), |r| <= pi: the angle
-    from the trace and the skew part, r = a / (2 sin a) vee(R - R^T); near pi, scipy's."""
-    R = np.asarray(R, dtype=float)
+def _vee(R: np.ndarray) -> np.ndarray:
+    """vee(R - R^T) (..., 3) of matrices R (..., 3, 3): for a rotation, 2 sin(angle) times
+    its axis."""
     vee = np.empty(R.shape[:-2] + (3,))
     np.subtract(R[..., 2, 1], R[..., 1, 2], out=vee[..., 0])
     np.subtract(R[..., 0, 2], R[..., 2, 0], out=vee[..., 1])
     np.subtract(R[..., 1, 0], R[..., 0, 1], out=vee[..., 2])
+    return vee
+
+
+def log_map(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors r (..., 3) [rad] with Exp(r) = R (..., 3, 3), |r| <= pi: the angle
+    from the trace and the skew part, r = a / (2 sin a) vee(R - R^T); near pi, scipy's."""
+    R = np.asarray(R, dtype=float)
+    vee = _vee(R)
     sine2 = np.sqrt(np.einsum("...i,...i->...", vee, vee))               # 2 sin a
     angle = np.arctan2(sine2, R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0)
     small = sine2 < 1e-12
@@ -136,6 +143,4 @@ def angle_between(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """Geodesic angle (...) [rad] between rotations A and B (..., 3, 3), in [0, pi]."""
     E = np.swapaxes(np.asarray(A, dtype=float), -1, -2) @ np.asarray(B, dtype=float)
     cosine = 0.5 * (np.trace(E, axis1=-2, axis2=-1) - 1.0)
-    vee = np.stack([E[..., 2, 1] - E[..., 1, 2], E[..., 0, 2] - E[..., 2, 0],
-                    E[..., 1, 0] - E[..., 0, 1]], axis=-1)
-    return np.arctan2(0.5 * np.linalg.norm(vee, axis=-1), cosine)
+    return np.arctan2(0.5 * np.linalg.norm(_vee(E), axis=-1), cosine)
