@@ -79,7 +79,6 @@ from robots import resolve_robot
 from clamp.config import PlannerConfig
 from scenes import Scene
 from clamp.planning.planner import plan
-from clamp.planning.request import check_rotation_learned
 from scenes.errors import InvalidArgumentError
 from skillplan.threads import single_blas_thread
 
@@ -151,7 +150,6 @@ def resolve(problem: Problem, base: Path) -> dict[str, Any]:
         scene = Scene.from_dict(scene, source=f"problem {problem.id!r} scene", folder=base)
     goal = data["goal"]
     if isinstance(goal, dict):                    # a pose: (position, quaternion) as plan takes it
-        check_rotation_learned(prior, "goal.quaternion")
         goal = (np.array(goal["position"]), np.array(goal["quaternion"]))
     elif goal is not None:
         goal = np.array(goal)

@@ -566,7 +566,7 @@ def _plan_from_files(args: argparse.Namespace, out: Path) -> int:
     except SceneFileError as exc:
         raise flagged(exc, "--scene") from None
     config = _config(args)
-    goal = goal_from_args(args, robot, prior)
+    goal = goal_from_args(args, robot)
     [result] = _plan_all(prior, robot, start, [("plan", scene, config, {"goal": goal})])
     refuse_unstartable(args, result)
     exported = {"result": write_trajectory(out, "result", result, robot, limits, not args.no_retime, jerk)}
@@ -639,12 +639,12 @@ def goal_quaternion(args: argparse.Namespace) -> np.ndarray | None:
     return values
 
 
-def goal_from_args(args: argparse.Namespace, robot: Any, prior: Any) -> Any:
+def goal_from_args(args: argparse.Namespace, robot: Any) -> Any:
     """The goal of --goal (a position x y z [m] or robot.n joint values [rad]) and
     --goal-quaternion: None, an array, or a pose (position (3,), quaternion (4,)) as
-    :func:`clamp.plan` takes it. InvalidParameterError naming the flag for a wrong count, a
-    rotation with a joint goal, or a rotation for a prior learned without orientation."""
-    from clamp.planning.request import check_rotation_learned
+    :func:`clamp.plan` takes it. InvalidParameterError naming the flag for a wrong count or a
+    rotation with a joint goal. A position-only skill meets a goal rotation as :func:`clamp.plan`
+    does (an end-effector rotation target, judged by the verdict's goal check)."""
     if args.goal is None:
         return None
     goal = joint_values(args.goal, "--goal", robot)
@@ -660,7 +660,6 @@ def goal_from_args(args: argparse.Namespace, robot: Any, prior: Any) -> Any:
         raise InvalidParameterError(f"--goal-quaternion: only with a goal position --goal x y z; "
                                     f"--goal gives {robot.n} joint values, which fix the hand's "
                                     "rotation already")
-    check_rotation_learned(prior, "--goal-quaternion")
     return goal, quaternion
 
 

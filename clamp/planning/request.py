@@ -144,19 +144,6 @@ def as_pose(value: Any, name: str) -> Target | None:
     return None
 
 
-def check_rotation_learned(prior: Any, name: str) -> None:
-    """InvalidParameterError naming ``name`` (where a goal rotation was given) when ``prior``
-    was learned without orientation: a position-only prior says nothing about how the hand is
-    turned, so the command lines refuse a goal rotation for it (``plan()`` itself meets one
-    with an end-effector rotation factor, the way unjudged by the skill)."""
-    if getattr(prior, "orientation", None) is None:
-        raise InvalidParameterError(
-            f"{name}: the skill was learned without orientation (its demonstrations give the "
-            "hand's position only), so it cannot end the hand turned; give the goal position "
-            "alone, or learn from demonstrations with the hand's rotation (joint recordings, "
-            "PoseStamped or TF bags, a CSV with qx qy qz qw columns)")
-
-
 def as_target(value: Any, name: str, n: int) -> Target:
     """A joint configuration (n,), an end-effector position (3,) (joint wins when n == 3) or
     an end-effector pose (:func:`as_pose`: a transform (4, 4) or (position, quaternion))."""
