@@ -40,7 +40,7 @@ from clamp.config import PlannerConfig
 from clamp.factors.family import ConstraintCheck, Family
 from clamp.graph.problem import PlanningProblem
 from clamp.optim.optimizers import Optimized, optimize
-from clamp.optim.solver import WarmStart
+from clamp.optim.solver import HALTED, WarmStart
 
 
 @dataclass(frozen=True)
@@ -259,9 +259,12 @@ def _loose(start: Start, problem: PlanningProblem, config: PlannerConfig, al: AL
 
 def _judged(start: Start, index: int, problem: PlanningProblem, warm: WarmStart | None,
             before: Optimized | None, config: PlannerConfig, judge: Judge,
-            ledger: Ledger, stop: Callable[[], bool]) -> Round:
+            ledger: Ledger, stop: Callable[[], bool]) -> Round | None:
     """Solve ``problem`` (after the loose solve ``before``, whose work it counts), judge the
-    optimum, write it in the ledger."""
+    optimum, write it in the ledger. A solve ``stop`` halted is not judged (None) once the
+    ledger holds a judged optimum: the search is out of time, and judging an unfinished solve
+    would overrun it by a judgement (a clear optimum's full checks cost 5-10 iterations);
+    the first is judged, so a search always has a verdict."""
     out = optimize(problem, config, warm, halt=stop)
     for k, v in out.timings.items():
         ledger.timings[k] = ledger.timings.get(k, 0.0) + v
@@ -271,6 +274,8 @@ def _judged(start: Start, index: int, problem: PlanningProblem, warm: WarmStart 
     if ledger.initial_error is None:     # the first problem as asked, at its initial trajectory
         ledger.initial_error = (out.initial_error if before is None
                                 else start.problem.error(start.problem.initial))
+    if out.stop_reason == HALTED and ledger.rounds:
+        return None
     clock = time.perf_counter()
     verdict = judge(out.theta)
     ledger.timings["checks"] = ledger.timings.get("checks", 0.0) + time.perf_counter() - clock
@@ -293,8 +298,9 @@ def solve_start(start: Start, config: PlannerConfig, judge: Judge, ledger: Ledge
                 stop: Callable[[], bool] = lambda: False) -> bool:
     """The outer loop on one start (module docstring), every judged optimum written in
     ``ledger``; True when one passes the judge. ``stop()``: checked before every update and
-    every solver iteration (e.g. a deadline: the solve stops where it is and its optimum is
-    judged); a start that holds no more rounds stops by itself."""
+    every solver iteration (e.g. a deadline: the solve stops where it is, and its optimum is
+    judged only when it would be the ledger's first); a start that holds no more rounds stops
+    by itself."""
     lazy = lazy or {}
     current = start.problem
     carried = [lazy[name]() for name in sorted(ledger.joined) if not current.has(name)]
@@ -305,6 +311,8 @@ def solve_start(start: Start, config: PlannerConfig, judge: Judge, ledger: Ledge
     index = polished = 0
     while True:
         judged = _judged(start, index, current, warm, soft, config, judge, ledger, stop)
+        if judged is None:
+            return False
         verdict, soft = judged.verdict, None
         if verdict.ok:
             return True

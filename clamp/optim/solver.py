@@ -46,6 +46,9 @@ from skillplan.threads import single_blas_thread
 
 log = logging.getLogger(__name__)
 
+#: the stop reason of a solve its ``halt`` callback stopped (e.g. a deadline)
+HALTED = "halted"
+
 
 @dataclass(frozen=True)
 class WarmStart:
@@ -221,7 +224,7 @@ def _levenberg_marquardt(problem: PlanningProblem, theta: np.ndarray, lam: float
             stop = "zero_error"
             break
         if halt is not None and halt():
-            stop = "halted"
+            stop = HALTED
             break
         system: NormalEquations = problem.normal_equations(theta)
         g = system.g.reshape(-1)

@@ -35,7 +35,9 @@ units of the first solves (the larger of the first start's whole work and the se
 first solve), so the same request gives the same plan at any load; ``seconds`` adds a
 wall-clock deadline. The first two starts always run under the counted budget (its unit is
 their work), the first alone under a deadline; no later one begins once the budget is spent,
-and a deadline also stops a start between its updates and its solver between iterations. A search the budget ended says
+and a deadline also stops a start between its updates and its solver between iterations
+(a solve it stops is not judged, unless nothing was judged yet: the call returns within an
+iteration of the deadline, not a judgement after it). A search the budget ended says
 so (:class:`Searched`: ``budget_ended`` and the strategies ``left``), and its plan is the
 closest attempt with its honest verdict.
 """
@@ -301,8 +303,7 @@ def search(model: Any, judge: Judge, lazy: Lazy, budget: Budget,
                            warm_start if not ledger.rounds else None)
             context.roots.setdefault(start.root, start.problem)
             begun = ledger.work
-            solve_start(start, model.config, judge, ledger, lazy, AL,
-                        lambda: budget.late(_judging(ledger)))
+            solve_start(start, model.config, judge, ledger, lazy, AL, budget.late)
             spend.measured(ledger, begun)
             report(SearchProgress(spend.starts, len(ledger.rounds), ledger.work, spend.limit,
                                   ledger.feasible is not None))
@@ -365,8 +366,8 @@ class _Spending:
         if self.starts == 1:
             self.units.append(ledger.work)
         elif self.starts == 2:
-            first = next(r for r in ledger.rounds if r.work > begun)
-            self.units.append(first.work - begun)
+            first = next((r.work for r in ledger.rounds if r.work > begun), ledger.work)
+            self.units.append(first - begun)    # (the whole start's, had a deadline halted it)
 
     @property
     def limit(self) -> float | None:

@@ -251,6 +251,23 @@ def test_a_stop_ends_a_start_between_its_updates(jaco):
     assert len(calls) == len(ledger.rounds) == 1
 
 
+def test_a_halted_solve_is_judged_only_when_nothing_was(jaco):
+    """A stop that halts the solve (a deadline): the ledger's first optimum is judged (a search
+    always has a verdict); once one is, a halted solve costs no judgement and adds no round,
+    though its work is counted."""
+    problem = _random_problem(jaco, 3)
+    judge, calls = scripted_judge(10)
+    config = PlannerConfig().with_(max_iterations=5)
+    ledger = Ledger()
+    solve_start(Start("first", problem, 0), config, judge, ledger)
+    trials = ledger.trials
+    stops = iter([False, False, True])             # two iterations, then halted
+    assert not solve_start(Start("late", problem, 4), config, judge, ledger,
+                           stop=lambda: next(stops, True))
+    assert len(calls) == len(ledger.rounds) == 1 and ledger.rounds[0].start == "first"
+    assert ledger.trials > trials
+
+
 def test_a_hair_short_start_gets_its_polish_rounds(jaco):
     """An optimum within ``reach`` times its family's ``near`` of passing gets ``polish`` more
     updates past its rounds; 5 cm short gets none."""
