@@ -161,7 +161,7 @@ def floor_noise(cov: np.ndarray, floor: float) -> np.ndarray:
     diagonal entries raised to at least ``floor``**2 (a non-negative diagonal added: still
     symmetric positive semi-definite); the velocities' and the off-diagonal entries as they are.
     The floor of a chain whose targets are observed much more closely than its demonstrations
-    vary: see :data:`clamp.prior.orientation_prior.ROTATION_NOISE_FLOOR`."""
+    vary: see :data:`clamp.planning.reference.ROTATION_NOISE_FLOOR`."""
     A = cov.shape[-1] // 2
     diagonal = np.einsum("...ii->...i", cov)[..., :A]
     lift = np.zeros(cov.shape[:-1])
