@@ -160,10 +160,10 @@ def floor_noise(cov: np.ndarray, floor: float) -> np.ndarray:
     """Covariances (..., D, D) over ``[positions (D/2), velocities (D/2)]`` with the positions'
     diagonal entries raised to at least ``floor``**2 (a non-negative diagonal added: still
     symmetric positive semi-definite); the velocities' and the off-diagonal entries as they are.
-    The floor of a chain whose targets are observed much more closely than its demonstrations
-    vary: see :data:`clamp.prior.orientation_prior.ROTATION_NOISE_FLOOR`."""
-    A = cov.shape[-1] // 2
-    diagonal = np.einsum("...ii->...i", cov)[..., :A]
-    lift = np.zeros(cov.shape[:-1])
-    lift[..., :A] = np.maximum(floor ** 2 - diagonal, 0.0)
-    return cov + lift[..., :, None] * np.eye(cov.shape[-1])
+    Floored twice, the same numbers. The floor of a chain whose targets are observed much more
+    closely than its demonstrations vary: see
+    :data:`clamp.planning.reference.ROTATION_NOISE_FLOOR`."""
+    out = np.array(cov, dtype=float)
+    positions = np.arange(out.shape[-1] // 2)
+    out[..., positions, positions] = np.maximum(out[..., positions, positions], floor ** 2)
+    return out

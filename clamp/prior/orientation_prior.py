@@ -27,22 +27,8 @@ saved, conditioned or updated orientation prior keeps the tangent spaces it was 
 largest angle of a demonstration from the mean rotation at every step, ``spread`` (T, 3) [rad]
 the per-axis standard deviation of r, ``end_radius`` [rad] at the last step.
 
-A learned orientation chain's step noise Q_i and initial covariance are at least
-ROTATION_NOISE_FLOOR**2 on r's diagonal (:func:`clamp.prior.demonstration_states.floor_noise`).
-Demonstrations often agree on the hand's rotation far more closely than on its position
-(inserting keeps a fixed tool axis: the six demonstrations' end rotations within 2e-8 rad;
-pouring tilts about one axis and holds the other two within 8e-8 rad), and where they do, the
-per-step regression's ridge sets Phi ~ 0 there and Q is the agreement floor (1e-5 rad, the
-planner's conditioning noise) or the residual (1e-6 rad and less). The chain's end rotation then
-is as certain as the goal observation itself (inserting) or more (pouring's held axes), and a goal
-rotation away from the demonstrations' mean was met only in part: a fixed fraction of the ask
-(half for inserting on both arms, 99 % missed on the Jaco's pouring; issue 37). With the floor
-(100x the conditioning noise) the goal takes 1 - 1e-4 of the weight (a 10 deg turn is met to
-0.001 deg). The floor also softens the chain wherever its learned noise was smaller: 3e-4 rad cost
-less orientation error in bench_lfd's pouring goal cell (0.25 deg more than without a floor, 1e-3:
-0.63 deg more) but the Jaco then missed goal positions moved 2 cm more often
-(docs/decisions.md#pose-prior). Position chains keep their
-own noise (their plans bit-identical): demonstrations rarely agree on positions to micrometres.
+A learned chain keeps its own noise, however closely the demonstrations agree; a plan floors it
+where a goal or via rotation conditions it (:data:`clamp.planning.reference.ROTATION_NOISE_FLOOR`).
 """
 from __future__ import annotations
 
@@ -53,16 +39,11 @@ import numpy as np
 from clamp.errors import InvalidParameterError, ShapeError
 from clamp.prior import so3
 from clamp.prior.conjugate import ConjugatePosterior
-from clamp.prior.demonstration_states import floor_noise
 from clamp.prior.linear_gaussian import LinearGaussianPrior
 from clamp.validation import as_array
 
-__all__ = ["OrientationPrior", "orientation_states", "orientation_region", "ROTATION_NOISE_FLOOR"]
+__all__ = ["OrientationPrior", "orientation_states", "orientation_region"]
 
-#: [rad] least standard deviation of a learned orientation chain's step noise and initial
-#: state on r (module docstring): 100x the planner's conditioning noise (1e-5,
-#: ``clamp.planning.reference.CONDITIONING_SIGMA``), 0.06 deg a step
-ROTATION_NOISE_FLOOR = 1e-3
 
 
 def orientation_states(rotations: np.ndarray, mean_rotations: np.ndarray,
@@ -123,9 +104,8 @@ class OrientationPrior(LinearGaussianPrior):
         """The orientation prior of a chain learned from orientation ``states`` (M, T, 6) at
         ``mean_rotations`` (T, 3, 3): its info records both (module docstring)."""
         info = {**chain.info, "mean_rotations": so3.to_quaternions(mean_rotations).tolist(),
-                "orientation_region": orientation_region(states),
-                "noise_floor": ROTATION_NOISE_FLOOR}
-        return cls(chain.time, chain.Phi, chain.u, *_floored(chain), info=info,
+                "orientation_region": orientation_region(states)}
+        return cls(chain.time, chain.Phi, chain.u, chain.Q, chain.mean0, chain.cov0, info=info,
                    posterior=chain.posterior)
 
     def tangent(self, rotations: np.ndarray) -> np.ndarray:
@@ -170,16 +150,9 @@ class OrientationPrior(LinearGaussianPrior):
             region["radius"] = np.maximum(before["radius"], region["radius"]).tolist()
             region["end_radius"] = max(before["end_radius"], region["end_radius"])
             region["num_demos"] += int(before.get("num_demos", 0))
-        return type(self)(chain.time, chain.Phi, chain.u, *_floored(chain),
-                          info={**chain.info, "orientation_region": region,
-                                "noise_floor": ROTATION_NOISE_FLOOR},
+        return type(self)(chain.time, chain.Phi, chain.u, chain.Q, chain.mean0, chain.cov0,
+                          info={**chain.info, "orientation_region": region},
                           posterior=chain.posterior)
-
-
-def _floored(chain: LinearGaussianPrior) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Q, mean0, cov0) of a learned chain, Q and cov0 floored on r (module docstring)."""
-    return (floor_noise(np.asarray(chain.Q), ROTATION_NOISE_FLOOR), np.asarray(chain.mean0),
-            floor_noise(np.asarray(chain.cov0), ROTATION_NOISE_FLOOR))
 
 
 class _States:
