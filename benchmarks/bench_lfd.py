@@ -404,15 +404,17 @@ def _mean_quaternions(conditioned, prior, start: np.ndarray,
     """(T, 4) ``mean_quaternions()`` of ``conditioned`` (a pose prior conditioned on positions)
     with ``prior``'s orientation chain conditioned on the start (and goal) rotation, as the
     planner conditions it (clamp.prior.conditioning.conditioned_orientation, the planner's
-    conditioning sigma)."""
+    conditioning sigma; the chain's noise floored when a goal rotation conditions it,
+    clamp.planning.reference.noise_floored)."""
     from clamp.prior.conditioning import conditioned_orientation
-    from clamp.planning.reference import CONDITIONING_SIGMA
+    from clamp.planning.reference import CONDITIONING_SIGMA, noise_floored
     T = prior.T
+    orientation = prior.orientation
     rotations = [(0, Rotation.from_quat(start[3:]).as_matrix())]
     if goal is not None:
         rotations.append((T - 1, Rotation.from_quat(goal[3:]).as_matrix()))
-    chain = conditioned_orientation(prior.orientation, rotations,
-                                    CONDITIONING_SIGMA)
+        orientation = noise_floored(orientation)
+    chain = conditioned_orientation(orientation, rotations, CONDITIONING_SIGMA)
     return np.asarray(conditioned.with_orientation(chain).mean_quaternions())
 
 
