@@ -8,6 +8,7 @@ import scipy.io
 from bad_input import raises_naming
 from robots import IKResult, IKTrajectoryResult, RobotError, load_robot
 from robots.errors import InvalidArrayError
+from tests.rotation_angles import hand_angle
 
 
 @pytest.fixture(scope="module", params=["jaco", "sawyer"])
@@ -90,8 +91,7 @@ def test_ik_rejects_bad_input(robot):
 
 def _angle(robot, q, rotation) -> float:
     """[rad] between the hand's rotation at q and ``rotation`` (3, 3)."""
-    turn = robot.ee_rotation(q)[0].T @ rotation
-    return float(np.arccos(np.clip(0.5 * (np.trace(turn) - 1.0), -1.0, 1.0)))
+    return float(np.radians(hand_angle(robot, q, rotation)))
 
 
 def test_ik_turned_reaches_the_position_with_the_hand_turned_as_asked_where_it_can(robot):

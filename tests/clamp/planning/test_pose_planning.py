@@ -23,12 +23,7 @@ from tests.clamp.cli.test_cli_goal_pose import hand_pose
 from tests.clamp.factors.test_pose_factors import panda  # noqa: F401  (the Panda fixture)
 from tests.clamp.planning.test_min_clearance import coal_clearance
 from tests.pose_demos import pose_demonstrations
-
-
-def hand_angle(robot, q, rotation) -> float:
-    """[deg] between the hand's rotation at q (n,) and ``rotation``, through the trace."""
-    R, _ = robot.ee_rotation(q)
-    return float(np.degrees(np.arccos(np.clip(0.5 * (np.trace(rotation.T @ R) - 1.0), -1, 1))))
+from tests.rotation_angles import hand_angle
 
 
 @pytest.mark.parametrize("arm", ["jaco", "sawyer"])

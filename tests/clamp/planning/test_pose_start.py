@@ -13,6 +13,7 @@ from clamp import learn_prior, plan
 from robots import Robot
 from robots.registry import example_robot_data_share
 from tests.pose_demos import pose_demonstrations
+from tests.rotation_angles import angle_deg
 
 H = np.pi / 2
 #: Universal Robots' home posture (upper arm up, forearm level, tool pointing down) [rad]
@@ -24,11 +25,6 @@ def ur5():
     share = example_robot_data_share()
     urdf = share / "example-robot-data" / "robots" / "ur_description" / "urdf" / "ur5_robot.urdf"
     return Robot.from_urdf(urdf, end_effector="tool0", package_dirs=[share], name="ur5")
-
-
-def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
-    """[deg] the geodesic angle between rotations a and b (3, 3)."""
-    return float(np.degrees(np.arccos(np.clip(0.5 * (np.trace(a.T @ b) - 1.0), -1.0, 1.0))))
 
 
 def assert_completes_the_skill(ur5, demos, result) -> None:
