@@ -22,11 +22,6 @@ OPTIMIZERS = ("fast", "gtsam", "gtsam_dogleg", "gtsam_gauss_newton")
 #: the initialisations a config may name (:mod:`clamp.planning.initialisation`)
 INITIALISATIONS = ("prior_mean", "straight_line")
 
-#: the most ``ModelConfig.Qc_duration`` multiplies Qc by: beyond it the joint GP no longer ties
-#: the velocity states to the positions (docs/decisions.md#qc_duration)
-QC_FACTOR_LIMIT = 10.0
-
-
 @dataclass(frozen=True)
 class ModelConfig:
     """The factor graph (paper eq. 14-20; defaults are the reference implementation's except
@@ -42,8 +37,8 @@ class ModelConfig:
     Qc: float = 1.0
     #: [s] the demonstrated duration Qc, posture_Qc and posture_velocity_sigma are stated for: a
     #: skill demonstrated over D seconds, faster than this, is planned as one of Qc_duration
-    #: seconds in faster time (Qc and posture_Qc times (Qc_duration / D)^3, at most
-    #: QC_FACTOR_LIMIT, posture_velocity_sigma times its cube root), so that the joint-space
+    #: seconds in faster time (Qc and posture_Qc times (Qc_duration / D)^3,
+    #: posture_velocity_sigma times Qc_duration / D), so that the joint-space
     #: factors do not weigh more against the learned prior because the skill was shown fast
     #: (clamp.planning.time_scale.demonstrated_speed_config, docs/decisions.md#qc_duration);
     #: None: as they are

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from clamp.config import QC_FACTOR_LIMIT, as_max_duration, as_time_scale
+from clamp.config import as_max_duration, as_time_scale
 from clamp.errors import InvalidParameterError
 from clamp.factors import joint_limits
 from clamp.factors.joint_limits import VELOCITY_TOLERANCE, speeds
@@ -99,8 +99,8 @@ def time_scaled_config(config: Any, k: float) -> Any:
 def demonstrated_speed_config(config: Any, prior: Any) -> Any:
     """``config`` (a PlannerConfig) for a skill ``prior`` demonstrated over D seconds, faster
     than ``config.model.Qc_duration`` (docs/decisions.md#qc_duration): the same problem as a
-    skill of Qc_duration seconds traversed Qc_duration / D times faster (its cube at most
-    QC_FACTOR_LIMIT), so its joint-space noises are :func:`time_scaled_config`'s for
+    skill of Qc_duration seconds traversed Qc_duration / D times faster, so its joint-space
+    noises are :func:`time_scaled_config`'s for
     k = D / Qc_duration < 1: Qc and posture_Qc / k^3, posture_velocity_sigma / k; Qc_duration
     then None (applied once). ``config`` itself for a skill of Qc_duration or longer, or
     Qc_duration None. D is the demonstrated duration: a time-scaled prior's
@@ -110,7 +110,7 @@ def demonstrated_speed_config(config: Any, prior: Any) -> Any:
         return config
     scale = float((getattr(prior, "info", {}) or {}).get("time_scale", 1.0))
     demonstrated = float(prior.time[-1] - prior.time[0]) / scale
-    k = max(demonstrated / m.Qc_duration, QC_FACTOR_LIMIT ** (-1.0 / 3.0))
+    k = demonstrated / m.Qc_duration
     if k >= 1.0:
         return config
     return config.derived(**_joint_noises(m, k), Qc_duration=None)
