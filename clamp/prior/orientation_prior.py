@@ -45,7 +45,6 @@ from clamp.validation import as_array
 __all__ = ["OrientationPrior", "orientation_states", "orientation_region"]
 
 
-
 def orientation_states(rotations: np.ndarray, mean_rotations: np.ndarray,
                        time: np.ndarray) -> np.ndarray:
     """Orientation states y (M, T, 6) = [log(Rbar_t^T R_t), Rbar_t^T omega_t] of rotations

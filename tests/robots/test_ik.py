@@ -8,7 +8,7 @@ import scipy.io
 from bad_input import raises_naming
 from robots import IKResult, IKTrajectoryResult, RobotError, load_robot
 from robots.errors import InvalidArrayError
-from tests.rotation_angles import hand_angle
+from tests.hand_measures import hand_angle
 
 
 @pytest.fixture(scope="module", params=["jaco", "sawyer"])

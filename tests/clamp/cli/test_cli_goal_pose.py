@@ -11,28 +11,14 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 import pytest
 from scipy.spatial.transform import Rotation
 
 from tests.clamp.cli.test_cli_contract import clamp, refused
+from tests.hand_measures import hand_pose
 
 #: support states of the test skills (small: each case plans in about a second)
 T = 40
-
-
-def hand_pose(robot, q: np.ndarray) -> tuple[np.ndarray, Rotation]:
-    """The hand's position (3,) [m] and rotation at q (n,) in the robot's base frame, by
-    Pinocchio's forward kinematics of the robot's model at its end-effector frame."""
-    model = robot.model
-    data = model.createData()
-    pin.forwardKinematics(model, data, robot.to_pinocchio(np.asarray(q, dtype=float)))
-    pin.updateFramePlacements(model, data)
-    names = [frame.name for frame in model.frames]                 # the first of a name
-    hand = data.oMf[names.index(robot.end_effector)]
-    if robot.base_frame is not None:
-        hand = data.oMf[names.index(robot.base_frame)].actInv(hand)
-    return np.array(hand.translation), Rotation.from_matrix(np.array(hand.rotation))
 
 
 def goal_pose(demos) -> tuple[np.ndarray, np.ndarray, float]:

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from scipy.spatial.transform import Rotation
 
 from bad_input import raises_naming
@@ -19,11 +18,10 @@ from clamp.prior.skill import TUBE_RATIO, skill_checks
 from scenes import Box, Scene, make_demonstrations
 from scenes.joint_demonstrations import from_joint_trajectories
 from robots.pose_skills import make_pose_demonstrations
-from tests.clamp.cli.test_cli_goal_pose import hand_pose
 from tests.clamp.factors.test_pose_factors import panda  # noqa: F401  (the Panda fixture)
 from tests.clamp.planning.test_min_clearance import coal_clearance
 from tests.pose_demos import pose_demonstrations
-from tests.rotation_angles import hand_angle
+from tests.hand_measures import hand_angle, hand_pose
 
 
 @pytest.mark.parametrize("arm", ["jaco", "sawyer"])

@@ -13,7 +13,7 @@ from clamp import learn_prior, plan
 from robots import Robot
 from robots.registry import example_robot_data_share
 from tests.pose_demos import pose_demonstrations
-from tests.rotation_angles import angle_deg
+from tests.hand_measures import angle_deg
 
 H = np.pi / 2
 #: Universal Robots' home posture (upper arm up, forearm level, tool pointing down) [rad]
